@@ -1,0 +1,1 @@
+"""The experiment app: Hydra entry points, bench runs, trial logs, reports."""

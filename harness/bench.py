@@ -1,0 +1,199 @@
+"""The bench stage: one planner, one seed, every test query, every trial logged."""
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import os
+import platform
+import socket
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from mpnet.envs.collision import make_checker
+from mpnet.envs.specs import get_spec
+from mpnet.envs.workspace import EnvSpec, TestSet
+from mpnet.motion import path_cost, verify_path
+from mpnet.planners.base import Planner, Problem, Result
+
+REPO = Path(__file__).resolve().parent.parent
+PACKAGES = ("numpy", "ompl", "python-fcl", "hydra-core", "mcap", "rerun-sdk", "torch", "lightning", "mpnet-bench")
+
+
+def git_rev() -> str:
+    try:
+        rev = subprocess.run(["git", "-C", str(REPO), "rev-parse", "HEAD"], capture_output=True, text=True,
+                             timeout=5).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(REPO), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=5).stdout.strip()
+        return (rev + ("-dirty" if dirty else "")) if rev else "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for pkg in PACKAGES:
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def run_info(env: str, planner: str, seed: int, split: str, config_yaml: str) -> dict:
+    return {
+        "env": env, "planner": planner, "seed": int(seed), "split": split, "config": config_yaml,
+        "git_rev": git_rev(), "versions": versions(),
+        "host": f"{socket.gethostname()} ({os.cpu_count()} cpus, {platform.machine()})",
+        "started_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def seed_everything(seed: int) -> None:
+    """OMPL's RNG once per process, before any planner exists (its seed must be > 0)."""
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_WARN)
+    ou.RNG.setSeed(int(seed) + 1)
+    np.random.seed(int(seed) % 2**32)
+    try:
+        import torch  # MPNet's dropout; absent for classical-only installs
+    except ImportError:
+        return
+    torch.manual_seed(int(seed))
+
+
+@dataclass
+class QueryTiming:
+    """Where a query's wall time went: the planner, the re-check, the harness itself."""
+
+    plan_s: list[float] = field(default_factory=list)
+    verify_s: list[float] = field(default_factory=list)
+    harness_s: list[float] = field(default_factory=list)
+
+
+def _jsonable(v):
+    if isinstance(v, (np.floating, np.integer, np.bool_)):
+        return v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def plan_query(spec: EnvSpec, planner: Planner, problem: Problem, budget_s: float, validation_step: float):
+    """Solve one query and judge it: (record fields, Result, verify seconds)."""
+    t_wall, t_cpu = time.perf_counter(), time.process_time()
+    try:
+        res = planner.solve(problem, budget_s)
+    except Exception as e:  # one query's exception is a logged failure; the run goes on
+        res = Result(None, "error", {"error": f"{type(e).__name__}: {e}"})
+    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
+    t_verify = time.perf_counter()
+    failure = None
+    if not res.solved:
+        failure = res.status
+    elif wall > budget_s:
+        failure = "timeout"
+    else:
+        why = verify_path(spec, problem.workspace, res.path, problem.start, problem.goal, validation_step)
+        failure = f"recheck_{why}" if why else None
+    verify_s = time.perf_counter() - t_verify
+    rec = {
+        "success": failure is None,
+        "failure": failure,
+        "path": [[float(x) for x in s] for s in res.path] if res.path is not None else [],
+        "time_s": wall,
+        "cpu_s": cpu,
+        "path_cost": path_cost(spec, res.path) if res.path is not None and len(res.path) > 1 else None,
+        **problem.checker.counts(),
+        "planner_status": res.status,
+    }
+    for k, v in res.stats.items():
+        rec.setdefault(k, _jsonable(v))
+    return rec, res, verify_s
+
+
+def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, validation_step: float,
+              progress: bool = True, timing: QueryTiming | None = None) -> list[dict]:
+    """Plan every query of the test set not already in the log; returns the new records."""
+    from tqdm import tqdm
+
+    spec = testset.spec
+    by_ws: dict[tuple[str, str], list] = {}
+    for q in testset.queries:
+        by_ws.setdefault((q.split, q.workspace_id), []).append(q)
+    todo = [q for q in testset.queries if (q.split, q.id) not in log.done]
+    records: list[dict] = []
+    bar = tqdm(total=len(todo), disable=not progress, desc=f"{spec.name} {planner.name}", unit="query",
+               file=sys.stderr, dynamic_ncols=True)
+    try:
+        for ws in testset.workspaces:
+            queries = [q for q in by_ws.get((ws.split, ws.id), []) if (q.split, q.id) not in log.done]
+            log.add_workspace(ws)
+            if not queries:
+                continue
+            checker = make_checker(spec, ws)
+            for q in queries:
+                t0 = time.perf_counter()
+                checker.reset_counts()
+                problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost)
+                fields, res, verify_s = plan_query(spec, planner, problem, budget_s, validation_step)
+                rec = {"query_id": q.id, "workspace_id": ws.id, "split": q.split,
+                       "start": q.start.tolist(), "goal": q.goal.tolist(), **fields}
+                if q.reference_cost is not None:
+                    rec["reference_cost"] = q.reference_cost
+                log.add_query(rec)
+                records.append(rec)
+                bar.update(1)
+                if timing is not None:
+                    total = time.perf_counter() - t0
+                    timing.plan_s.append(rec["time_s"])
+                    timing.verify_s.append(verify_s)
+                    timing.harness_s.append(total - rec["time_s"] - verify_s)
+    finally:
+        bar.close()
+    return records
+
+
+def summarize(records: list[dict]) -> list[dict]:
+    """Per split: queries, success rate, time over successes, mean cost, checks per query."""
+    rows = []
+    for split in sorted({r["split"] for r in records}):
+        rs = [r for r in records if r["split"] == split]
+        ok = [r for r in rs if r["success"]]
+        times = [r["time_s"] for r in ok]
+        costs = [r["path_cost"] for r in ok if r["path_cost"] is not None]
+        rows.append({
+            "split": split, "queries": len(rs), "success": len(ok) / len(rs),
+            "time_mean_s": statistics.fmean(times) if times else math.nan,
+            "time_std_s": statistics.pstdev(times) if len(times) > 1 else 0.0 if times else math.nan,
+            "time_median_s": statistics.median(times) if times else math.nan,
+            "cost_mean": statistics.fmean(costs) if costs else math.nan,
+            "checks_per_query": statistics.fmean(r["collision_checks"] for r in rs),
+        })
+    return rows
+
+
+def format_summary(rows: list[dict]) -> str:
+    head = f"{'split':<8} {'queries':>7} {'success':>8} {'time mean ± std (ms)':>22} {'median (ms)':>11} " \
+           f"{'cost mean':>9} {'checks/query':>12}"
+    lines = [head]
+    for r in rows:
+        ms = f"{r['time_mean_s'] * 1e3:.2f} ± {r['time_std_s'] * 1e3:.2f}"
+        lines.append(f"{r['split']:<8} {r['queries']:>7} {r['success'] * 100:>7.1f}% {ms:>22} "
+                     f"{r['time_median_s'] * 1e3:>11.2f} {r['cost_mean']:>9.2f} {r['checks_per_query']:>12.1f}")
+    return "\n".join(lines)
+
+
+def env_spec(env_cfg) -> EnvSpec:
+    """The env's fixed geometry with the config's validation step."""
+    from dataclasses import replace
+
+    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step))

@@ -1,0 +1,1 @@
+"""Test sets, expert paths and datasets on disk."""

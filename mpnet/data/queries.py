@@ -1,0 +1,53 @@
+"""Seeded test sets: the workspaces of each split and their queries.
+
+A test query's start and goal are valid, its straight line is blocked (trivial queries
+say nothing, and one of OMPL's planners hung on them), and RRT-Connect solves it.
+The test set depends on the data config only, never on the run's `seed`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from mpnet.envs.collision import make_checker
+from mpnet.envs.generators import make_workspace, split_ids
+from mpnet.envs.ompl_space import is_solvable
+from mpnet.envs.workspace import EnvSpec, Query, TestSet, Workspace
+
+SPLIT_CODES = {"seen": 1, "unseen": 2}
+
+
+def sample_state(spec: EnvSpec, rng: np.random.Generator) -> np.ndarray:
+    return rng.uniform(spec.lower, spec.upper)
+
+
+def make_queries(spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str,
+                 solvable_s: float = 2.0, max_tries: int = 100000) -> list[Query]:
+    """`count` queries in `ws`, drawn by a generator seeded by (seed, split, workspace)."""
+    rng = np.random.default_rng([seed, SPLIT_CODES.get(split, 0), int(ws.id) if ws.id.isdigit() else 0])
+    checker = make_checker(spec, ws)
+    out: list[Query] = []
+    for _ in range(max_tries):
+        if len(out) == count:
+            return out
+        s, g = sample_state(spec, rng), sample_state(spec, rng)
+        if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
+            continue
+        if checker.motion_valid(s.tolist(), g.tolist()):
+            continue
+        if not is_solvable(spec, checker, s, g, solvable_s):
+            continue
+        out.append(Query(f"{ws.id}/{len(out)}", ws.id, split, s, g))
+    raise RuntimeError(f"workspace {ws.id}: found only {len(out)} of {count} queries in {max_tries} draws")
+
+
+def make_testset(spec: EnvSpec, splits: dict[str, tuple[int, int]], seed: int = 0,
+                 solvable_s: float = 2.0) -> TestSet:
+    """splits: {"seen": (workspaces, queries per workspace), "unseen": (...)}."""
+    workspaces: list[Workspace] = []
+    queries: list[Query] = []
+    for split, (n_ws, n_q) in splits.items():
+        for i in split_ids(split, n_ws):
+            ws = make_workspace(spec, i, split, seed)
+            workspaces.append(ws)
+            queries += make_queries(spec, ws, n_q, seed, split, solvable_s)
+    return TestSet(spec, workspaces, queries)

@@ -1,0 +1,90 @@
+"""Motion primitives shared by every planner, and the fine re-check that decides success."""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from mpnet.envs.collision import CollisionChecker, make_checker
+from mpnet.envs.workspace import EnvSpec, Workspace, wrap_angle
+
+
+def steer_to(checker: CollisionChecker, a, b) -> bool:
+    """Is the straight motion a -> b free? (Continuous check: exact for boxes.)"""
+    return checker.motion_valid(a, b)
+
+
+def is_feasible(checker: CollisionChecker, path: Sequence) -> bool:
+    """Every state and every segment of the path is free."""
+    if len(path) == 0:
+        return False
+    if len(path) == 1:
+        return bool(checker.is_valid(path[0]))
+    p = np.asarray(path, float)
+    return bool(checker.valid_motions(p[:-1], p[1:]).all())
+
+
+def lazy_states_contraction(checker: CollisionChecker, path: Sequence) -> list:
+    """Greedy LSC: from each kept state, jump to the farthest state it connects to directly."""
+    path = list(path)
+    if len(path) <= 2:
+        return path
+    out = [path[0]]
+    i = 0
+    while i < len(path) - 1:
+        nxt = i + 1
+        for j in range(len(path) - 1, i + 1, -1):
+            if checker.motion_valid(path[i], path[j]):
+                nxt = j
+                break
+        out.append(path[nxt])
+        i = nxt
+    return out
+
+
+def path_cost(spec: EnvSpec, path: Sequence) -> float:
+    """Length of the path under the env's metric (EnvSpec.distance)."""
+    return float(sum(spec.distance(a, b) for a, b in zip(path[:-1], path[1:])))
+
+
+def interpolate(spec: EnvSpec, a, b, step: float) -> np.ndarray:
+    """States along a -> b no farther apart than `step` in workspace units.
+
+    For the rigid body the step bounds the motion of any point of the body: position
+    change, or angle change times the half-diagonal, whichever is larger.
+    """
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    d = b - a
+    if spec.is_se2:
+        d[2] = wrap_angle(d[2])
+        radius = math.hypot(*(s / 2 for s in spec.robot_size))
+        length = max(math.hypot(d[0], d[1]), abs(d[2]) * radius)
+    else:
+        length = float(np.linalg.norm(d))
+    n = int(math.ceil(length / step)) + 1
+    return a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
+
+
+def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | None = None) -> str | None:
+    """The independent fine re-check (DESIGN §5): None when the path is a success, else why not.
+
+    Samples every segment at `step` (the env's validation step) against the exact closed
+    boxes; it never uses the planners' continuous motion test.
+    """
+    step = step or spec.validation_step
+    if path is None or len(path) < 2:
+        return "no_path"
+    p = np.asarray(path, float)
+    if p.ndim != 2 or p.shape[1] != spec.state_dim or not np.all(np.isfinite(p)):
+        return "malformed_path"
+    if not (np.allclose(p[0], start, atol=1e-6) and np.allclose(p[-1], goal, atol=1e-6)):
+        return "wrong_endpoints"
+    exact = make_checker(spec, ws, margin=0.0)
+    samples = np.concatenate([interpolate(spec, a, b, step) for a, b in zip(p[:-1], p[1:])])
+    ok = exact._states_free(samples)
+    if ok.all():
+        return None
+    bad = samples[~ok][0]
+    return "out_of_bounds" if not spec.in_bounds(bad) else "collision"

@@ -1,0 +1,59 @@
+"""One Planner protocol for neural and classical planners alike (OMPL's shape):
+a problem (workspace, checker, start, goal, objective) solved within a budget."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.workspace import EnvSpec, Workspace
+
+# Result.status values: why a planner stopped. Only "exact" claims a solution.
+EXACT = "exact"
+TIMEOUT = "timeout"
+INVALID_QUERY = "invalid_query"
+NO_SOLUTION = "no_solution"
+
+
+@dataclass
+class Problem:
+    """A start and goal in one workspace, the shared checker, and the query's reference
+    cost when known (a planner that stops at a cost target scales it)."""
+
+    spec: EnvSpec
+    workspace: Workspace
+    checker: CollisionChecker
+    start: np.ndarray
+    goal: np.ndarray
+    reference_cost: float | None = None
+
+
+@dataclass
+class Result:
+    """What a planner returns: its path (None when it claims none), why it stopped, its stats."""
+
+    path: list[list[float]] | None
+    status: str
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def solved(self) -> bool:
+        return self.status == EXACT and self.path is not None
+
+
+@runtime_checkable
+class Planner(Protocol):
+    name: str
+
+    def solve(self, problem: Problem, budget_s: float) -> Result: ...
+
+
+def check_endpoints(problem: Problem) -> Result | None:
+    """Start and goal validated before solving: OMPL would burn the whole budget on them."""
+    bad = [which for which, q in (("start", problem.start), ("goal", problem.goal))
+           if not problem.checker.is_valid(q.tolist())]
+    if bad:
+        return Result(None, INVALID_QUERY, {"invalid": "+".join(bad)})
+    return None

@@ -1,0 +1,108 @@
+"""OMPL's C++ planners behind the Planner protocol."""
+from __future__ import annotations
+
+import math
+import time
+
+from ompl import base as ob
+from ompl import geometric as og
+
+from mpnet.envs.ompl_space import make_space_information
+from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
+
+ALGORITHMS = {
+    "informed_rrt_star": og.InformedRRTstar,
+    "bit_star": og.BITstar,
+    "rrt_star": og.RRTstar,
+    "rrt_connect": og.RRTConnect,
+}
+OPTIMIZING = {"informed_rrt_star", "bit_star", "rrt_star"}
+
+
+class OmplPlanner:
+    """An OMPL geometric planner.
+
+    stop="first": return the first exact solution (the paper's initial path); OMPL's
+    exact-solution condition does not stop optimizing planners, so a condition on the
+    planner's best cost does. stop="cost": run until the path cost reaches
+    cost_factor x the problem's reference cost (or the budget ends). `range` is the planner's maximum edge length
+    (None: OMPL's default); `params` are set through OMPL's parameter interface.
+    """
+
+    def __init__(self, name: str, algorithm: str, stop: str = "first", cost_factor: float = 1.0,
+                 range: float | None = None, params: dict | None = None):
+        if algorithm not in ALGORITHMS:
+            raise ValueError(f"unknown OMPL algorithm {algorithm!r}; choices: {', '.join(ALGORITHMS)}")
+        if stop not in ("first", "cost"):
+            raise ValueError(f"planner.stop must be 'first' or 'cost', not {stop!r}")
+        self.name = name
+        self.algorithm = algorithm
+        self.stop = stop
+        self.cost_factor = float(cost_factor)
+        self.range = range
+        self.params = dict(params or {})
+
+    def solve(self, problem: Problem, budget_s: float) -> Result:
+        t0 = time.perf_counter()
+        bad = check_endpoints(problem)
+        if bad is not None:
+            return bad
+        target = None
+        if self.stop == "cost":
+            if problem.reference_cost is None:
+                raise ValueError("planner.stop=cost needs a reference cost for the query")
+            target = self.cost_factor * problem.reference_cost
+        si, _, set_state, keep = make_space_information(problem.spec, problem.checker)
+        start, goal = si.allocState(), si.allocState()
+        set_state(start, problem.start)
+        set_state(goal, problem.goal)
+        pdef = ob.ProblemDefinition(si)
+        pdef.setStartAndGoalStates(start, goal)
+        objective = ob.PathLengthOptimizationObjective(si)
+        if self.stop == "cost":
+            objective.setCostThreshold(ob.Cost(target))
+        pdef.setOptimizationObjective(objective)
+        planner = ALGORITHMS[self.algorithm](si)
+        if self.range is not None and hasattr(planner, "setRange"):
+            planner.setRange(float(self.range))
+        for key, value in self.params.items():
+            if not planner.params().setParam(str(key), str(value)):
+                raise ValueError(f"OMPL {self.algorithm} has no parameter {key!r}")
+        planner.setProblemDefinition(pdef)
+        planner.setup()
+
+        ptc = self._termination(planner, target, max(0.0, budget_s - (time.perf_counter() - t0)))
+        status = planner.solve(ptc)
+        exact = pdef.hasExactSolution()
+        path = None
+        if exact:
+            states = pdef.getSolutionPath().getStates()
+            to_list = _to_list(problem.spec)
+            path = [to_list(s) for s in states]
+        stats = {"planner_status": status.asString() if hasattr(status, "asString") else str(status)}
+        if self.algorithm in OPTIMIZING:
+            cost = planner.bestCost().value()
+            stats["best_cost"] = cost if math.isfinite(cost) else None
+        del planner, pdef, objective, start, goal, si, keep
+        if path is None:
+            timed_out = time.perf_counter() - t0 >= budget_s * 0.999
+            return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats)
+        return Result(path, EXACT, stats)
+
+    def _termination(self, planner, target: float | None, seconds: float):
+        timed = ob.timedPlannerTerminationCondition(seconds)
+        if self.algorithm not in OPTIMIZING:
+            return timed
+        if self.stop == "cost":
+            done = ob.PlannerTerminationCondition(lambda: planner.bestCost().value() <= target)
+        else:
+            done = ob.PlannerTerminationCondition(lambda: math.isfinite(planner.bestCost().value()))
+        # No period argument: a periodic condition runs on a thread and aborts at exit.
+        return ob.plannerOrTerminationCondition(timed, done)
+
+
+def _to_list(spec):
+    if spec.is_se2:
+        return lambda s: [s.getX(), s.getY(), s.getYaw()]
+    n = spec.state_dim
+    return lambda s: [s[i] for i in range(n)]
