@@ -44,7 +44,8 @@ def bench(cfg: DictConfig, timing=None) -> list[dict]:
     with TrialLog(run_dir, info, spec, rerun=bool(cfg.rerun), resume=bool(cfg.resume)) as log:
         try:
             records = run_bench(testset, planner, log, budget_s=float(cfg.budget_s),
-                                validation_step=spec.validation_step, progress=bool(cfg.progress), timing=timing)
+                                validation_step=spec.validation_step,
+                                collision=str(cfg.env.collision), progress=bool(cfg.progress), timing=timing)
         except KeyboardInterrupt:
             print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)
             raise

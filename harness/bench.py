@@ -121,7 +121,7 @@ def plan_query(spec: EnvSpec, planner: Planner, problem: Problem, budget_s: floa
 
 
 def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, validation_step: float,
-              progress: bool = True, timing: QueryTiming | None = None) -> list[dict]:
+              collision: str = "native", progress: bool = True, timing: QueryTiming | None = None) -> list[dict]:
     """Plan every query of the test set not already in the log; returns the new records."""
     from tqdm import tqdm
 
@@ -139,7 +139,7 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, valid
             log.add_workspace(ws)
             if not queries:
                 continue
-            checker = make_checker(spec, ws)
+            checker = make_checker(spec, ws, backend=collision)
             for q in queries:
                 t0 = time.perf_counter()
                 checker.reset_counts()

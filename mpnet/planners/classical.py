@@ -26,15 +26,17 @@ class OmplPlanner:
     exact-solution condition does not stop optimizing planners, so a condition on the
     planner's best cost does. stop="cost": run until the path cost reaches
     cost_factor x the problem's reference cost (or the budget ends). `range` is the planner's maximum edge length
-    (None: OMPL's default); `params` are set through OMPL's parameter interface.
+    (None: OMPL's default); `params` are OMPL planner parameters by
+    snake_case name (rewire_factor -> setRewireFactor).
     """
 
     def __init__(self, name: str, algorithm: str, stop: str = "first", cost_factor: float = 1.0,
                  range: float | None = None, params: dict | None = None):
         if algorithm not in ALGORITHMS:
-            raise ValueError(f"unknown OMPL algorithm {algorithm!r}; choices: {', '.join(ALGORITHMS)}")
+            raise ValueError(f"config key planner.algorithm: unknown OMPL algorithm {algorithm!r}; "
+                             f"choices: {', '.join(ALGORITHMS)}")
         if stop not in ("first", "cost"):
-            raise ValueError(f"planner.stop must be 'first' or 'cost', not {stop!r}")
+            raise ValueError(f"config key planner.stop must be 'first' or 'cost', not {stop!r}")
         self.name = name
         self.algorithm = algorithm
         self.stop = stop
@@ -66,8 +68,11 @@ class OmplPlanner:
         if self.range is not None and hasattr(planner, "setRange"):
             planner.setRange(float(self.range))
         for key, value in self.params.items():
-            if not planner.params().setParam(str(key), str(value)):
-                raise ValueError(f"OMPL {self.algorithm} has no parameter {key!r}")
+            # OMPL's ParamSet is not bound in the 2.0.1 wheel: call the setter by name.
+            setter = getattr(planner, "set" + "".join(w.capitalize() for w in str(key).split("_")), None)
+            if setter is None:
+                raise ValueError(f"OMPL {self.algorithm} has no parameter {key!r} (config key planner.params)")
+            setter(value)
         planner.setProblemDefinition(pdef)
         planner.setup()
 

@@ -1,0 +1,73 @@
+"""Motion primitives and the fine re-check."""
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpnet.envs import Workspace, get_spec
+from mpnet.envs.collision import make_checker
+from mpnet.motion import interpolate, is_feasible, lazy_states_contraction, path_cost, steer_to, verify_path
+
+S2D, RIGID = get_spec("s2d"), get_spec("rigid")
+WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+
+
+def test_lsc_removes_lazy_states():
+    ch = make_checker(S2D, WALL)
+    path = [(-10, 0), (-10, 10), (-10, 16), (-5, 16), (0, 16), (5, 16), (10, 16), (10, 0)]
+    out = lazy_states_contraction(ch, path)
+    assert out[0] == path[0] and out[-1] == path[-1]
+    assert len(out) < len(path)
+    assert is_feasible(ch, out)
+    assert path_cost(S2D, out) <= path_cost(S2D, path)
+
+
+def test_lsc_keeps_a_needed_detour():
+    ch = make_checker(S2D, WALL)
+    path = [(-10, 0), (-2.5, 16), (2.5, 16), (10, 0)]
+    assert lazy_states_contraction(ch, path) == path
+
+
+def test_steer_and_feasible():
+    ch = make_checker(S2D, WALL)
+    assert not steer_to(ch, (-10, 0), (10, 0))
+    assert steer_to(ch, (-10, 0), (-10, 10))
+    assert not is_feasible(ch, [(-10, 0), (10, 0)])
+    assert not is_feasible(ch, [])
+    assert is_feasible(ch, [(-10, 0)])
+
+
+def test_rigid_cost_uses_shorter_arc():
+    assert math.isclose(path_cost(RIGID, [(0, 0, 3.0), (0, 0, -3.0)]), 0.5 * (2 * math.pi - 6.0))
+    assert math.isclose(path_cost(RIGID, [(0, 0, 0), (3, 4, 0)]), 5.0)
+
+
+def test_verify_path_reasons():
+    start, goal = np.array([-10.0, 0.0]), np.array([10.0, 0.0])
+    good = [start.tolist(), [-10, 16], [10, 16], goal.tolist()]
+    assert verify_path(S2D, WALL, good, start, goal) is None
+    assert verify_path(S2D, WALL, [start.tolist(), goal.tolist()], start, goal) == "collision"
+    assert verify_path(S2D, WALL, [start.tolist(), [-10, 25], [10, 25], goal.tolist()], start, goal) == "out_of_bounds"
+    assert verify_path(S2D, WALL, good[1:], start, goal) == "wrong_endpoints"
+    assert verify_path(S2D, WALL, [start.tolist()], start, goal) == "no_path"
+    assert verify_path(S2D, WALL, [[0, float("nan")], goal.tolist()], start, goal) == "malformed_path"
+
+
+def test_verify_catches_a_grazing_corner_that_planning_would_refuse():
+    """The planner's boxes carry a margin; the re-check's are exact and closed."""
+    start, goal = np.array([-10.0, 15.0]), np.array([10.0, 15.0])  # along the wall's top face
+    assert verify_path(S2D, WALL, [start.tolist(), goal.tolist()], start, goal) == "collision"
+    assert not steer_to(make_checker(S2D, WALL), start, goal)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10)),
+       st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10)),
+       st.floats(0.01, 1.0))
+def test_interpolate_step_bound(a, b, step):
+    pts = interpolate(RIGID, a, b, step)
+    assert np.allclose(pts[0], a) and np.isclose(pts[-1][:2], b[:2]).all()
+    radius = math.hypot(1.0, 2.5)
+    d = np.diff(pts, axis=0)
+    assert np.all(np.maximum(np.hypot(d[:, 0], d[:, 1]), np.abs(d[:, 2]) * radius) <= step + 1e-9)

@@ -1,0 +1,104 @@
+"""OMPL planners behind the Planner protocol: solutions pass the fine re-check, bad
+endpoints fail fast, budgets and cost targets are honoured."""
+import math
+import time
+
+import numpy as np
+import pytest
+from ompl import util as ou
+
+from mpnet.envs import Workspace, get_spec
+from mpnet.envs.collision import make_checker
+from mpnet.envs.generators import make_workspace
+from mpnet.motion import path_cost, verify_path
+from mpnet.planners import EXACT, INVALID_QUERY, TIMEOUT, Planner, Problem
+from mpnet.planners.classical import ALGORITHMS, OmplPlanner
+
+ou.setLogLevel(ou.LOG_WARN)
+
+
+def problem(env, ws, start, goal, reference_cost=None):
+    spec = get_spec(env)
+    return Problem(spec, ws, make_checker(spec, ws), np.array(start, float), np.array(goal, float), reference_cost)
+
+
+WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+
+
+@pytest.mark.parametrize("algorithm", sorted(ALGORITHMS))
+@pytest.mark.parametrize("env,start,goal", [
+    ("s2d", (-10.0, 0.0), (10.0, 0.0)),
+    ("rigid", (-10.0, 0.0, 0.0), (10.0, 0.0, 1.5)),
+])
+def test_solves_around_a_wall(algorithm, env, start, goal):
+    planner = OmplPlanner(algorithm, algorithm)
+    assert isinstance(planner, Planner)
+    p = problem(env, WALL, start, goal)
+    res = planner.solve(p, 5.0)
+    assert res.status == EXACT and res.solved
+    assert verify_path(p.spec, WALL, res.path, p.start, p.goal) is None
+    assert p.checker.checks > 0
+    assert path_cost(p.spec, res.path) > 20.0  # it went around
+
+
+def test_c3d_generated_workspace():
+    spec = get_spec("c3d")
+    ws = make_workspace(spec, 0, "seen")
+    from mpnet.data.queries import make_queries
+    q = make_queries(spec, ws, 3, seed=0, split="seen")
+    for query in q:
+        p = problem("c3d", ws, query.start, query.goal)
+        res = OmplPlanner("bit_star", "bit_star").solve(p, 5.0)
+        assert res.solved and verify_path(spec, ws, res.path, p.start, p.goal) is None
+
+
+@pytest.mark.parametrize("start,goal", [((0.0, 0.0), (10.0, 0.0)), ((-10.0, 0.0), (25.0, 0.0))])
+def test_invalid_endpoints_fail_fast(start, goal):
+    t = time.perf_counter()
+    res = OmplPlanner("bit_star", "bit_star").solve(problem("s2d", WALL, start, goal), 10.0)
+    assert res.status == INVALID_QUERY and res.path is None
+    assert time.perf_counter() - t < 1.0
+
+
+def test_unreachable_goal_times_out():
+    """A goal boxed in by four walls: valid, unreachable; the budget ends the search."""
+    ring = Workspace("ring", "file", [[0, 3], [0, -3], [3, 0], [-3, 0]], [[8, 2], [8, 2], [2, 8], [2, 8]])
+    t = time.perf_counter()
+    res = OmplPlanner("rrt_connect", "rrt_connect").solve(problem("s2d", ring, (-10.0, -10.0), (0.0, 0.0)), 0.3)
+    elapsed = time.perf_counter() - t
+    assert res.status == TIMEOUT and res.path is None
+    assert 0.25 < elapsed < 1.5
+
+
+def test_stop_at_first_is_fast_and_stop_at_cost_is_better():
+    """First solution returns long before the budget; a cost target near the optimum
+    makes BIT* keep improving until it is reached."""
+    start, goal = (-10.0, 0.0), (10.0, 0.0)
+    optimum = 2 * math.hypot(8.0, 15.0) + 4.0  # over the wall's end: (-2, 15), (2, 15)
+    t = time.perf_counter()
+    first = OmplPlanner("bit_star", "bit_star").solve(problem("s2d", WALL, start, goal), 10.0)
+    assert first.solved and time.perf_counter() - t < 2.0
+    target_planner = OmplPlanner("bit_star", "bit_star", stop="cost", cost_factor=1.05)
+    res = target_planner.solve(problem("s2d", WALL, start, goal, reference_cost=optimum), 10.0)
+    assert res.solved
+    assert path_cost(get_spec("s2d"), res.path) <= 1.05 * optimum + 1e-6
+    with pytest.raises(ValueError, match="reference cost"):
+        target_planner.solve(problem("s2d", WALL, start, goal), 1.0)
+
+
+def test_bad_planner_config():
+    with pytest.raises(ValueError, match="stop"):
+        OmplPlanner("x", "bit_star", stop="never")
+    with pytest.raises(ValueError, match="algorithm"):
+        OmplPlanner("x", "prm_star")
+    with pytest.raises(ValueError, match="parameter"):
+        OmplPlanner("x", "bit_star", params={"no_such_knob": 1}).solve(
+            problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0)), 1.0)
+
+
+def test_params_are_applied():
+    res = OmplPlanner("x", "rrt_star", range=0.5, params={"rewire_factor": 1.2}).solve(
+        problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0)), 5.0)
+    assert res.solved
+    seg = [math.dist(a, b) for a, b in zip(res.path[:-1], res.path[1:])]
+    assert max(seg) <= 0.5 + 1e-9
