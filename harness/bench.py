@@ -15,12 +15,15 @@ from importlib import metadata
 from pathlib import Path
 
 import numpy as np
+from omegaconf import DictConfig, OmegaConf
 
 from mpnet.envs.collision import make_checker
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import EnvSpec, TestSet
 from mpnet.motion import path_cost, verify_path
 from mpnet.planners.base import Planner, Problem, Result
+
+from harness.cli import UsageError
 
 REPO = Path(__file__).resolve().parent.parent
 PACKAGES = ("numpy", "ompl", "python-fcl", "hydra-core", "mcap", "rerun-sdk", "torch", "lightning", "mpnet-bench")
@@ -56,12 +59,24 @@ def run_info(env: str, planner: str, seed: int, split: str, config_yaml: str) ->
     }
 
 
+_OMPL_SEEDED = False
+
+
+def ompl_seeded() -> bool:
+    return _OMPL_SEEDED
+
+
 def seed_everything(seed: int) -> None:
-    """OMPL's RNG once per process, before any planner exists (its seed must be > 0)."""
+    """OMPL's RNG once per process, before any planner exists (its seed must be > 0, so
+    OMPL gets seed + 1)."""
+    global _OMPL_SEEDED
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
+    if _OMPL_SEEDED:
+        raise RuntimeError("OMPL's RNG can be seeded once per process")
     ou.RNG.setSeed(int(seed) + 1)
+    _OMPL_SEEDED = True
     np.random.seed(int(seed) % 2**32)
     try:
         import torch  # MPNet's dropout; absent for classical-only installs
@@ -197,3 +212,66 @@ def env_spec(env_cfg) -> EnvSpec:
     from dataclasses import replace
 
     return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step))
+
+
+def build_testset(cfg: DictConfig, spec):
+    """The problem file's test set, or the generated splits of the scale."""
+    from mpnet.data.queries import make_testset
+    from mpnet.problems import load_problems
+
+    if cfg.problems:
+        return load_problems(str(cfg.problems), spec), "file"
+    splits = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in cfg.splits}
+    return make_testset(spec, splits, int(cfg.env.data_seed), float(cfg.env.solvable_s)), "+".join(cfg.splits)
+
+
+def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> list[dict]:
+    """Run one bench job into run_dir and print its summary."""
+    import hydra
+    from hydra.errors import InstantiationException
+
+    from harness.trial_log import TrialLog
+
+    if "env" not in cfg or "planner" not in cfg:
+        raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
+    seed_everything(int(cfg.seed))
+    spec = env_spec(cfg.env)
+    testset, split = build_testset(cfg, spec)
+    try:
+        planner = hydra.utils.instantiate(cfg.planner)
+    except InstantiationException as e:
+        raise UsageError(f"config key planner: {e.__cause__ or e}") from None
+    if cfg.planner.get("stop") == "cost" and any(q.reference_cost is None for q in testset.queries):
+        raise UsageError("planner.stop=cost needs a reference cost for every query "
+                         "(give `reference_cost` per query in a problem file)")
+    info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
+    with TrialLog(run_dir, info, spec, rerun=bool(cfg.rerun), resume=bool(cfg.resume)) as log:
+        try:
+            records = run_bench(testset, planner, log, budget_s=float(cfg.budget_s),
+                                validation_step=spec.validation_step,
+                                collision=str(cfg.env.collision), progress=bool(cfg.progress), timing=timing)
+        except KeyboardInterrupt:
+            print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)
+            raise
+    if not quiet:
+        print(f"{cfg.env.name} / {cfg.planner.name} / seed {cfg.seed}: {run_dir}")
+        print(format_summary(summarize(records)) if records else "no queries to run")
+    return records
+
+
+def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
+    """bench(), with the user's mistakes as one line and exit status 1."""
+    from mpnet.problems import ProblemFileError
+
+    try:
+        bench(cfg, run_dir, **kwargs)
+    except (ProblemFileError, UsageError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(1)
+    except FileExistsError as e:
+        print(f"error: {e} (or choose another hydra.run.dir)", file=sys.stderr)
+        sys.exit(1)
+
+
+def bench_in_child(container: dict, run_dir: str) -> None:
+    bench_or_exit(OmegaConf.create(container), Path(run_dir))

@@ -67,6 +67,22 @@ def interpolate(spec: EnvSpec, a, b, step: float) -> np.ndarray:
     return a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
 
 
+def interpolate_path(spec: EnvSpec, path: np.ndarray, step: float) -> np.ndarray:
+    """Every segment of the path sampled as `interpolate` does, in one vectorised pass."""
+    a, d = path[:-1], np.diff(path, axis=0)
+    if spec.is_se2:
+        d[:, 2] = wrap_angle(d[:, 2])
+        radius = math.hypot(*(s / 2 for s in spec.robot_size))
+        length = np.maximum(np.hypot(d[:, 0], d[:, 1]), np.abs(d[:, 2]) * radius)
+    else:
+        length = np.linalg.norm(d, axis=1)
+    n = np.ceil(length / step).astype(int) + 2  # samples per segment, both ends included
+    seg = np.repeat(np.arange(len(d)), n)
+    first = np.cumsum(n) - n
+    t = (np.arange(n.sum()) - np.repeat(first, n)) / np.repeat(n - 1, n)
+    return a[seg] + t[:, None] * d[seg]
+
+
 def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | None = None) -> str | None:
     """The independent fine re-check (DESIGN §5): None when the path is a success, else why not.
 
@@ -81,9 +97,8 @@ def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | N
         return "malformed_path"
     if not (np.allclose(p[0], start, atol=1e-6) and np.allclose(p[-1], goal, atol=1e-6)):
         return "wrong_endpoints"
-    exact = make_checker(spec, ws, margin=0.0)
-    samples = np.concatenate([interpolate(spec, a, b, step) for a, b in zip(p[:-1], p[1:])])
-    ok = exact._states_free(samples)
+    samples = interpolate_path(spec, p, step)
+    ok = make_checker(spec, ws, margin=0.0)._states_free(samples)
     if ok.all():
         return None
     bad = samples[~ok][0]

@@ -71,3 +71,15 @@ def test_interpolate_step_bound(a, b, step):
     radius = math.hypot(1.0, 2.5)
     d = np.diff(pts, axis=0)
     assert np.all(np.maximum(np.hypot(d[:, 0], d[:, 1]), np.abs(d[:, 2]) * radius) <= step + 1e-9)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-4, 4)), min_size=2, max_size=6),
+       st.floats(0.05, 2.0))
+def test_interpolate_path_is_interpolate_per_segment(path, step):
+    from mpnet.motion import interpolate_path
+
+    for spec in (RIGID, get_spec("s2d")):
+        p = np.array(path)[:, :spec.state_dim]
+        want = np.concatenate([interpolate(spec, a, b, step) for a, b in zip(p[:-1], p[1:])])
+        assert np.allclose(interpolate_path(spec, p, step), want)

@@ -1,0 +1,48 @@
+"""`python -m harness.overhead +env=ENV +planner=PLANNER [scale=S]`: what the harness
+costs per query beside the planner, from a real bench run with every log written.
+
+Reports, per query, the planner's time (the measured `time_s`), the independent fine
+re-check, and the harness's own work (building the problem, counting, logging to MCAP,
+Rerun and CSV, the progress bar), as medians and p90s and as fractions of planning time.
+"""
+from __future__ import annotations
+
+import statistics
+import tempfile
+from pathlib import Path
+
+import hydra
+import numpy as np
+from omegaconf import DictConfig
+
+from harness.cli import run_hydra
+
+
+def _row(name: str, xs: list[float], plan: list[float]) -> str:
+    a = np.asarray(xs)
+    frac = a.sum() / np.sum(plan)
+    return (f"{name:<22} median {np.median(a) * 1e3:8.3f} ms   p90 {np.percentile(a, 90) * 1e3:8.3f} ms   "
+            f"total/planning {frac * 100:6.1f}%")
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+def main(cfg: DictConfig) -> None:
+    from harness.bench import QueryTiming, bench_or_exit
+
+    timing = QueryTiming()
+    with tempfile.TemporaryDirectory() as tmp:
+        bench_or_exit(cfg, Path(tmp), timing=timing, quiet=True)
+    if not timing.plan_s:
+        return
+    plan = timing.plan_s
+    print(f"\nharness overhead, {cfg.env.name} / {cfg.planner.name}, {len(plan)} queries")
+    print(_row("planner (time_s)", plan, plan))
+    print(_row("fine re-check", timing.verify_s, plan))
+    print(_row("harness (log, books)", timing.harness_s, plan))
+    ratio = [h / p for h, p in zip(timing.harness_s, plan) if p > 0]
+    print(f"per-query harness/planning ratio: median {statistics.median(ratio) * 100:.1f}%, "
+          f"p90 {np.percentile(ratio, 90) * 100:.1f}%")
+
+
+if __name__ == "__main__":
+    run_hydra(main, required=("env", "planner"))

@@ -1,0 +1,164 @@
+"""End to end: every CLI the README shows, at tiny scale, in subprocesses as a user runs them."""
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from mpnet.envs import get_spec
+from mpnet.envs.generators import s2d_layouts
+from mpnet.motion import verify_path
+from mpnet.envs.workspace import Workspace
+
+REPO = Path(__file__).resolve().parent.parent
+PROBLEMS = REPO / "tests" / "data" / "problems"
+
+
+def run(*args, cwd=None, check=True):
+    env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
+    p = subprocess.run([sys.executable, "-m", *args], cwd=cwd or REPO, capture_output=True, text=True,
+                       timeout=600, env=env)
+    if check and p.returncode != 0:
+        raise AssertionError(f"exit {p.returncode}\nstdout:\n{p.stdout}\nstderr:\n{p.stderr}")
+    return p
+
+
+def read_mcap(path):
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        schemas = {s.name for s in summary.schemas.values()}
+        msgs = [(c.topic, json.loads(m.data)) for _, c, m in reader.iter_messages()]
+    return schemas, msgs
+
+
+def recheck(msgs):
+    """Every logged success passes verify_path against the logged obstacles."""
+    run_msg = next(m for t, m in msgs if t == "/run")
+    spec = get_spec(run_msg["env"])
+    wss = {(m["split"], m["workspace_id"]): m for t, m in msgs if t == "/workspace"}
+    n = 0
+    for t, q in msgs:
+        if t == "/query" and q["success"]:
+            w = wss[(q["split"], q["workspace_id"])]
+            ws = Workspace(w["workspace_id"], w["split"], [o["center"] for o in w["obstacles"]],
+                           [o["size"] for o in w["obstacles"]])
+            assert verify_path(spec, ws, q["path"], q["start"], q["goal"], 0.01) is None
+            n += 1
+    return n
+
+
+def test_bench_tiny_s2d(tmp_path):
+    out = tmp_path / "run"
+    p = run("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", f"hydra.run.dir={out}")
+    assert "seen" in p.stdout and "unseen" in p.stdout and "success" in p.stdout
+    schemas, msgs = read_mcap(out / "trials.mcap")
+    assert {"mpnet_bench.Run", "mpnet_bench.Workspace", "mpnet_bench.Query", "foxglove.SceneUpdate"} <= schemas
+    run_msg = next(m for t, m in msgs if t == "/run")
+    assert run_msg["env"] == "s2d" and run_msg["planner"] == "bit_star" and run_msg["seed"] == 0
+    assert "budget_s" in run_msg["config"] and run_msg["versions"]["ompl"] == "2.0.1"
+    queries = [m for t, m in msgs if t == "/query"]
+    assert len(queries) == 8 and {q["split"] for q in queries} == {"seen", "unseen"}
+    assert recheck(msgs) == sum(q["success"] for q in queries) >= 7
+    for q in queries:
+        assert q["collision_checks"] == q["state_checks"] + q["motion_checks"] > 0
+        assert q["time_s"] > 0 and q["cpu_s"] >= 0
+    # the workspaces are original MPNet layouts
+    centres, perm = s2d_layouts()
+    for t, w in msgs:
+        if t == "/workspace":
+            assert [o["center"] for o in w["obstacles"]] == centres[perm[int(w["workspace_id"])]].tolist()
+            assert all(o["size"] == [5.0, 5.0] for o in w["obstacles"])
+    rows = list(csv.DictReader(open(out / "queries.csv")))
+    assert len(rows) == 8 and {"time_s", "collision_checks", "success"} <= set(rows[0])
+    rerun_cli = shutil.which("rerun")
+    if rerun_cli:
+        subprocess.run([rerun_cli, "rrd", "verify", str(out / "trials.rrd")], check=True, capture_output=True,
+                       timeout=120)
+
+
+@pytest.mark.parametrize("env", ["c2d", "c3d", "rigid"])
+def test_bench_tiny_other_envs(tmp_path, env):
+    out = tmp_path / env
+    run("harness", f"+env={env}", "+planner=informed_rrt_star", "scale=tiny", "rerun=false",
+        f"hydra.run.dir={out}")
+    _, msgs = read_mcap(out / "trials.mcap")
+    assert recheck(msgs) >= 7
+
+
+def test_used_by_form_multirun(tmp_path):
+    """Overrides before and after -m, as users type it."""
+    run("harness", "+env=rigid", "+planner=rrt_connect", "scale=tiny", "rerun=false",
+        f"hydra.sweep.dir={tmp_path}", "-m", "seed=0,1")
+    files = sorted(tmp_path.rglob("trials.mcap"))
+    assert len(files) == 2
+    seeds = [next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files]
+    assert sorted(seeds) == [0, 1]
+
+
+def test_multirun_flag_last(tmp_path):
+    run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", "splits=[seen]",
+        f"hydra.sweep.dir={tmp_path}", "seed=3", "--multirun")
+    assert len(list(tmp_path.rglob("trials.mcap"))) == 1
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["+planner=bit_star"], "choose an env with +env=NAME (choices: c2d, c3d, rigid, s2d)"),
+    (["+env=s2d"], "choose a planner with +planner=NAME"),
+    (["+env=s3d", "+planner=bit_star"], "unknown env 's3d'"),
+    (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar'"),
+])
+def test_missing_or_unknown_choice(args, needle):
+    p = run("harness", *args, check=False)
+    assert p.returncode != 0
+    assert needle in p.stderr
+    assert "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("name", ["bad_not_json.json", "bad_wrong_format.json", "bad_unknown_env.json",
+                                  "bad_center_dim.json", "bad_negative_size.json", "bad_nan.json",
+                                  "bad_missing_start.json"])
+def test_bad_problem_file(tmp_path, name):
+    p = run("harness", "+env=s2d", "+planner=bit_star", f"problems={PROBLEMS / name}",
+            f"hydra.run.dir={tmp_path}", check=False)
+    assert p.returncode == 1
+    assert "Traceback" not in p.stderr
+    lines = [ln for ln in p.stderr.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and name in lines[0]
+    assert not (tmp_path / "trials.mcap").exists()
+
+
+def test_problem_file_with_invalid_query(tmp_path):
+    doc = json.loads((PROBLEMS / "s2d.json").read_text())
+    blocked = doc["workspaces"][0]["obstacles"][0]["center"]
+    doc["workspaces"][0]["queries"].append({"start": blocked, "goal": [19.0, 19.0]})
+    doc["workspaces"][0]["queries"].append({"start": [-25.0, 0.0], "goal": [19.0, 19.0]})
+    f = tmp_path / "p.json"
+    f.write_text(json.dumps(doc))
+    run("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    _, msgs = read_mcap(tmp_path / "r" / "trials.mcap")
+    queries = [m for t, m in msgs if t == "/query"]
+    assert all(q["split"] == "file" for q in queries)
+    assert [q["failure"] for q in queries if not q["success"]] == ["invalid_query", "invalid_query"]
+    assert sum(q["success"] for q in queries) == len(queries) - 2
+    assert recheck(msgs) == len(queries) - 2
+
+
+@pytest.mark.parametrize("env", ["s2d", "c2d", "c3d", "rigid"])
+def test_problem_files_all_envs(tmp_path, env):
+    run("harness", f"+env={env}", "+planner=bit_star", f"problems={PROBLEMS / (env + '.json')}", "rerun=false",
+        f"hydra.run.dir={tmp_path}")
+    _, msgs = read_mcap(tmp_path / "trials.mcap")
+    queries = [m for t, m in msgs if t == "/query"]
+    assert queries and recheck(msgs) == len(queries)
+    assert {m["split"] for t, m in msgs if t == "/workspace"} == {"file"}
+
+
+def test_overhead_benchmark():
+    p = run("harness.overhead", "+env=s2d", "+planner=bit_star", "scale=tiny", "progress=false")
+    assert "harness overhead" in p.stdout and "fine re-check" in p.stdout and "ratio" in p.stdout
