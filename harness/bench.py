@@ -20,7 +20,6 @@ from omegaconf import DictConfig, OmegaConf
 from mpnet.envs.collision import make_checker
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import EnvSpec, TestSet
-from mpnet.motion import path_cost, verify_path
 from mpnet.planners.base import Planner, Problem, Result
 
 from harness.cli import UsageError
@@ -87,11 +86,13 @@ def seed_everything(seed: int) -> None:
 
 @dataclass
 class QueryTiming:
-    """Where a query's wall time went: the planner, the re-check, the harness itself."""
+    """Where a query's wall time went in the planning loop: the planner, the harness
+    (set-up, bookkeeping, the hand-off to the log process); and the log process's CPU
+    time for the whole run (judging and writing)."""
 
     plan_s: list[float] = field(default_factory=list)
-    verify_s: list[float] = field(default_factory=list)
     harness_s: list[float] = field(default_factory=list)
+    log_cpu_s: float = 0.0
 
 
 def _jsonable(v):
@@ -102,55 +103,47 @@ def _jsonable(v):
     return v
 
 
-def plan_query(spec: EnvSpec, planner: Planner, problem: Problem, budget_s: float, validation_step: float):
-    """Solve one query and judge it: (record fields, Result, verify seconds)."""
+def plan_query(spec: EnvSpec, planner: Planner, problem: Problem, budget_s: float) -> dict:
+    """Solve one query, timed: the record's fields. Its path cost and the fine re-check of
+    a claimed success come later, in the log process (harness.log_process.judge)."""
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     try:
         res = planner.solve(problem, budget_s)
     except Exception as e:  # one query's exception is a logged failure; the run goes on
         res = Result(None, "error", {"error": f"{type(e).__name__}: {e}"})
     wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
-    t_verify = time.perf_counter()
-    failure = None
-    if not res.solved:
-        failure = res.status
-    elif wall > budget_s:
+    failure = None if res.solved else res.status
+    if failure is None and wall > budget_s:
         failure = "timeout"
-    else:
-        why = verify_path(spec, problem.workspace, res.path, problem.start, problem.goal, validation_step)
-        failure = f"recheck_{why}" if why else None
-    verify_s = time.perf_counter() - t_verify
     rec = {
         "success": failure is None,
         "failure": failure,
-        "path": [[float(x) for x in s] for s in res.path] if res.path is not None else [],
+        "path": res.path if res.path is not None else [],
         "time_s": wall,
         "cpu_s": cpu,
-        "path_cost": path_cost(spec, res.path) if res.path is not None and len(res.path) > 1 else None,
         **problem.checker.counts(),
         "planner_status": res.status,
     }
     for k, v in res.stats.items():
         rec.setdefault(k, _jsonable(v))
-    return rec, res, verify_s
+    return rec
 
 
-def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, validation_step: float,
-              collision: str = "native", progress: bool = True, timing: QueryTiming | None = None) -> list[dict]:
-    """Plan every query of the test set not already in the log; returns the new records."""
+def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, collision: str = "native",
+              progress: bool = True, timing: QueryTiming | None = None) -> None:
+    """Plan every query of the test set not already in the log, handing each to the log."""
     from tqdm import tqdm
 
     spec = testset.spec
     by_ws: dict[tuple[str, str], list] = {}
     for q in testset.queries:
-        by_ws.setdefault((q.split, q.workspace_id), []).append(q)
-    todo = [q for q in testset.queries if (q.split, q.id) not in log.done]
-    records: list[dict] = []
-    bar = tqdm(total=len(todo), disable=not progress, desc=f"{spec.name} {planner.name}", unit="query",
-               file=sys.stderr, dynamic_ncols=True)
+        if (q.split, q.id) not in log.done:
+            by_ws.setdefault((q.split, q.workspace_id), []).append(q)
+    bar = tqdm(total=sum(map(len, by_ws.values())), disable=not progress, desc=f"{spec.name} {planner.name}",
+               unit="query", file=sys.stderr, dynamic_ncols=True)
     try:
         for ws in testset.workspaces:
-            queries = [q for q in by_ws.get((ws.split, ws.id), []) if (q.split, q.id) not in log.done]
+            queries = by_ws.get((ws.split, ws.id), [])
             log.add_workspace(ws)
             if not queries:
                 continue
@@ -159,22 +152,18 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, valid
                 t0 = time.perf_counter()
                 checker.reset_counts()
                 problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost)
-                fields, res, verify_s = plan_query(spec, planner, problem, budget_s, validation_step)
                 rec = {"query_id": q.id, "workspace_id": ws.id, "split": q.split,
-                       "start": q.start.tolist(), "goal": q.goal.tolist(), **fields}
+                       "start": q.start.tolist(), "goal": q.goal.tolist(),
+                       **plan_query(spec, planner, problem, budget_s)}
                 if q.reference_cost is not None:
                     rec["reference_cost"] = q.reference_cost
                 log.add_query(rec)
-                records.append(rec)
                 bar.update(1)
                 if timing is not None:
-                    total = time.perf_counter() - t0
                     timing.plan_s.append(rec["time_s"])
-                    timing.verify_s.append(verify_s)
-                    timing.harness_s.append(total - rec["time_s"] - verify_s)
+                    timing.harness_s.append(time.perf_counter() - t0 - rec["time_s"])
     finally:
         bar.close()
-    return records
 
 
 def summarize(records: list[dict]) -> list[dict]:
@@ -230,7 +219,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     import hydra
     from hydra.errors import InstantiationException
 
-    from harness.trial_log import TrialLog
+    from harness.log_process import LogProcess
 
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
@@ -245,14 +234,18 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
         raise UsageError("planner.stop=cost needs a reference cost for every query "
                          "(give `reference_cost` per query in a problem file)")
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
-    with TrialLog(run_dir, info, spec, rerun=bool(cfg.rerun), resume=bool(cfg.resume)) as log:
+    with LogProcess(run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun),
+                    resume=bool(cfg.resume)) as log:
         try:
-            records = run_bench(testset, planner, log, budget_s=float(cfg.budget_s),
-                                validation_step=spec.validation_step,
-                                collision=str(cfg.env.collision), progress=bool(cfg.progress), timing=timing)
+            run_bench(testset, planner, log, budget_s=float(cfg.budget_s), collision=str(cfg.env.collision),
+                      progress=bool(cfg.progress), timing=timing)
         except KeyboardInterrupt:
+            log.close()
             print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)
             raise
+    records = log.records
+    if timing is not None:
+        timing.log_cpu_s = log.child_cpu_s
     if not quiet:
         print(f"{cfg.env.name} / {cfg.planner.name} / seed {cfg.seed}: {run_dir}")
         print(format_summary(summarize(records)) if records else "no queries to run")

@@ -161,4 +161,40 @@ def test_problem_files_all_envs(tmp_path, env):
 
 def test_overhead_benchmark():
     p = run("harness.overhead", "+env=s2d", "+planner=bit_star", "scale=tiny", "progress=false")
-    assert "harness overhead" in p.stdout and "fine re-check" in p.stdout and "ratio" in p.stdout
+    assert "harness overhead" in p.stdout and "log process" in p.stdout and "ratio" in p.stdout
+
+
+def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
+    """SIGKILL mid-run: the log process finalises every query it got; resume=true then
+    finishes the run without logging any query twice."""
+    import signal
+    import time
+
+    out = tmp_path / "run"
+    args = [sys.executable, "-m", "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]",
+            "progress=false", f"hydra.run.dir={out}"]
+    proc = subprocess.Popen(args, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    csv_file = out / "queries.csv"
+    while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 5):
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    time.sleep(3.0)  # the log process drains and finalises
+    _, msgs = read_mcap(out / "trials.mcap")  # finalised: the indexed reader opens it
+    first = [m["query_id"] for t, m in msgs if t == "/query"]
+    assert 0 < len(first) < 200
+    run("harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
+        "resume=true", f"hydra.run.dir={out}")
+    _, msgs = read_mcap(out / "trials.mcap")
+    ids = [m["query_id"] for t, m in msgs if t == "/query"]
+    assert len(ids) == len(set(ids)) == 200
+    assert set(first) <= set(ids)
+    assert recheck(msgs) >= 198
+
+
+def test_existing_run_dir_is_not_overwritten(tmp_path):
+    run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}")
+    p = run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}",
+            check=False)
+    assert p.returncode == 1 and "resume" in p.stderr and "Traceback" not in p.stderr

@@ -149,7 +149,7 @@ def segments_hit_boxes(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndar
     """Batch slab test: (N, M) array, True where segment i meets closed box j."""
     d = (b - a)[:, None, :]
     a = a[:, None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         ta = (lo[None] - a) / d
         tb = (hi[None] - a) / d
     still = d == 0.0
