@@ -6,8 +6,9 @@ only hands each finished query to this process over a pipe (~20 us), which judge
 (DESIGN §5), logs it and keeps the records for the summary. Being apart also makes the
 judge independent of the planner's process.
 
-Crash safety holds: the child ignores Ctrl-C and finalises when the bench closes the
-log, raises, is interrupted, or dies (the pipe ends); every query it received is logged.
+Crash safety holds: the child ignores Ctrl-C and SIGTERM and finalises when the bench
+closes the log, raises, is interrupted, or dies (the pipe ends); every query it received
+is logged.
 """
 from __future__ import annotations
 
@@ -39,7 +40,10 @@ def judge(spec: EnvSpec, ws: Workspace, rec: dict, validation_step: float) -> di
 def _serve(conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float, log_kwargs: dict) -> None:
     from harness.trial_log import TrialLog
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    # The parent decides when to stop: a Ctrl-C or a scheduler's SIGTERM sent to the whole
+    # process group must not kill the log before it has written what it received.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     try:
         log = TrialLog(run_dir, run, spec, **log_kwargs)
     except Exception as e:  # reported to the parent, which raises it

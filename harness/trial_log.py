@@ -13,22 +13,14 @@ Why it is shaped this way:
   fresh file and exposes the finished (split, query_id) pairs in `done`, so a run never
   logs the same query twice.
 
-The `/scene` topic uses Foxglove's `foxglove.SceneUpdate` JSON schema, copied unchanged
-from https://github.com/foxglove/foxglove-sdk (schemas/jsonschema/SceneUpdate.json, commit
-40ea5ebec26678aeca786d5480f6316ba94de05a) into
-`harness/schemas/foxglove.SceneUpdate.json`. That file is Copyright (c) Foxglove
-Technologies Inc. and is used under the MIT License: "Permission is hereby granted, free of
-charge, to any person obtaining a copy of this software and associated documentation files
-(the "Software"), to deal in the Software without restriction, including without
-limitation the rights to use, copy, modify, merge, publish, distribute, sublicense, and/or
-sell copies of the Software, and to permit persons to whom the Software is furnished to do
-so, subject to the following conditions: The above copyright notice and this permission
-notice shall be included in all copies or substantial portions of the Software. THE
-SOFTWARE IS PROVIDED "AS IS", WITHOUT WARRANTY OF ANY KIND, EXPRESS OR IMPLIED, INCLUDING
-BUT NOT LIMITED TO THE WARRANTIES OF MERCHANTABILITY, FITNESS FOR A PARTICULAR PURPOSE AND
-NONINFRINGEMENT. IN NO EVENT SHALL THE AUTHORS OR COPYRIGHT HOLDERS BE LIABLE FOR ANY CLAIM,
-DAMAGES OR OTHER LIABILITY, WHETHER IN AN ACTION OF CONTRACT, TORT OR OTHERWISE, ARISING
-FROM, OUT OF OR IN CONNECTION WITH THE SOFTWARE OR THE USE OR OTHER DEALINGS IN THE SOFTWARE."
+The `/scene` topic carries Foxglove `foxglove.SceneUpdate` messages. Their schema,
+`harness/schemas/foxglove.SceneUpdate.json`, is our own description of Foxglove's documented
+SceneUpdate message, written from Foxglove's message-schema docs
+(https://docs.foxglove.dev/docs/visualization/message-schemas/scene-update/ and the pages it
+links); its field names are Foxglove's. Foxglove recognises the data by the schema name
+`foxglove.SceneUpdate`. The file shares types through `$defs`; the copy written into the MCAP
+file has every `$ref` inlined, since Foxglove's JSON Schema reader expects each field to give
+its own `type`.
 """
 from __future__ import annotations
 
@@ -142,9 +134,34 @@ QUERY_SCHEMA = {
 }
 
 
-def scene_update_schema() -> dict:
-    """Foxglove's official JSON schema for foxglove.SceneUpdate (MIT, see module docstring)."""
-    return json.loads((SCHEMA_DIR / "foxglove.SceneUpdate.json").read_text())
+def scene_update_schema(inline: bool = False) -> dict:
+    """Our JSON Schema for Foxglove's foxglove.SceneUpdate (see module docstring).
+
+    inline=True: every `$ref` replaced by its definition and `$defs` dropped, the form
+    written to MCAP (Foxglove's reader does not follow `$ref`).
+    """
+    schema = json.loads((SCHEMA_DIR / "foxglove.SceneUpdate.json").read_text())
+    return _inline_refs(schema, schema.get("$defs", {})) if inline else schema
+
+
+def _inline_refs(node: Any, defs: dict) -> Any:
+    """`node` with each {"$ref": "#/$defs/<name>", ...} replaced by that definition
+    (recursively inlined, sibling keys kept) and any `$defs` dropped."""
+    if isinstance(node, list):
+        return [_inline_refs(x, defs) for x in node]
+    if not isinstance(node, dict):
+        return node
+    out = {}
+    ref = node.get("$ref")
+    if ref is not None:
+        prefix = "#/$defs/"
+        if not ref.startswith(prefix) or ref[len(prefix):] not in defs:
+            raise ValueError(f"unsupported $ref {ref!r}")
+        out.update(_inline_refs(defs[ref[len(prefix):]], defs))
+    for k, v in node.items():
+        if k not in ("$ref", "$defs"):
+            out[k] = _inline_refs(v, defs)
+    return out
 
 
 def _schema_bytes(schema: dict) -> bytes:
@@ -564,7 +581,7 @@ class TrialLog:
 
         Encoded from string templates because it is on the per-query path and
         json.dumps of these nested dicts costs ~50 us; tests validate the output
-        against Foxglove's schema.
+        against the foxglove.SceneUpdate schema.
         """
         ok = bool(msg.get("success"))
         trace, start, goal = self._trace(msg)
@@ -623,7 +640,7 @@ _SCENE_SCHEMA_CACHE: list[bytes] = []
 
 def _scene_schema_bytes() -> bytes:
     if not _SCENE_SCHEMA_CACHE:
-        _SCENE_SCHEMA_CACHE.append(_schema_bytes(scene_update_schema()))
+        _SCENE_SCHEMA_CACHE.append(_schema_bytes(scene_update_schema(inline=True)))
     return _SCENE_SCHEMA_CACHE[0]
 
 

@@ -141,3 +141,48 @@ def test_fcl_backend_agrees(x, y, th, dx, dy, th2, wsi):
 def test_unknown_backend():
     with pytest.raises(ValueError, match="backend"):
         make_checker(RIGID, ONE_BOX, backend="bullet")
+
+
+@pytest.mark.parametrize("env,blocks", [("s2d", 7), ("c2d", 7), ("c3d", 10), ("rigid", 7)])
+def test_point_cloud_inside_obstacles(env, blocks):
+    from mpnet.envs.generators import point_cloud
+
+    spec = get_spec(env)
+    ws = make_workspace(spec, 5, "seen")
+    pts = point_cloud(ws, 200, np.random.default_rng(0))
+    assert pts.shape == (blocks * 200, spec.workspace_dim)
+    inside = np.all((pts[:, None] >= ws.lo[None]) & (pts[:, None] <= ws.hi[None]), axis=2)
+    assert inside.any(axis=1).all()
+    assert (inside.sum(axis=0) >= 200).all()  # every block gets its 200 points
+
+
+def test_layouts():
+    from mpnet.envs.generators import c3d_layouts, s2d_layouts, split_ids
+
+    centres, perm = s2d_layouts()
+    assert np.allclose(centres[0], [1.8171, 8.4540], atol=1e-4)
+    assert perm[0].tolist() == [1, 7, 8, 10, 13, 15, 19]
+    assert split_ids("seen", 3) == [0, 1, 2] and split_ids("unseen", 2) == [100, 101]
+    with pytest.raises(ValueError):
+        split_ids("unseen", 11)
+    c, rows = c3d_layouts(0)
+    assert np.all(np.abs(c) <= 15) and len({tuple(r) for r in rows}) == 110
+    assert np.array_equal(c3d_layouts(0)[0], c) and not np.array_equal(c3d_layouts(1)[0], c)
+    c2d = make_workspace(get_spec("c2d"), 0, "seen")
+    assert c2d.sizes.tolist() == [[10, 5], [5, 10], [10, 10], [10, 5], [5, 10], [10, 5], [5, 10]]
+    assert np.array_equal(c2d.centers, centres[perm[0]])
+
+
+def test_generated_queries_are_valid_blocked_and_seed_independent():
+    from mpnet.data.queries import make_testset
+
+    for env in ("s2d", "rigid"):
+        spec = get_spec(env)
+        a = make_testset(spec, {"seen": (2, 3), "unseen": (1, 3)}, seed=0)
+        b = make_testset(spec, {"seen": (2, 3), "unseen": (1, 3)}, seed=0)
+        assert [q.start.tolist() for q in a.queries] == [q.start.tolist() for q in b.queries]
+        assert len(a.queries) == 9 and len({q.id for q in a.queries}) == 9
+        for q in a.queries:
+            ch = make_checker(spec, a.workspace(q.workspace_id, q.split), margin=0.0)
+            assert ch.is_valid(q.start.tolist()) and ch.is_valid(q.goal.tolist())
+            assert not ch.motion_valid(q.start.tolist(), q.goal.tolist())

@@ -102,3 +102,16 @@ def test_params_are_applied():
     assert res.solved
     seg = [math.dist(a, b) for a, b in zip(res.path[:-1], res.path[1:])]
     assert max(seg) <= 0.5 + 1e-9
+
+
+def test_endpoints_are_the_query_exactly():
+    """theta outside [-pi, pi) in a problem file, and start == goal, still give a path
+    whose ends are the query's start and goal."""
+    p = problem("rigid", WALL, (-10.0, 0.0, 7.0), (10.0, 0.0, -4.0))
+    res = OmplPlanner("bit_star", "bit_star").solve(p, 5.0)
+    assert res.solved and res.path[0] == [-10.0, 0.0, 7.0] and res.path[-1] == [10.0, 0.0, -4.0]
+    assert verify_path(p.spec, WALL, res.path, p.start, p.goal) is None
+    same = problem("s2d", WALL, (-10.0, 0.0), (-10.0, 0.0))
+    for alg in sorted(ALGORITHMS):
+        res = OmplPlanner(alg, alg).solve(same, 2.0)
+        assert res.solved and verify_path(same.spec, WALL, res.path, same.start, same.goal) is None

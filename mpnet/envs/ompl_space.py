@@ -6,7 +6,7 @@ from __future__ import annotations
 from ompl import base as ob
 
 from mpnet.envs.collision import CollisionChecker
-from mpnet.envs.workspace import EnvSpec
+from mpnet.envs.workspace import EnvSpec, wrap_angle
 
 
 class ExactMotionValidator(ob.MotionValidator):
@@ -48,7 +48,7 @@ def state_codec(spec: EnvSpec):
         def set_state(s, q):
             s.setX(float(q[0]))
             s.setY(float(q[1]))
-            s.setYaw(float(q[2]))
+            s.setYaw(wrap_angle(float(q[2])))  # OMPL's SO2 expects [-pi, pi)
     else:
         n = spec.state_dim
 

@@ -81,9 +81,9 @@ class OmplPlanner:
         exact = pdef.hasExactSolution()
         path = None
         if exact:
-            states = pdef.getSolutionPath().getStates()
             to_list = _to_list(problem.spec)
-            path = [to_list(s) for s in states]
+            path = [to_list(s) for s in pdef.getSolutionPath().getStates()]
+            path = snap_endpoints(path, problem)
         stats = {"planner_status": status.asString() if hasattr(status, "asString") else str(status)}
         if self.algorithm in OPTIMIZING:
             cost = planner.bestCost().value()
@@ -104,6 +104,14 @@ class OmplPlanner:
             done = ob.PlannerTerminationCondition(lambda: math.isfinite(planner.bestCost().value()))
         # No period argument: a periodic condition runs on a thread and aborts at exit.
         return ob.plannerOrTerminationCondition(timed, done)
+
+
+def snap_endpoints(path: list, problem: Problem) -> list:
+    """The path's ends as the query's exact start and goal: OMPL stores theta wrapped into
+    [-pi, pi) and a goal within its tolerance; a one-state path (start == goal) gets both."""
+    if len(path) == 1:
+        path = [path[0], path[0]]
+    return [problem.start.tolist(), *path[1:-1], problem.goal.tolist()]
 
 
 def _to_list(spec):
