@@ -13,6 +13,7 @@ from harness.cli import run_hydra
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 def main(cfg: DictConfig) -> None:
     from harness.bench import bench_in_child, bench_or_exit, ompl_seeded
+    from harness.log_process import spawn_context
 
     run_dir = Path(hydra.core.hydra_config.HydraConfig.get().runtime.output_dir)
     if cfg.problems:
@@ -22,9 +23,7 @@ def main(cfg: DictConfig) -> None:
         return
     # OMPL's RNG takes its seed once per process: a later job of an in-process sweep
     # (Hydra's basic launcher) runs in a fresh interpreter so its seed holds.
-    import multiprocessing as mp
-
-    child = mp.get_context("spawn").Process(
+    child = spawn_context().Process(
         target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir)))
     child.start()
     child.join()

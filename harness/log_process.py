@@ -72,13 +72,21 @@ def _serve(conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float,
     conn.send(("closed", {"records": records, "cpu_s": time.process_time() - cpu0}))
 
 
+def spawn_context():
+    """multiprocessing's spawn context, usable inside joblib's loky workers too: a spawned
+    child re-applies its parent's start method, and 'loky' is unknown to a plain child."""
+    if mp.get_start_method(allow_none=True) not in (None, "spawn", "fork", "forkserver"):
+        mp.set_start_method("spawn", force=True)
+    return mp.get_context("spawn")
+
+
 class LogProcess:
     """TrialLog's interface (add_workspace, add_query, done, context manager), served by
     a child process that also judges each query. close() returns the judged records."""
 
     def __init__(self, run_dir: str | Path, run: dict, spec: EnvSpec, *, validation_step: float,
                  rerun: bool = True, resume: bool = False):
-        ctx = mp.get_context("spawn")  # never fork a process that has started OMPL's threads
+        ctx = spawn_context()  # never fork a process that has started OMPL's threads
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, name="trial-log", daemon=True, args=(
             child, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}))

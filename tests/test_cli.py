@@ -198,3 +198,26 @@ def test_existing_run_dir_is_not_overwritten(tmp_path):
     p = run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}",
             check=False)
     assert p.returncode == 1 and "resume" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_every_env_and_planner_config_runs(tmp_path):
+    """Each conf/env × conf/planner at the smallest size, as one sweep."""
+    from harness.cli import choices
+
+    envs, planners = choices("env"), choices("planner")
+    run("harness", "-m", f"+env={','.join(envs)}", f"+planner={','.join(planners)}", "scale=tiny", "splits=[unseen]",
+        "rerun=false", "progress=false", f"hydra.sweep.dir={tmp_path}")
+    files = sorted(tmp_path.rglob("trials.mcap"))
+    assert len(files) == len(envs) * len(planners)
+    for f in files:
+        _, msgs = read_mcap(f)
+        queries = [m for t, m in msgs if t == "/query"]
+        assert len(queries) == 4 and recheck(msgs) >= 3
+
+
+def test_joblib_launcher(tmp_path):
+    run("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", "rerun=false", "hydra/launcher=joblib",
+        "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={tmp_path}", "-m", "seed=0,1,2")
+    files = sorted(tmp_path.rglob("trials.mcap"))
+    seeds = sorted(next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files)
+    assert seeds == [0, 1, 2]
