@@ -68,4 +68,8 @@ def run_hydra(main, required: tuple[str, ...], optional: tuple[str, ...] = ("sca
             print(f"error: {e}", file=sys.stderr)
             sys.exit(2)
     sys.argv = [sys.argv[0]] + normalize_argv(argv)
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
