@@ -10,6 +10,7 @@ import statistics
 import subprocess
 import sys
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -181,18 +182,20 @@ def summarize(records: list[dict]) -> list[dict]:
             "time_median_s": statistics.median(times) if times else math.nan,
             "cost_mean": statistics.fmean(costs) if costs else math.nan,
             "checks_per_query": statistics.fmean(r["collision_checks"] for r in rs),
+            "failures": dict(Counter(r["failure"] for r in rs if not r["success"]).most_common()),
         })
     return rows
 
 
 def format_summary(rows: list[dict]) -> str:
     head = f"{'split':<8} {'queries':>7} {'success':>8} {'time mean ± std (ms)':>22} {'median (ms)':>11} " \
-           f"{'cost mean':>9} {'checks/query':>12}"
+           f"{'cost mean':>9} {'checks/query':>12}  failures"
     lines = [head]
     for r in rows:
         ms = f"{r['time_mean_s'] * 1e3:.2f} ± {r['time_std_s'] * 1e3:.2f}"
         lines.append(f"{r['split']:<8} {r['queries']:>7} {r['success'] * 100:>7.1f}% {ms:>22} "
-                     f"{r['time_median_s'] * 1e3:>11.2f} {r['cost_mean']:>9.2f} {r['checks_per_query']:>12.1f}")
+                     f"{r['time_median_s'] * 1e3:>11.2f} {r['cost_mean']:>9.2f} {r['checks_per_query']:>12.1f}  "
+                     + ", ".join(f"{k}: {v}" for k, v in r["failures"].items()))
     return "\n".join(lines)
 
 
@@ -201,6 +204,32 @@ def env_spec(env_cfg) -> EnvSpec:
     from dataclasses import replace
 
     return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step))
+
+
+def check_config(cfg: DictConfig) -> None:
+    """The values a user types, checked before any work: UsageError naming the key."""
+    from mpnet.envs.collision import BACKENDS
+
+    def number(key, value, positive=True):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                or (positive and value <= 0):
+            raise UsageError(f"config key {key}: expected a {'positive ' if positive else ''}finite number, "
+                             f"got {value!r}")
+
+    number("budget_s", cfg.budget_s)
+    number("env.validation_step", cfg.env.validation_step)
+    number("env.solvable_s", cfg.env.solvable_s)
+    if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
+        raise UsageError(f"config key seed: expected an integer >= 0, got {cfg.seed!r}")
+    splits = cfg.splits
+    if isinstance(splits, str) or not splits or any(s not in ("seen", "unseen") for s in splits):
+        raise UsageError(f"config key splits: expected a list from [seen, unseen], e.g. splits=[seen], got "
+                         f"{OmegaConf.to_container(splits) if OmegaConf.is_config(splits) else splits!r}")
+    if cfg.env.collision not in BACKENDS:
+        raise UsageError(f"config key env.collision: expected one of {', '.join(BACKENDS)}, got {cfg.env.collision!r}")
+    for key in ("rerun", "resume", "progress"):
+        if not isinstance(cfg[key], bool):
+            raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
 
 
 def build_testset(cfg: DictConfig, spec):
@@ -223,6 +252,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
 
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
+    check_config(cfg)
     seed_everything(int(cfg.seed))
     spec = env_spec(cfg.env)
     testset, split = build_testset(cfg, spec)
@@ -236,6 +266,13 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
     with LogProcess(run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun),
                     resume=bool(cfg.resume)) as log:
+        for ws in testset.workspaces:
+            logged = log.logged_obstacles.get((ws.split, ws.id))
+            if logged is not None and logged != ws.obstacles_json():
+                raise UsageError(f"resume=true: workspace {ws.id!r} ({ws.split}) in {run_dir} was logged with "
+                                 f"other obstacles; resume only the same test set or problem file")
+        if log.done:
+            print(f"resuming: {len(log.done)} queries already logged in {run_dir}", file=sys.stderr)
         try:
             run_bench(testset, planner, log, budget_s=float(cfg.budget_s), collision=str(cfg.env.collision),
                       progress=bool(cfg.progress), timing=timing)

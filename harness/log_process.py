@@ -49,7 +49,7 @@ def _serve(conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float,
     except Exception as e:  # reported to the parent, which raises it
         conn.send(("error", e))
         return
-    conn.send(("ready", log.done))
+    conn.send(("ready", (log.done, log.logged_obstacles())))
     workspaces: dict[tuple[str, str], Workspace] = {}
     records: list[dict] = []
     cpu0 = time.process_time()
@@ -100,7 +100,8 @@ class LogProcess:
             self._proc.join()
             self._closed = True
             raise payload
-        self.done: set[tuple[str, str]] = payload
+        self.done: set[tuple[str, str]] = payload[0]
+        self.logged_obstacles: dict[tuple[str, str], list] = payload[1]
 
     def _recv(self):
         try:

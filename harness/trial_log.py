@@ -398,13 +398,18 @@ class TrialLog:
 
     # ---------------------------------------------------------------- public API
     def add_workspace(self, ws: Workspace) -> None:
-        """Log a workspace once per (split, id); later calls for the same key do nothing."""
+        """Log a workspace once per (split, id); later calls for the same key do nothing, and
+        raise ValueError when its obstacles differ from the logged ones."""
         key = (str(ws.split), str(ws.id))
+        obstacles = plain(ws.obstacles_json())
         if key in self._workspaces:
+            if self._workspaces[key]["obstacles"] != obstacles:
+                raise ValueError(f"workspace {key[1]!r} of split {key[0]!r} is already logged with other "
+                                 f"obstacles; a resumed run must plan the same workspaces")
             return
         self._check_open()
         msg = {"workspace_id": key[1], "split": key[0], "bounds": self.spec.bounds_json(),
-               "obstacles": plain(ws.obstacles_json()), "robot": self.spec.robot_json()}
+               "obstacles": obstacles, "robot": self.spec.robot_json()}
         self._emit_workspace(msg, self._now())
         self._flush()
 
@@ -446,6 +451,10 @@ class TrialLog:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    def logged_obstacles(self) -> dict[tuple[str, str], list]:
+        """(split, workspace_id) -> obstacles of every workspace in the log (resume checks)."""
+        return {k: m["obstacles"] for k, m in self._workspaces.items()}
 
     @property
     def n_queries(self) -> int:

@@ -28,6 +28,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import EnvSpec, Query, TestSet, Workspace
 
@@ -243,8 +245,6 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
         seen_ids[wid] = wi
 
         raw_obs = c.lst(c.key(w, "obstacles"), "obstacles")
-        if not raw_obs:
-            c.fail("obstacles is empty; a workspace needs at least one obstacle")
         centers, sizes = [], []
         for oi, o in enumerate(raw_obs):
             c.where = f"obstacle #{oi}"
@@ -272,7 +272,9 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
             queries.append(Query(id=query_id(wid, qi), workspace_id=wid, split=SPLIT,
                                  start=start, goal=goal, reference_cost=ref))
         c.qi = None
-        workspaces.append(Workspace(id=wid, split=SPLIT, centers=centers, sizes=sizes))
+        shape = (len(centers), spec.workspace_dim)  # an empty workspace keeps its dimension
+        workspaces.append(Workspace(id=wid, split=SPLIT, centers=np.reshape(centers, shape),
+                                    sizes=np.reshape(sizes, shape)))
 
     c.wi = c.wid = c.qi = c.where = None
     try:

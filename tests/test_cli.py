@@ -221,3 +221,35 @@ def test_joblib_launcher(tmp_path):
     files = sorted(tmp_path.rglob("trials.mcap"))
     seeds = sorted(next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files)
     assert seeds == [0, 1, 2]
+
+
+@pytest.mark.parametrize("override,key", [("budget_s=abc", "budget_s"), ("budget_s=-1", "budget_s"),
+                                          ("seed=-1", "seed"), ("seed=1.5", "seed"), ("splits=[bogus]", "splits"),
+                                          ("env.collision=xyz", "env.collision"), ("rerun=maybe", "rerun"),
+                                          ("env.validation_step=0", "env.validation_step")])
+def test_bad_config_values(tmp_path, override, key):
+    p = run("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
+            check=False)
+    assert p.returncode == 1 and f"config key {key}" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_resume_refuses_other_workspaces(tmp_path):
+    doc = json.loads((PROBLEMS / "s2d.json").read_text())
+    a = tmp_path / "a.json"
+    a.write_text(json.dumps(doc))
+    run("harness", "+env=s2d", "+planner=bit_star", f"problems={a}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    doc["workspaces"][0]["obstacles"][0]["center"][0] += 1.0
+    b = tmp_path / "b.json"
+    b.write_text(json.dumps(doc))
+    p = run("harness", "+env=s2d", "+planner=bit_star", f"problems={b}", "rerun=false", "resume=true",
+            f"hydra.run.dir={tmp_path / 'r'}", check=False)
+    assert p.returncode == 1 and "other obstacles" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_summary_lists_failure_reasons(tmp_path):
+    doc = json.loads((PROBLEMS / "s2d.json").read_text())
+    doc["workspaces"][0]["queries"].append({"start": [25.0, 0.0], "goal": [19.0, 19.0]})
+    f = tmp_path / "p.json"
+    f.write_text(json.dumps(doc))
+    p = run("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    assert "invalid_query: 1" in p.stdout

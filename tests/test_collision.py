@@ -186,3 +186,16 @@ def test_generated_queries_are_valid_blocked_and_seed_independent():
             ch = make_checker(spec, a.workspace(q.workspace_id, q.split), margin=0.0)
             assert ch.is_valid(q.start.tolist()) and ch.is_valid(q.goal.tolist())
             assert not ch.motion_valid(q.start.tolist(), q.goal.tolist())
+
+
+def test_rigid_slides_along_a_face_quickly():
+    """Translating parallel to a face 1e-3 away is free and takes a handful of steps."""
+    ws = Workspace("w", "file", [[0.0, -5.0]], [[30.0, 4.0]])  # top face at y = -3
+    ch = RigidChecker(RIGID, ws)
+    a, b = (-10.0, -3.0 + 2.5 + 1e-3, 0.0), (10.0, -3.0 + 2.5 + 1e-3, 0.0)
+    calls = []
+    original = ch._safe_step
+    ch._safe_step = lambda *args: calls.append(1) or original(*args)
+    assert ch.motion_valid(a, b)
+    assert len(calls) < 10
+    assert not ch.motion_valid(a, (10.0, -3.0 + 2.5 - 1e-3, 0.0))

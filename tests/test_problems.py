@@ -40,7 +40,6 @@ BAD = {
     "bad_duplicate_id.json": ("s2d", ["workspace 'open' (#1)", "duplicate workspace id 'open'", "workspace #0"]),
     "bad_missing_obstacles.json": ("s2d", [WS, "missing key 'obstacles'"]),
     "bad_obstacles_not_list.json": ("s2d", [WS, "obstacles must be a list", "got an object"]),
-    "bad_empty_obstacles.json": ("s2d", [WS, "obstacles is empty"]),
     "bad_obstacle_not_object.json": ("s2d", [WS, "obstacle #1", "must be an object", "got a list"]),
     "bad_missing_center.json": ("s2d", [WS, "obstacle #1", "missing key 'center'"]),
     "bad_missing_size.json": ("s2d", [WS, "obstacle #1", "missing key 'size'"]),
@@ -392,3 +391,10 @@ def test_round_trip_property(ts):
         _assert_same(ts, back)
         dump_problems(Path(d) / "q.json", back)
         assert (Path(d) / "q.json").read_text() == path.read_text()
+
+
+def test_workspace_without_obstacles_loads():
+    ts = load_problems(DATA / "s2d_empty_workspace.json", SPECS["s2d"])
+    empty = ts.workspace("narrow-gap", "file")
+    assert empty.centers.shape == (0, 2) and empty.sizes.shape == (0, 2)
+    assert len([q for q in ts.queries if q.workspace_id == "narrow-gap"]) == 3

@@ -76,7 +76,8 @@ class Workspace:
     hi: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.centers = np.asarray(self.centers, float).reshape(len(self.centers), -1)
+        c = np.asarray(self.centers, float)
+        self.centers = c if c.ndim == 2 else c.reshape(len(c), -1)  # (0, dim) arrays: no obstacles
         self.sizes = np.asarray(self.sizes, float).reshape(self.centers.shape)
         self.lo = self.centers - self.sizes / 2
         self.hi = self.centers + self.sizes / 2
