@@ -199,3 +199,33 @@ def test_rigid_slides_along_a_face_quickly():
     assert ch.motion_valid(a, b)
     assert len(calls) < 10
     assert not ch.motion_valid(a, (10.0, -3.0 + 2.5 - 1e-3, 0.0))
+
+
+def test_rigid_motion_checks_stay_cheap():
+    """Conservative advancement must not creep toward a contact (a bug once made head-on
+    approaches take 20000 steps); a head-on approach stops in a few."""
+    ws = make_workspace(RIGID, 0, "seen")
+    ch = RigidChecker(RIGID, ws)
+    calls = [0]
+    original = ch._safe_step
+
+    def counted(*args):
+        calls[0] += 1
+        return original(*args)
+
+    ch._safe_step = counted
+    rng = np.random.default_rng(0)
+    worst = 0
+    for _ in range(2000):
+        a = np.r_[rng.uniform(-20, 20, 2), rng.uniform(-3, 3)]
+        b = a + np.r_[rng.normal(0, 3, 2), rng.normal(0, 1)]
+        calls[0] = 0
+        ch.motion_valid(a.tolist(), b.tolist())
+        worst = max(worst, calls[0])
+    assert worst < 500
+    box = Workspace("w", "file", [[5.0, 0.0]], [[2.0, 2.0]])
+    head_on = RigidChecker(RIGID, box)
+    head_on._safe_step = counted
+    calls[0] = 0
+    assert not head_on.motion_valid((-5.0, 0.0, 0.3), (5.0, 0.0, 0.3))
+    assert calls[0] < 10

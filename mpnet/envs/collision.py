@@ -237,8 +237,9 @@ class RigidChecker(CollisionChecker):
         return False
 
     def _safe_step(self, x, y, th, boxes, dx, dy, dth) -> float | None:
-        """How far the motion's parameter may advance from (x, y, th) with every box more
-        than `margin` away; None when a box is within the margin already.
+        """How far the motion's parameter may advance from (x, y, th) without touching any
+        (margin-inflated) box; None when one is within the margin already. Stepping the
+        whole gap lands a head-on approach on the contact, where the next call stops it.
 
         Two certificates per box, the larger wins: the overall gap (a distance bound) over
         the fastest any body point moves, |dxy| + |dtheta| * half-diagonal; and the gap
@@ -260,11 +261,11 @@ class RigidChecker(CollisionChecker):
                     abs(ddy * c - ddx * s) - hy - bhx * as_ - bhy * ac)
             if g <= m:
                 return None
-            step = (g - m) / rate if rate > 0 else math.inf
+            step = g / rate if rate > 0 else math.inf
             if gx > m:
-                step = max(step, (gx - m) / rate_x if rate_x > 0 else math.inf)
+                step = max(step, gx / rate_x if rate_x > 0 else math.inf)
             if gy > m:
-                step = max(step, (gy - m) / rate_y if rate_y > 0 else math.inf)
+                step = max(step, gy / rate_y if rate_y > 0 else math.inf)
             if step < best:
                 best = step
         return best
@@ -331,7 +332,7 @@ class FclRigidChecker(RigidChecker):
         if g <= self.margin:
             return None
         rate = math.hypot(dx, dy) + abs(dth) * self.radius
-        return (g - self.margin) / rate if rate > 0 else math.inf
+        return g / rate if rate > 0 else math.inf
 
     def _gap(self, x, y, th, boxes) -> float:
         self._place(x, y, th)
