@@ -37,7 +37,8 @@ def judge(spec: EnvSpec, ws: Workspace, rec: dict, validation_step: float) -> di
     return rec
 
 
-def _serve(conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float, log_kwargs: dict) -> None:
+def _serve(inbox, conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float,
+           log_kwargs: dict) -> None:
     from harness.trial_log import TrialLog
 
     # The parent decides when to stop: a Ctrl-C or a scheduler's SIGTERM sent to the whole
@@ -56,7 +57,7 @@ def _serve(conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float,
     with log:
         while True:
             try:
-                kind, payload = conn.recv()
+                kind, payload = inbox.recv()
             except (EOFError, OSError):
                 return  # the parent died: `with` finalises what was received
             if kind == "workspace":
@@ -70,6 +71,16 @@ def _serve(conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float,
             elif kind == "close":
                 break
     conn.send(("closed", {"records": records, "cpu_s": time.process_time() - cpu0}))
+
+
+def _widen(conn, size: int = 1 << 20) -> None:
+    """Grow a pipe's kernel buffer (Linux F_SETPIPE_SZ; up to /proc/sys/fs/pipe-max-size)."""
+    try:
+        import fcntl
+
+        fcntl.fcntl(conn.fileno(), getattr(fcntl, "F_SETPIPE_SZ", 1031), size)
+    except (ImportError, OSError):
+        pass
 
 
 def spawn_context():
@@ -87,11 +98,16 @@ class LogProcess:
     def __init__(self, run_dir: str | Path, run: dict, spec: EnvSpec, *, validation_step: float,
                  rerun: bool = True, resume: bool = False):
         ctx = spawn_context()  # never fork a process that has started OMPL's threads
-        self._conn, child = ctx.Pipe()
+        # Queries go down a one-way pipe widened to hold hundreds of them, so the loop never
+        # waits on a burst of slow writes (a Rerun batch); replies come up a second pipe.
+        inbox, self._outbox = ctx.Pipe(duplex=False)
+        self._conn, reply = ctx.Pipe(duplex=False)
+        _widen(self._outbox)
         self._proc = ctx.Process(target=_serve, name="trial-log", daemon=True, args=(
-            child, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}))
+            inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}))
         self._proc.start()
-        child.close()
+        inbox.close()
+        reply.close()
         self.records: list[dict] = []
         self.child_cpu_s = 0.0
         self._closed = False
@@ -110,16 +126,16 @@ class LogProcess:
             raise RuntimeError(f"the trial-log process died (exit code {self._proc.exitcode})") from None
 
     def add_workspace(self, ws: Workspace) -> None:
-        self._conn.send(("workspace", ws))
+        self._outbox.send(("workspace", ws))
 
     def add_query(self, rec: dict) -> None:
-        self._conn.send(("query", rec))
+        self._outbox.send(("query", rec))
 
     def close(self) -> list[dict]:
         if self._closed:
             return self.records
         self._closed = True
-        self._conn.send(("close", None))
+        self._outbox.send(("close", None))
         _, payload = self._recv()
         self._proc.join()
         self.records, self.child_cpu_s = payload["records"], payload["cpu_s"]
