@@ -31,12 +31,13 @@ def s2d_layouts() -> tuple[np.ndarray, np.ndarray]:
 
 
 @lru_cache(maxsize=4)
-def c3d_layouts(seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """20 centres in the inner 30^3 and 110 distinct sorted 10-subsets of them, seeded."""
+def c3d_layouts(seed: int, count: int = N_TRAIN + N_UNSEEN) -> tuple[np.ndarray, np.ndarray]:
+    """20 centres in the inner 30^3 and `count` distinct sorted 10-subsets of them, seeded.
+    Rows are drawn in sequence, so the first 110 never depend on `count`."""
     rng = np.random.default_rng([seed, 3])
     centres = rng.uniform(-15.0, 15.0, size=(C3D_CANDIDATES, 3))
     rows, seen = [], set()
-    while len(rows) < N_TRAIN + N_UNSEEN:
+    while len(rows) < count:
         row = tuple(sorted(rng.choice(C3D_CANDIDATES, size=len(C3D_SIZES), replace=False).tolist()))
         if row not in seen:
             seen.add(row)
@@ -58,9 +59,10 @@ def split_ids(split: str, count: int) -> list[int]:
 
 
 def make_workspace(spec: EnvSpec, index: int, split: str, seed: int = 0) -> Workspace:
-    """Workspace `index` (0-109) of an env."""
+    """Workspace `index` of an env: 0-99 training, 100-109 unseen, beyond: extra layouts
+    (point clouds for the autoencoder)."""
     if spec.name == "c3d":
-        centres, perm = c3d_layouts(seed)
+        centres, perm = c3d_layouts(seed, max(N_TRAIN + N_UNSEEN, index + 1))
         return Workspace(str(index), split, centres[perm[index]], np.array(C3D_SIZES, float))
     centres, perm = s2d_layouts()
     c = centres[perm[index]]
@@ -69,6 +71,19 @@ def make_workspace(spec: EnvSpec, index: int, split: str, seed: int = 0) -> Work
     else:
         sizes = np.full((len(c), 2), 5.0)
     return Workspace(str(index), split, c, sizes)
+
+
+def make_workspaces(spec: EnvSpec, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
+    """Several workspaces at once (c3d draws its layouts once for the largest index)."""
+    if spec.name == "c3d" and indices:
+        centres, perm = c3d_layouts(seed, max(N_TRAIN + N_UNSEEN, max(indices) + 1))
+        return [Workspace(str(i), split, centres[perm[i]], np.array(C3D_SIZES, float)) for i in indices]
+    return [make_workspace(spec, i, split, seed) for i in indices]
+
+
+def extra_ids(count: int) -> list[int]:
+    """Ids of layouts beyond the test splits (never seen or unseen test workspaces)."""
+    return list(range(N_TRAIN + N_UNSEEN, N_TRAIN + N_UNSEEN + count))
 
 
 def point_cloud(ws: Workspace, points_per_block: int, rng: np.random.Generator) -> np.ndarray:

@@ -1,0 +1,39 @@
+"""Artifacts a stage needs, built on first use with the same code as the explicit stage."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from omegaconf import DictConfig
+
+from harness.bench import env_spec, git_rev, versions
+from mpnet.data.dataset import DataParams, build_dataset, load_dataset
+from mpnet.data.store import ensure
+
+
+def data_params(cfg: DictConfig) -> DataParams:
+    return DataParams(
+        env=str(cfg.env.name), data_seed=int(cfg.env.data_seed), points_per_block=int(cfg.env.points_per_block),
+        train_workspaces=int(cfg.scale.train.workspaces), paths_per_workspace=int(cfg.scale.train.paths),
+        ae_workspaces=int(cfg.scale.train.ae_workspaces), expert_iterations=int(cfg.env.expert.iterations),
+        expert_max_seconds=float(cfg.env.expert.max_seconds))
+
+
+def ensure_dataset(cfg: DictConfig, progress: bool = True):
+    """The env's training dataset at this scale: from the cache, or built now."""
+    from tqdm import tqdm
+
+    spec = env_spec(cfg.env)
+    params = data_params(cfg)
+
+    def build(folder: Path) -> dict:
+        bar = tqdm(total=params.train_workspaces, desc=f"expert paths {spec.name}", unit="workspace",
+                   file=sys.stderr, disable=not progress, dynamic_ncols=True)
+        try:
+            return build_dataset(spec, params, folder, jobs=int(cfg.jobs), progress=bar.update)
+        finally:
+            bar.close()
+
+    folder, manifest, built = ensure(cfg.cache_dir, "data", params.key_config(), build,
+                                     {"git_rev": git_rev(), "versions": versions()})
+    return folder, load_dataset(folder, manifest), built

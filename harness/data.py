@@ -1,0 +1,25 @@
+"""`python -m harness.data +env=ENV [scale=S]`: build (or find) the env's training dataset."""
+from __future__ import annotations
+
+import json
+
+import hydra
+from omegaconf import DictConfig
+
+from harness.cli import run_hydra
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+def main(cfg: DictConfig) -> None:
+    from harness.artifacts import ensure_dataset
+
+    folder, data, built = ensure_dataset(cfg, progress=bool(cfg.progress))
+    m = data.manifest
+    print(f"{'built' if built else 'cached'}: {folder}")
+    print(f"{m['expert']['paths']} expert paths over {len(data.train_ids)} workspaces, "
+          f"{len(data.ae_clouds)} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB")
+    print(json.dumps(m["expert"], indent=2))
+
+
+if __name__ == "__main__":
+    run_hydra(main, required=("env",))

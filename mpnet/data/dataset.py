@@ -1,0 +1,88 @@
+"""The training dataset of one env on disk: `data.npz` plus the artifact manifest.
+
+data.npz holds
+- train_ids (W,), train_centers / train_sizes (W, n_obstacles, wdim): the training workspaces;
+- train_clouds (W, n_points, wdim) float32: their obstacle point clouds (Pnet's input);
+- ae_clouds (A, n_points, wdim) float32: clouds of further layouts (never a test
+  workspace) for the autoencoder, which wants many workspaces;
+- path_states (S, sdim), path_offsets (P+1,), path_workspace (P,) (a row of train_ids),
+  path_cost (P,), path_raw_cost (P,): the expert paths, after and before contraction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mpnet.data.expert import ExpertPaths, expert_paths, summary
+from mpnet.envs.generators import extra_ids, make_workspaces, point_cloud, split_ids
+from mpnet.envs.workspace import EnvSpec, Workspace
+
+DATA_FILE = "data.npz"
+FORMAT = "mpnet-bench/data@1"
+
+
+@dataclass
+class DataParams:
+    """Everything that decides the dataset's content (and so its cache key)."""
+
+    env: str
+    data_seed: int
+    points_per_block: int
+    train_workspaces: int
+    paths_per_workspace: int
+    ae_workspaces: int
+    expert_iterations: int
+    expert_max_seconds: float
+
+    def key_config(self) -> dict:
+        return {"format": FORMAT, **self.__dict__}
+
+
+@dataclass
+class Dataset:
+    train_ids: np.ndarray
+    train_clouds: np.ndarray
+    ae_clouds: np.ndarray
+    paths: ExpertPaths
+    manifest: dict
+
+
+def cloud_rng(seed: int, ws_id: int) -> np.random.Generator:
+    """The point cloud of a workspace depends on the data seed and its id only."""
+    return np.random.default_rng([seed, 5, ws_id])
+
+
+def clouds(workspaces: list[Workspace], points_per_block: int, seed: int) -> np.ndarray:
+    return np.stack([point_cloud(ws, points_per_block, cloud_rng(seed, int(ws.id))) for ws in workspaces]
+                    ).astype(np.float32)
+
+
+def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, progress=None) -> dict:
+    """Write data.npz into folder; returns the manifest fields."""
+    train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
+    extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
+    paths = expert_paths(spec, list(enumerate(train)), p.paths_per_workspace, p.data_seed, p.expert_iterations,
+                         p.expert_max_seconds, jobs=jobs, progress=progress)
+    arrays = {
+        "train_ids": np.array([int(w.id) for w in train]),
+        "train_centers": np.stack([w.centers for w in train]),
+        "train_sizes": np.stack([w.sizes for w in train]),
+        "train_clouds": clouds(train, p.points_per_block, p.data_seed),
+        "ae_clouds": clouds(extra, p.points_per_block, p.data_seed) if extra
+        else np.zeros((0, len(train[0].centers) * p.points_per_block, spec.workspace_dim), np.float32),
+        "path_states": paths.states, "path_offsets": paths.offsets, "path_workspace": paths.workspace,
+        "path_cost": paths.cost, "path_raw_cost": paths.raw_cost,
+    }
+    np.savez_compressed(folder / DATA_FILE, **arrays)
+    return {"format": FORMAT, "files": [DATA_FILE], "expert": summary(paths),
+            "sizes": {k: list(v.shape) for k, v in arrays.items()},
+            "bytes": (folder / DATA_FILE).stat().st_size}
+
+
+def load_dataset(folder: Path, manifest: dict) -> Dataset:
+    with np.load(folder / DATA_FILE) as z:
+        paths = ExpertPaths(z["path_states"], z["path_offsets"], z["path_workspace"], z["path_cost"],
+                            z["path_raw_cost"])
+        return Dataset(z["train_ids"], z["train_clouds"], z["ae_clouds"], paths, manifest)

@@ -1,0 +1,175 @@
+"""Expert paths for training Pnet: OMPL's RRT* for a fixed number of iterations, then
+lazy states contraction (a greedy exact shortcut), then the fine re-check.
+
+An iteration budget, not a time budget, keeps the paths reproducible: each chunk of
+workspaces runs in a fresh process whose OMPL RNG is seeded from (data seed, chunk), so
+the same config gives the same paths on any machine and with any number of processes.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpnet.envs.collision import make_checker
+from mpnet.envs.workspace import EnvSpec, Workspace
+from mpnet.motion import lazy_states_contraction, path_cost, verify_path
+
+
+@dataclass
+class ExpertPaths:
+    """Paths of one or more workspaces, flattened: states[offsets[i]:offsets[i+1]] is path i."""
+
+    states: np.ndarray
+    offsets: np.ndarray
+    workspace: np.ndarray
+    cost: np.ndarray
+    raw_cost: np.ndarray
+    seconds: float = 0.0
+
+    def __len__(self) -> int:
+        return len(self.workspace)
+
+    def path(self, i: int) -> np.ndarray:
+        return self.states[self.offsets[i]:self.offsets[i + 1]]
+
+    @staticmethod
+    def concat(parts: list["ExpertPaths"], state_dim: int) -> "ExpertPaths":
+        if not parts:
+            return ExpertPaths(np.zeros((0, state_dim)), np.zeros(1, np.int64), np.zeros(0, np.int64),
+                               np.zeros(0), np.zeros(0))
+        lengths = np.concatenate([np.diff(p.offsets) for p in parts])
+        return ExpertPaths(
+            np.concatenate([p.states for p in parts]), np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+            np.concatenate([p.workspace for p in parts]).astype(np.int64), np.concatenate([p.cost for p in parts]),
+            np.concatenate([p.raw_cost for p in parts]), sum(p.seconds for p in parts))
+
+
+def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seconds: float) -> list | None:
+    """RRT* run for `iterations` iterations (or max_seconds, whichever ends first)."""
+    from ompl import base as ob
+    from ompl import geometric as og
+
+    from mpnet.envs.ompl_space import make_space_information
+
+    si, to_tuple, set_state, keep = make_space_information(spec, checker)
+    s, g = si.allocState(), si.allocState()
+    set_state(s, start)
+    set_state(g, goal)
+    pdef = ob.ProblemDefinition(si)
+    pdef.setStartAndGoalStates(s, g)
+    pdef.setOptimizationObjective(ob.PathLengthOptimizationObjective(si))
+    planner = og.RRTstar(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    count = [0]
+
+    def spent() -> bool:
+        count[0] += 1
+        return count[0] > iterations
+
+    planner.solve(ob.plannerOrTerminationCondition(ob.timedPlannerTerminationCondition(max_seconds),
+                                                   ob.PlannerTerminationCondition(spent)))
+    if not pdef.hasExactSolution():
+        return None
+    path = [list(to_tuple(x)) for x in pdef.getSolutionPath().getStates()]
+    path[0], path[-1] = list(map(float, start)), list(map(float, goal))
+    return path
+
+
+def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, seed: int, iterations: int,
+                    max_seconds: float, max_tries: int = 20) -> ExpertPaths:
+    """`count` expert paths between random valid states of one workspace."""
+    t0 = time.perf_counter()
+    rng = np.random.default_rng([seed, 7, ws_index])
+    checker = make_checker(spec, ws)
+    states, lengths, costs, raws = [], [], [], []
+    for _ in range(count * max_tries):
+        if len(lengths) == count:
+            break
+        s, g = rng.uniform(spec.lower, spec.upper), rng.uniform(spec.lower, spec.upper)
+        if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
+            continue
+        path = rrt_star_path(spec, checker, s, g, iterations, max_seconds)
+        if path is None:
+            continue
+        raw = path_cost(spec, path)
+        path = lazy_states_contraction(checker, path)
+        if verify_path(spec, ws, path, s, g) is not None:
+            continue
+        states.append(np.asarray(path, float))
+        lengths.append(len(path))
+        costs.append(path_cost(spec, path))
+        raws.append(raw)
+    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    return ExpertPaths(np.concatenate(states) if states else np.zeros((0, spec.state_dim)), offsets,
+                       np.full(len(lengths), ws_index, np.int64), np.array(costs), np.array(raws),
+                       time.perf_counter() - t0)
+
+
+def chunk_worker(args: tuple) -> ExpertPaths:
+    """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path."""
+    spec, workspaces, count, seed, chunk, iterations, max_seconds = args
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_WARN)
+    ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
+    return ExpertPaths.concat([workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds)
+                               for idx, ws in workspaces], spec.state_dim)
+
+
+def expert_paths(spec: EnvSpec, workspaces: list[tuple[int, Workspace]], count: int, seed: int, iterations: int,
+                 max_seconds: float, jobs: int = 2, chunk_size: int = 1, progress=None) -> ExpertPaths:
+    """Expert paths for every (index, workspace), in fresh processes, one chunk each.
+
+    `progress(n)` is called with the number of workspaces each finished chunk held."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    chunks = [workspaces[i:i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
+    tasks = [(spec, c, count, seed, k, iterations, max_seconds) for k, c in enumerate(chunks)]
+    results: list[ExpertPaths | None] = [None] * len(tasks)
+    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"),
+                             max_tasks_per_child=1) as pool:
+        futures = {pool.submit(chunk_worker, t): k for k, t in enumerate(tasks)}
+        from concurrent.futures import as_completed
+
+        for fut in as_completed(futures):
+            k = futures[fut]
+            results[k] = fut.result()
+            if progress is not None:
+                progress(len(chunks[k]))
+    return ExpertPaths.concat([r for r in results if r is not None], spec.state_dim)
+
+
+def waypoint_pairs(paths: ExpertPaths) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pnet's training samples from both directions of every path (the planner grows a
+    path from each end): (workspace index, x_t, x_goal, x_next) for every step."""
+    ws, xt, xg, xn = [], [], [], []
+    for i in range(len(paths)):
+        p = paths.path(i)
+        for q in (p, p[::-1]):
+            n = len(q) - 1
+            ws.append(np.full(n, paths.workspace[i]))
+            xt.append(q[:-1])
+            xg.append(np.repeat(q[-1:], n, axis=0))
+            xn.append(q[1:])
+    if not ws:
+        d = paths.states.shape[1]
+        return np.zeros(0, np.int64), np.zeros((0, d)), np.zeros((0, d)), np.zeros((0, d))
+    return np.concatenate(ws), np.concatenate(xt), np.concatenate(xg), np.concatenate(xn)
+
+
+def summary(paths: ExpertPaths) -> dict:
+    """Figures for the manifest: how many, how long, how good."""
+    n = len(paths)
+    states = np.diff(paths.offsets) if n else np.zeros(0)
+    return {
+        "paths": n,
+        "states_per_path_mean": float(states.mean()) if n else math.nan,
+        "cost_mean": float(paths.cost.mean()) if n else math.nan,
+        "raw_cost_mean": float(paths.raw_cost.mean()) if n else math.nan,
+        "planning_seconds": float(paths.seconds),
+    }
