@@ -149,11 +149,13 @@ def test_point_cloud_inside_obstacles(env, blocks):
 
     spec = get_spec(env)
     ws = make_workspace(spec, 5, "seen")
-    pts = point_cloud(ws, 200, np.random.default_rng(0))
+    pts = point_cloud(ws, 200 * spec.blocks, np.random.default_rng(0))
     assert pts.shape == (blocks * 200, spec.workspace_dim)
     inside = np.all((pts[:, None] >= ws.lo[None]) & (pts[:, None] <= ws.hi[None]), axis=2)
     assert inside.any(axis=1).all()
     assert (inside.sum(axis=0) >= 200).all()  # every block gets its 200 points
+    odd = Workspace("w", "file", ws.centers[:3], ws.sizes[:3])
+    assert point_cloud(odd, 200 * spec.blocks, np.random.default_rng(0)).shape == pts.shape
 
 
 def test_layouts():

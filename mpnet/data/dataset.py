@@ -54,24 +54,24 @@ def cloud_rng(seed: int, ws_id: int) -> np.random.Generator:
     return np.random.default_rng([seed, 5, ws_id])
 
 
-def clouds(workspaces: list[Workspace], points_per_block: int, seed: int) -> np.ndarray:
-    return np.stack([point_cloud(ws, points_per_block, cloud_rng(seed, int(ws.id))) for ws in workspaces]
-                    ).astype(np.float32)
+def clouds(workspaces: list[Workspace], total: int, seed: int) -> np.ndarray:
+    return np.stack([point_cloud(ws, total, cloud_rng(seed, int(ws.id))) for ws in workspaces]).astype(np.float32)
 
 
 def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, progress=None) -> dict:
     """Write data.npz into folder; returns the manifest fields."""
     train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
+    total = p.points_per_block * spec.blocks
     paths = expert_paths(spec, list(enumerate(train)), p.paths_per_workspace, p.data_seed, p.expert_iterations,
                          p.expert_max_seconds, jobs=jobs, progress=progress)
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),
         "train_centers": np.stack([w.centers for w in train]),
         "train_sizes": np.stack([w.sizes for w in train]),
-        "train_clouds": clouds(train, p.points_per_block, p.data_seed),
-        "ae_clouds": clouds(extra, p.points_per_block, p.data_seed) if extra
-        else np.zeros((0, len(train[0].centers) * p.points_per_block, spec.workspace_dim), np.float32),
+        "train_clouds": clouds(train, total, p.data_seed),
+        "ae_clouds": clouds(extra, total, p.data_seed) if extra
+        else np.zeros((0, total, spec.workspace_dim), np.float32),
         "path_states": paths.states, "path_offsets": paths.offsets, "path_workspace": paths.workspace,
         "path_cost": paths.cost, "path_raw_cost": paths.raw_cost,
     }

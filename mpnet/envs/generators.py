@@ -86,8 +86,15 @@ def extra_ids(count: int) -> list[int]:
     return list(range(N_TRAIN + N_UNSEEN, N_TRAIN + N_UNSEEN + count))
 
 
-def point_cloud(ws: Workspace, points_per_block: int, rng: np.random.Generator) -> np.ndarray:
-    """Points drawn uniformly inside each obstacle: (n_blocks * points_per_block, dim)."""
-    u = rng.uniform(size=(len(ws.centers), points_per_block, ws.dim))
-    pts = ws.lo[:, None, :] + u * (ws.hi - ws.lo)[:, None, :]
-    return pts.reshape(-1, ws.dim)
+def point_cloud(ws: Workspace, total: int, rng: np.random.Generator) -> np.ndarray:
+    """`total` points drawn uniformly inside the obstacles, (total, dim): an equal share
+    per block (the first blocks take the remainder), so every workspace of an env gives
+    Enet an input of the same size. No obstacles: all points at the origin."""
+    n = len(ws.centers)
+    if n == 0:
+        return np.zeros((total, ws.dim))
+    counts = np.full(n, total // n)
+    counts[: total % n] += 1
+    idx = np.repeat(np.arange(n), counts)
+    u = rng.uniform(size=(total, ws.dim))
+    return ws.lo[idx] + u * (ws.hi - ws.lo)[idx]

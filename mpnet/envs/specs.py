@@ -8,7 +8,7 @@ from mpnet.envs.workspace import ROBOT_RECTANGLE, EnvSpec
 SPECS: dict[str, EnvSpec] = {
     "s2d": EnvSpec("s2d", 2, 2, ((-20.0, 20.0),) * 2),
     "c2d": EnvSpec("c2d", 2, 2, ((-20.0, 20.0),) * 2),
-    "c3d": EnvSpec("c3d", 3, 3, ((-20.0, 20.0),) * 3),
+    "c3d": EnvSpec("c3d", 3, 3, ((-20.0, 20.0),) * 3, blocks=10),
     "rigid": EnvSpec(
         "rigid", 3, 2, ((-20.0, 20.0), (-20.0, 20.0), (-math.pi, math.pi)),
         robot=ROBOT_RECTANGLE, robot_size=(2.0, 5.0),

@@ -25,6 +25,7 @@ class EnvSpec:
     robot_size: tuple[float, ...] = ()
     theta_weight: float = 0.5
     validation_step: float = 0.01
+    blocks: int = 7  # obstacles per generated workspace: sizes the point cloud
 
     @property
     def is_se2(self) -> bool:

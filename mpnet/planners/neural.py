@@ -1,0 +1,139 @@
+"""MPNet's online planner (Algorithms 1-3): NeuralPlanner, lazy states contraction,
+the feasibility check, and neural (NR) or hybrid (HR) replanning.
+
+The networks come in as two callables so that planning needs neither torch nor
+Lightning: `encode(cloud) -> Z` and `step(Z, x, goal, rng) -> x_next` (Pnet with its
+dropout kept on, drawn from `rng`), both in the env's state coordinates.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from mpnet.motion import is_feasible, lazy_states_contraction
+from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
+
+
+class MPNetPlanner:
+    """MPNet with neural replanning (hybrid=False) or hybrid replanning (hybrid=True).
+
+    cloud(workspace) gives the obstacle point cloud the planner sees (sampled per query,
+    its time included). max_steps bounds the first NeuralPlanner call, replan_steps each
+    replanning call; replan_rounds bounds neural replanning. HR then plans each segment
+    that is still unconnectable with OMPL's RRT* (`fallback`), within the budget left.
+    """
+
+    def __init__(self, name: str, encode: Callable, step: Callable, cloud: Callable, *, hybrid: bool = False,
+                 max_steps: int = 80, replan_steps: int = 50, replan_rounds: int = 10, seed: int = 0,
+                 fallback=None):
+        self.name = name
+        self.encode = encode
+        self.step = step
+        self.cloud = cloud
+        self.hybrid = hybrid
+        self.max_steps = max_steps
+        self.replan_steps = replan_steps
+        self.replan_rounds = replan_rounds
+        self.rng = np.random.default_rng(seed)
+        self.fallback = fallback
+
+    def solve(self, problem: Problem, budget_s: float) -> Result:
+        t0 = time.perf_counter()
+        deadline = t0 + budget_s
+        bad = check_endpoints(problem)
+        if bad is not None:
+            return bad
+        stats = {"pnet_calls": 0, "replans": 0, "fallback_used": False}
+        z = self.encode(self.cloud(problem.workspace))
+        checker = problem.checker
+        start, goal = problem.start.astype(float), problem.goal.astype(float)
+        path = self.neural_planner(checker, z, start, goal, self.max_steps, stats, deadline)
+        if path is None:
+            path = [start, goal]  # no coarse path: every segment of [start, goal] is left to replanning
+        else:
+            path = lazy_states_contraction(checker, path)
+        while not is_feasible(checker, path) and stats["replans"] < self.replan_rounds:
+            if time.perf_counter() > deadline:
+                return Result(None, TIMEOUT, stats)
+            stats["replans"] += 1
+            path = lazy_states_contraction(checker, self.replan(checker, z, path, stats, deadline))
+        if not is_feasible(checker, path) and self.hybrid:
+            stats["fallback_used"] = True
+            path = self.classical_replan(problem, path, deadline, stats)
+            if path is not None:
+                path = lazy_states_contraction(checker, path)
+        if path is None or not is_feasible(checker, path):
+            return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+        path = [problem.start.tolist(), *[np.asarray(q, float).tolist() for q in path[1:-1]], problem.goal.tolist()]
+        return Result(path, EXACT, stats)
+
+    def neural_planner(self, checker, z, start, goal, max_steps: int, stats: dict, deadline: float):
+        """Algorithm 2: grow a path from each end by Pnet, alternating, until steer_to
+        connects their tips; None when max_steps pass first."""
+        a, b = [start], [goal]
+        if checker.motion_valid(start.tolist(), goal.tolist()):
+            return [start, goal]
+        for _ in range(max_steps):
+            if time.perf_counter() > deadline:
+                return None
+            x_new = np.asarray(self.step(z, a[-1], b[-1], self.rng), float)
+            stats["pnet_calls"] += 1
+            a.append(x_new)
+            if checker.motion_valid(a[-1].tolist(), b[-1].tolist()):
+                return a + b[::-1] if a[0] is start else b + a[::-1]
+            a, b = b, a
+        return None
+
+    def replan(self, checker, z, path, stats: dict, deadline: float) -> list:
+        """Algorithm 3 (neural): drop states in collision, keep connectable neighbours, and
+        replan each unconnectable pair with a short NeuralPlanner run."""
+        states = [q for q in path if checker.is_valid(np.asarray(q).tolist())]
+        if len(states) < 2 or not np.array_equal(states[0], path[0]) or not np.array_equal(states[-1], path[-1]):
+            states = [path[0], *states[1:-1], path[-1]] if len(states) >= 2 else [path[0], path[-1]]
+        out = [states[0]]
+        for x, y in zip(states[:-1], states[1:]):
+            if not checker.motion_valid(np.asarray(x).tolist(), np.asarray(y).tolist()):
+                mini = self.neural_planner(checker, z, np.asarray(x, float), np.asarray(y, float),
+                                           self.replan_steps, stats, deadline)
+                if mini is not None:
+                    out.extend(mini[1:-1])
+            out.append(y)
+        return out
+
+    def classical_replan(self, problem: Problem, path, deadline: float, stats: dict):
+        """HR: RRT* on every segment that is still unconnectable, within the budget left."""
+        checker = problem.checker
+        states = [q for q in path if checker.is_valid(np.asarray(q).tolist())]
+        states = [path[0], *states[1:-1], path[-1]] if len(states) >= 2 else [path[0], path[-1]]
+        out = [states[0]]
+        for x, y in zip(states[:-1], states[1:]):
+            if not checker.motion_valid(np.asarray(x).tolist(), np.asarray(y).tolist()):
+                left = deadline - time.perf_counter()
+                if left <= 0:
+                    return None
+                seg = Problem(problem.spec, problem.workspace, checker, np.asarray(x, float), np.asarray(y, float))
+                res = self.fallback.solve(seg, left)
+                stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
+                if not res.solved:
+                    return None
+                out.extend(np.asarray(q, float) for q in res.path[1:-1])
+            out.append(y)
+        return out
+
+
+def workspace_cloud(total_points: int, seed: int) -> Callable:
+    """cloud(workspace): its point cloud of the env's fixed size, drawn from a generator
+    seeded by the data seed and the workspace id, as the training clouds were."""
+    import zlib
+
+    from mpnet.data.dataset import cloud_rng
+    from mpnet.envs.generators import point_cloud
+
+    def cloud(ws) -> np.ndarray:
+        wid = int(ws.id) if str(ws.id).isdigit() else zlib.crc32(str(ws.id).encode())
+        return point_cloud(ws, total_points, cloud_rng(seed, wid)).astype(np.float32)
+
+    return cloud
+

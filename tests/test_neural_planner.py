@@ -1,0 +1,81 @@
+"""MPNet's planning machinery (NeuralPlanner, LSC, replanning, HR fallback) driven by
+simple proposal functions in place of a trained Pnet."""
+import numpy as np
+import pytest
+
+from mpnet.envs import Workspace, get_spec
+from mpnet.envs.collision import make_checker
+from mpnet.envs.generators import make_workspace
+from mpnet.data.queries import make_queries
+from mpnet.motion import verify_path
+from mpnet.planners import EXACT, INVALID_QUERY, Problem
+from mpnet.planners.classical import OmplPlanner
+from mpnet.planners.neural import MPNetPlanner, workspace_cloud
+
+S2D = get_spec("s2d")
+
+
+def straight(step_len=3.0):
+    def step(z, x, goal, rng):
+        d = goal - x
+        n = np.linalg.norm(d[:2])
+        return x + d * min(1.0, step_len / max(n, 1e-9)) + rng.normal(0, 0.5, size=x.shape)
+    return step
+
+
+def random_free(spec, ws):
+    checker = make_checker(spec, ws)
+
+    def step(z, x, goal, rng):
+        while True:
+            q = rng.uniform(spec.lower, spec.upper)
+            if checker._state_free(q.tolist()):
+                return q
+    return step
+
+
+def make(step, hybrid, seed=0):
+    return MPNetPlanner("mpnet_hr" if hybrid else "mpnet_nr", encode=lambda cloud: np.zeros(4), step=step,
+                        cloud=workspace_cloud(1400, 0), hybrid=hybrid, seed=seed,
+                        fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None)
+
+
+@pytest.mark.parametrize("hybrid", [False, True])
+def test_plans_verified_paths(hybrid):
+    ws = make_workspace(S2D, 3, "seen")
+    queries = make_queries(S2D, ws, 15, seed=1, split="seen")
+    ok = 0
+    for q in queries:
+        p = Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal)
+        res = make(random_free(S2D, ws), hybrid).solve(p, 5.0)
+        if res.status == EXACT:
+            assert verify_path(S2D, ws, res.path, q.start, q.goal) is None
+            assert res.path[0] == q.start.tolist() and res.path[-1] == q.goal.tolist()
+            ok += 1
+        assert res.stats["pnet_calls"] > 0
+    assert ok == 15 if hybrid else ok >= 12
+
+
+def test_hybrid_falls_back_when_proposals_are_useless():
+    """Proposals stuck at the start: NR fails, HR's RRT* still solves it."""
+    ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+    p = Problem(S2D, ws, make_checker(S2D, ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
+    stuck = lambda z, x, goal, rng: x  # noqa: E731
+    nr = make(stuck, False).solve(p, 2.0)
+    assert not nr.solved and nr.stats["replans"] == 10
+    hr = make(stuck, True).solve(p, 5.0)
+    assert hr.solved and hr.stats["fallback_used"] and verify_path(S2D, ws, hr.path, p.start, p.goal) is None
+
+
+def test_invalid_query_fails_fast():
+    ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+    p = Problem(S2D, ws, make_checker(S2D, ws), np.array([0.0, 0.0]), np.array([10.0, 0.0]))
+    assert make(straight(), True).solve(p, 5.0).status == INVALID_QUERY
+
+
+def test_same_seed_same_path():
+    ws = make_workspace(S2D, 4, "seen")
+    q = make_queries(S2D, ws, 1, seed=2, split="seen")[0]
+    paths = [make(straight(), False, seed=7).solve(Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal), 5.0).path
+             for _ in range(2)]
+    assert paths[0] == paths[1]
