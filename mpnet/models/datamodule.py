@@ -1,0 +1,232 @@
+"""Lightning DataModules over in-memory numpy arrays.
+
+- :class:`MPNetDataModule`: Pnet's samples ``(workspace, x_t, x_goal, x_next)``; a batch is a
+  dict ``{"clouds": (k, D), "ws": (B,), "x_t", "x_goal", "x_next": (B, state_dim)}`` where
+  ``clouds`` holds each distinct workspace of the batch once and ``ws`` indexes into it.
+- :class:`CloudDataModule`: flattened point clouds for the autoencoder; a batch is (B, D).
+- :func:`waypoint_pairs`: expert paths -> Pnet samples (both directions by default).
+
+All values stay raw (workspace coordinates); the LightningModules normalise. The train/val
+split is a pure function of ``seed`` (and ``groups``, when given: whole groups, e.g. whole
+paths, go to one side). Batches are gathered with one tensor index per batch
+(``__getitems__``), not per sample.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import lightning as L
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Dataset
+
+
+def _identity(batch):
+    return batch
+
+
+def split_indices(n: int, val_fraction: float, seed: int,
+                  groups: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Deterministic (train, val) index arrays, sorted. ``val_fraction`` of the samples (or of
+    the groups) go to val; at least one when ``val_fraction > 0`` and there are two or more."""
+    if not 0.0 <= val_fraction < 1.0:
+        raise ValueError(f"val_fraction must be in [0, 1), got {val_fraction}")
+    rng = np.random.default_rng(seed)
+    if groups is None:
+        keys, inverse = np.arange(n), np.arange(n)
+    else:
+        groups = np.asarray(groups)
+        if groups.shape != (n,):
+            raise ValueError(f"groups must have shape ({n},), got {groups.shape}")
+        keys, inverse = np.unique(groups, return_inverse=True)
+    m = len(keys)
+    n_val = int(round(m * val_fraction))
+    if val_fraction > 0 and m >= 2:
+        n_val = min(max(n_val, 1), m - 1)
+    val_keys = np.zeros(m, dtype=bool)
+    val_keys[rng.permutation(m)[:n_val]] = True
+    is_val = val_keys[inverse]
+    return np.flatnonzero(~is_val), np.flatnonzero(is_val)
+
+
+class PairDataset(Dataset):
+    """Pnet samples over shared tensors; ``rows`` selects this split's samples."""
+
+    def __init__(self, clouds: torch.Tensor, ws: torch.Tensor, x_t: torch.Tensor,
+                 x_goal: torch.Tensor, x_next: torch.Tensor, rows: np.ndarray):
+        self.clouds, self.ws, self.x_t, self.x_goal, self.x_next = clouds, ws, x_t, x_goal, x_next
+        self.rows = torch.as_tensor(rows, dtype=torch.long)
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitems__(self, indices: Sequence[int]) -> dict[str, torch.Tensor]:
+        r = self.rows[torch.as_tensor(indices, dtype=torch.long)]
+        uniq, inverse = torch.unique(self.ws[r], return_inverse=True)
+        return {"clouds": self.clouds[uniq], "ws": inverse, "x_t": self.x_t[r],
+                "x_goal": self.x_goal[r], "x_next": self.x_next[r]}
+
+    def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        return self.__getitems__([i])
+
+
+class CloudDataset(Dataset):
+    def __init__(self, clouds: torch.Tensor, rows: np.ndarray):
+        self.clouds = clouds
+        self.rows = torch.as_tensor(rows, dtype=torch.long)
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitems__(self, indices: Sequence[int]) -> torch.Tensor:
+        return self.clouds[self.rows[torch.as_tensor(indices, dtype=torch.long)]]
+
+    def __getitem__(self, i: int) -> torch.Tensor:
+        return self.clouds[self.rows[i]]
+
+
+def _float_tensor(a, name: str, ndim: int) -> torch.Tensor:
+    a = np.asarray(a)
+    if a.ndim != ndim:
+        raise ValueError(f"{name} must be {ndim}-D, got shape {a.shape}")
+    if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite numbers")
+    return torch.from_numpy(np.ascontiguousarray(a, dtype=np.float32))
+
+
+class _Base(L.LightningDataModule):
+    def __init__(self, batch_size: int, val_fraction: float, seed: int, num_workers: int):
+        super().__init__()
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be positive, got {batch_size}")
+        self.batch_size = int(batch_size)
+        self.val_fraction = float(val_fraction)
+        self.seed = int(seed)
+        self.num_workers = int(num_workers)
+        self.train_set: Dataset | None = None
+        self.val_set: Dataset | None = None
+
+    def _loader(self, ds: Dataset, shuffle: bool) -> DataLoader:
+        return DataLoader(ds, batch_size=self.batch_size, shuffle=shuffle, collate_fn=_identity,
+                          num_workers=self.num_workers,
+                          persistent_workers=self.num_workers > 0)
+
+    def train_dataloader(self) -> DataLoader:
+        if self.train_set is None:
+            self.setup("fit")
+        return self._loader(self.train_set, shuffle=True)
+
+    def val_dataloader(self):
+        if self.val_set is None:
+            self.setup("fit")
+        if len(self.val_set) == 0:
+            return []
+        return self._loader(self.val_set, shuffle=False)
+
+
+class MPNetDataModule(_Base):
+    """Pnet's samples: ``clouds`` (n_ws, n_points * wdim) float32, point-major; sample ``i`` is
+    ``(clouds[ws_index[i]], x_t[i], x_goal[i]) -> x_next[i]``. ``groups`` (optional, one id per
+    sample, e.g. the path id) keeps whole groups on one side of the split."""
+
+    def __init__(self, clouds: np.ndarray, ws_index: np.ndarray, x_t: np.ndarray,
+                 x_goal: np.ndarray, x_next: np.ndarray, batch_size: int = 100,
+                 val_fraction: float = 0.1, seed: int = 0, num_workers: int = 0,
+                 groups: np.ndarray | None = None):
+        super().__init__(batch_size, val_fraction, seed, num_workers)
+        self.clouds = _float_tensor(clouds, "clouds", 2)
+        ws = np.asarray(ws_index)
+        if ws.ndim != 1 or not np.issubdtype(ws.dtype, np.integer):
+            raise ValueError(f"ws_index must be a 1-D integer array, got {ws.dtype} {ws.shape}")
+        if ws.size and (ws.min() < 0 or ws.max() >= len(self.clouds)):
+            raise ValueError(f"ws_index out of range for {len(self.clouds)} clouds")
+        self.ws = torch.from_numpy(ws.astype(np.int64))
+        self.x_t = _float_tensor(x_t, "x_t", 2)
+        self.x_goal = _float_tensor(x_goal, "x_goal", 2)
+        self.x_next = _float_tensor(x_next, "x_next", 2)
+        n = len(self.ws)
+        for name, a in (("x_t", self.x_t), ("x_goal", self.x_goal), ("x_next", self.x_next)):
+            if a.shape != (n, self.x_t.shape[1]):
+                raise ValueError(f"{name} has shape {tuple(a.shape)}, expected ({n}, state_dim)")
+        if n == 0:
+            raise ValueError("no samples")
+        self.train_indices, self.val_indices = split_indices(n, self.val_fraction, self.seed, groups)
+
+    @property
+    def state_dim(self) -> int:
+        return int(self.x_t.shape[1])
+
+    @property
+    def cloud_dim(self) -> int:
+        return int(self.clouds.shape[1])
+
+    def setup(self, stage: str | None = None) -> None:
+        args = (self.clouds, self.ws, self.x_t, self.x_goal, self.x_next)
+        self.train_set = PairDataset(*args, self.train_indices)
+        self.val_set = PairDataset(*args, self.val_indices)
+
+
+class CloudDataModule(_Base):
+    """Flattened point clouds (n_ws, n_points * wdim) for the autoencoder; split by workspace."""
+
+    def __init__(self, clouds: np.ndarray, batch_size: int = 100, val_fraction: float = 0.1,
+                 seed: int = 0, num_workers: int = 0):
+        super().__init__(batch_size, val_fraction, seed, num_workers)
+        self.clouds = _float_tensor(clouds, "clouds", 2)
+        if len(self.clouds) == 0:
+            raise ValueError("no clouds")
+        self.train_indices, self.val_indices = split_indices(len(self.clouds), self.val_fraction, self.seed)
+
+    @property
+    def cloud_dim(self) -> int:
+        return int(self.clouds.shape[1])
+
+    def setup(self, stage: str | None = None) -> None:
+        self.train_set = CloudDataset(self.clouds, self.train_indices)
+        self.val_set = CloudDataset(self.clouds, self.val_indices)
+
+
+class Pairs(NamedTuple):
+    ws_index: np.ndarray   # (n,) int64
+    x_t: np.ndarray        # (n, state_dim)
+    x_goal: np.ndarray     # (n, state_dim)
+    x_next: np.ndarray     # (n, state_dim)
+    path_id: np.ndarray    # (n,) int64: the index of the source path (for ``groups``)
+
+
+def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int],
+                   bidirectional: bool = True) -> Pairs:
+    """Expert paths -> Pnet samples, as the public code: for a path ``x_0..x_T`` every
+    ``(x_j, x_T) -> x_{j+1}``; with ``bidirectional`` also the reversed path (the planner grows
+    trees from both ends). Paths with fewer than two states add nothing."""
+    if len(paths) != len(ws_index):
+        raise ValueError(f"{len(paths)} paths but {len(ws_index)} workspace indices")
+    cols: dict[str, list] = {"ws": [], "x_t": [], "x_goal": [], "x_next": [], "pid": []}
+    dim = None
+    for pid, (path, w) in enumerate(zip(paths, ws_index)):
+        path = np.asarray(path, dtype=np.float64)
+        if path.ndim != 2:
+            raise ValueError(f"path {pid} must be (n_states, state_dim), got {path.shape}")
+        dim = path.shape[1] if dim is None else dim
+        if path.shape[1] != dim:
+            raise ValueError(f"path {pid} has state_dim {path.shape[1]}, expected {dim}")
+        if len(path) < 2:
+            continue
+        for p in ((path, path[::-1]) if bidirectional else (path,)):
+            k = len(p) - 1
+            cols["x_t"].append(p[:-1])
+            cols["x_next"].append(p[1:])
+            cols["x_goal"].append(np.repeat(p[-1:], k, axis=0))
+            cols["ws"].append(np.full(k, int(w), dtype=np.int64))
+            cols["pid"].append(np.full(k, pid, dtype=np.int64))
+    if not cols["x_t"]:
+        d = dim or 0
+        empty = np.zeros((0, d))
+        return Pairs(np.zeros(0, np.int64), empty, empty.copy(), empty.copy(), np.zeros(0, np.int64))
+    cat = {k: np.concatenate(v) for k, v in cols.items()}
+    return Pairs(cat["ws"], cat["x_t"], cat["x_goal"], cat["x_next"], cat["pid"])
+
+
+__all__ = ["MPNetDataModule", "CloudDataModule", "PairDataset", "CloudDataset",
+           "split_indices", "waypoint_pairs", "Pairs"]

@@ -1,0 +1,180 @@
+"""LightningModules that train MPNet's networks (:mod:`mpnet.models.networks`).
+
+Both modules normalise their inputs themselves (point clouds by the workspace scale, states
+by the env's state scale) and save those scales, the networks' constructor arguments and
+the optimiser settings as plain dicts, lists and numbers (no nn.Module, no DictConfig), so a
+checkpoint is self-contained: ``Cls.load_from_checkpoint(path)`` rebuilds everything under
+torch's ``weights_only`` loading, and :func:`mpnet.models.checkpoint.load_pnet_checkpoint`
+reads the planner's networks without importing Lightning.
+
+Metrics: ``train_loss`` / ``val_loss`` (per step and per epoch for training), plus
+``train_recon``, ``train_penalty``, ``val_recon`` for the autoencoder.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import lightning as L
+import torch
+import torch.nn.functional as F
+
+from mpnet.models.networks import ContractiveAE, Enet, Normalizer, Pnet
+
+OPTIMIZERS = ("adagrad", "adam")
+
+
+def _make_optimizer(name: str, params, lr: float) -> torch.optim.Optimizer:
+    name = name.lower()
+    if name == "adagrad":
+        return torch.optim.Adagrad(params, lr=lr)
+    if name == "adam":
+        return torch.optim.Adam(params, lr=lr)
+    raise ValueError(f"unknown optimizer {name!r}; choices: {', '.join(OPTIMIZERS)}")
+
+
+class EnetModule(L.LightningModule):
+    """Trains a :class:`ContractiveAE` on flattened point clouds (raw workspace coordinates;
+    divided by ``cloud_scale`` here). ``ae`` is the autoencoder or its ``config()`` dict;
+    ``lam`` (when given) replaces the autoencoder's penalty weight. The public code used
+    Adagrad (lr 0.01, its default)."""
+
+    def __init__(self, ae: ContractiveAE | dict[str, Any], lr: float = 1e-2,
+                 lam: float | None = None, optimizer: str = "adagrad",
+                 cloud_scale: Sequence[float] | float = 20.0):
+        super().__init__()
+        ae = ae if isinstance(ae, ContractiveAE) else ContractiveAE.from_config(ae)
+        if lam is not None:
+            ae.lam = float(lam)
+        if optimizer.lower() not in OPTIMIZERS:
+            raise ValueError(f"unknown optimizer {optimizer!r}; choices: {', '.join(OPTIMIZERS)}")
+        self.ae = ae
+        self.cloud_norm = Normalizer(cloud_scale)
+        self.save_hyperparameters({
+            "ae": ae.config(), "lr": float(lr), "lam": ae.lam, "optimizer": optimizer.lower(),
+            "cloud_scale": self.cloud_norm.to_list(),
+        })
+
+    @property
+    def encoder(self) -> Enet:
+        return self.ae.encoder
+
+    def forward(self, cloud: torch.Tensor) -> torch.Tensor:
+        """Raw cloud -> latent ``Z``."""
+        return self.ae.encoder(self.cloud_norm.normalize(cloud))
+
+    def _losses(self, batch: torch.Tensor):
+        return self.ae.loss(self.cloud_norm.normalize(batch))
+
+    def training_step(self, batch: torch.Tensor, batch_idx: int) -> torch.Tensor:
+        total, recon, pen = self._losses(batch)
+        n = batch.shape[0]
+        self.log("train_loss", total, on_step=True, on_epoch=True, prog_bar=True, batch_size=n)
+        self.log("train_recon", recon, on_step=False, on_epoch=True, batch_size=n)
+        self.log("train_penalty", pen, on_step=False, on_epoch=True, batch_size=n)
+        return total
+
+    def validation_step(self, batch: torch.Tensor, batch_idx: int) -> None:
+        total, recon, _ = self._losses(batch)
+        n = batch.shape[0]
+        self.log("val_loss", total, on_epoch=True, prog_bar=True, batch_size=n)
+        self.log("val_recon", recon, on_epoch=True, batch_size=n)
+
+    def configure_optimizers(self):
+        return _make_optimizer(self.hparams["optimizer"], self.parameters(), self.hparams["lr"])
+
+
+class PnetModule(L.LightningModule):
+    """Trains a :class:`Pnet` with MSE between ``Pnet(Z(cloud), x_t, x_goal)`` and
+    ``x_next``, all in normalised coordinates.
+
+    ``pnet`` / ``encoder`` are the networks or their ``config()`` dicts. ``Z`` comes from the
+    encoder applied to the workspace's cloud; with ``freeze_encoder`` (the paper's choice for
+    point-mass and rigid bodies) it gets no gradient and is not optimised; without it Enet
+    and Pnet train end to end (the arm). ``state_scale`` defaults to 20 per state dimension
+    (rigid: pass ``[20, 20, pi]``). Training runs Pnet with dropout on; validation with
+    dropout off unless ``val_stochastic``.
+
+    Batches are dicts ``{"clouds": (k, D), "ws": (B,) index into clouds, "x_t", "x_goal",
+    "x_next": (B, state_dim)}`` (what :class:`MPNetDataModule` yields: each workspace's
+    cloud is encoded once per batch), or tuples ``(cloud (B, D), x_t, x_goal, x_next)``.
+    """
+
+    def __init__(self, pnet: Pnet | dict[str, Any], encoder: Enet | dict[str, Any],
+                 lr: float = 1e-2, optimizer: str = "adagrad", freeze_encoder: bool = True,
+                 state_scale: Sequence[float] | float | None = None,
+                 cloud_scale: Sequence[float] | float = 20.0, val_stochastic: bool = False):
+        super().__init__()
+        pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
+        encoder = encoder if isinstance(encoder, Enet) else Enet(**encoder)
+        state_dim = pnet.out_dim
+        if pnet.in_dim != encoder.latent + 2 * state_dim:
+            raise ValueError(
+                f"Pnet input {pnet.in_dim} != latent {encoder.latent} + 2 * state_dim {state_dim}")
+        if optimizer.lower() not in OPTIMIZERS:
+            raise ValueError(f"unknown optimizer {optimizer!r}; choices: {', '.join(OPTIMIZERS)}")
+        self.pnet = pnet
+        self.encoder = encoder
+        self.state_norm = Normalizer([20.0] * state_dim if state_scale is None else state_scale)
+        if self.state_norm.scale.size not in (1, state_dim):
+            raise ValueError(f"state_scale has {self.state_norm.scale.size} entries, state_dim is {state_dim}")
+        self.cloud_norm = Normalizer(cloud_scale)
+        self.freeze_encoder = bool(freeze_encoder)
+        if self.freeze_encoder:
+            self.encoder.requires_grad_(False)
+        self.save_hyperparameters({
+            "pnet": pnet.config(), "encoder": encoder.config(), "lr": float(lr),
+            "optimizer": optimizer.lower(), "freeze_encoder": self.freeze_encoder,
+            "state_scale": self.state_norm.to_list(), "cloud_scale": self.cloud_norm.to_list(),
+            "val_stochastic": bool(val_stochastic),
+        })
+
+    # -- inference in raw coordinates ---------------------------------------------------
+    def encode(self, cloud: torch.Tensor) -> torch.Tensor:
+        """Raw flattened cloud(s) -> ``Z``."""
+        return self.encoder(self.cloud_norm.normalize(cloud))
+
+    def forward(self, cloud: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor,
+                stochastic: bool = True) -> torch.Tensor:
+        """Raw cloud and states -> raw next state. ``cloud`` is (D,) or (B, D)."""
+        z = self.encode(cloud)
+        if z.dim() < x_t.dim():
+            z = z.expand(*x_t.shape[:-1], z.shape[-1])
+        s = self.state_norm
+        return s.denormalize(self.pnet.step(z, s.normalize(x_t), s.normalize(x_goal), stochastic))
+
+    # -- training -----------------------------------------------------------------------
+    def _unpack(self, batch):
+        if isinstance(batch, dict):
+            return batch["clouds"], batch["ws"], batch["x_t"], batch["x_goal"], batch["x_next"]
+        cloud, x_t, x_goal, x_next = batch
+        return cloud, None, x_t, x_goal, x_next
+
+    def _loss(self, batch, stochastic: bool) -> tuple[torch.Tensor, int]:
+        clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
+        if self.freeze_encoder:
+            with torch.no_grad():
+                z = self.encode(clouds)
+        else:
+            z = self.encode(clouds)
+        if ws is not None:
+            z = z[ws]
+        s = self.state_norm
+        pred = self.pnet.step(z, s.normalize(x_t), s.normalize(x_goal), stochastic)
+        return F.mse_loss(pred, s.normalize(x_next)), x_t.shape[0]
+
+    def training_step(self, batch, batch_idx: int) -> torch.Tensor:
+        loss, n = self._loss(batch, stochastic=True)
+        self.log("train_loss", loss, on_step=True, on_epoch=True, prog_bar=True, batch_size=n)
+        return loss
+
+    def validation_step(self, batch, batch_idx: int) -> None:
+        loss, n = self._loss(batch, stochastic=self.hparams["val_stochastic"])
+        self.log("val_loss", loss, on_epoch=True, prog_bar=True, batch_size=n)
+
+    def configure_optimizers(self):
+        params = [p for p in self.parameters() if p.requires_grad]
+        return _make_optimizer(self.hparams["optimizer"], params, self.hparams["lr"])
+
+
+__all__ = ["EnetModule", "PnetModule", "OPTIMIZERS"]
