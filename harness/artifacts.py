@@ -37,3 +37,35 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
     folder, manifest, built = ensure(cfg.cache_dir, "data", params.key_config(), build,
                                      {"git_rev": git_rev(), "versions": versions()})
     return folder, load_dataset(folder, manifest), built
+
+
+def model_params(cfg: DictConfig) -> dict:
+    """Everything that decides the trained networks (and so their cache key)."""
+    m, f, t = cfg.scale.model, cfg.scale.fit, cfg.train
+    return {
+        "format": "mpnet-bench/models@1",
+        "enet_hidden": [int(x) for x in m.enet_hidden], "latent": int(m.latent),
+        "pnet_hidden": [int(x) for x in m.pnet_hidden], "dropout": float(m.dropout),
+        "ae_epochs": int(f.ae_epochs), "pnet_epochs": int(f.pnet_epochs), "batch_size": int(f.batch_size),
+        "seed": int(t.seed), "lr": float(t.lr), "optimizer": str(t.optimizer), "lam": float(t.lam),
+        "val_fraction": float(t.val_fraction), "patience": int(t.patience),
+    }
+
+
+def ensure_models(cfg: DictConfig, progress: bool = True):
+    """The env's trained Enet and Pnet at this scale: from the cache, or trained now
+    (building the dataset first if it is missing)."""
+    spec = env_spec(cfg.env)
+    data_folder, data, _ = ensure_dataset(cfg, progress)
+    params = model_params(cfg)
+    lightning = {"accelerator": str(cfg.train.accelerator), "devices": cfg.train.devices,
+                 "strategy": str(cfg.train.strategy)}
+
+    def build(folder: Path) -> dict:
+        from harness.fit import fit_models
+
+        return fit_models(spec, data, params, lightning, folder, progress)
+
+    key_config = {"data": data.manifest["key"], **params}
+    return ensure(cfg.cache_dir, "models", key_config, build,
+                  {"git_rev": git_rev(), "versions": versions(), "data_folder": str(data_folder)})

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mpnet.data.expert import ExpertPaths, expert_paths, waypoint_pairs
+from mpnet.data.expert import expert_paths
 from mpnet.data.store import ArtifactError, content_key, ensure, read_manifest
 from mpnet.envs import get_spec
 from mpnet.envs.generators import make_workspace
@@ -27,16 +27,6 @@ def test_expert_paths_valid_and_reproducible(env):
         p = a.path(i)
         assert verify_path(spec, wss[a.workspace[i]][1], p, p[0], p[-1]) is None
     assert np.all(a.cost <= a.raw_cost + 1e-9)
-
-
-def test_waypoint_pairs_both_directions():
-    p = ExpertPaths(np.array([[0.0, 0], [1, 0], [1, 1], [5, 5], [6, 5]]), np.array([0, 3, 5]), np.array([0, 1]),
-                    np.zeros(2), np.zeros(2))
-    ws, xt, xg, xn = waypoint_pairs(p)
-    assert len(ws) == 2 * 2 + 2 * 1
-    assert xt[0].tolist() == [0, 0] and xg[0].tolist() == [1, 1] and xn[0].tolist() == [1, 0]
-    assert xt[2].tolist() == [1, 1] and xg[2].tolist() == [0, 0] and xn[2].tolist() == [1, 0]
-    assert ws.tolist() == [0, 0, 0, 0, 1, 1]
 
 
 def test_store_builds_once_and_checks_manifest(tmp_path):

@@ -35,6 +35,9 @@ class ExpertPaths:
     def path(self, i: int) -> np.ndarray:
         return self.states[self.offsets[i]:self.offsets[i + 1]]
 
+    def paths(self) -> list[np.ndarray]:
+        return [self.path(i) for i in range(len(self))]
+
     @staticmethod
     def concat(parts: list["ExpertPaths"], state_dim: int) -> "ExpertPaths":
         if not parts:
@@ -142,24 +145,6 @@ def expert_paths(spec: EnvSpec, workspaces: list[tuple[int, Workspace]], count: 
             if progress is not None:
                 progress(len(chunks[k]))
     return ExpertPaths.concat([r for r in results if r is not None], spec.state_dim)
-
-
-def waypoint_pairs(paths: ExpertPaths) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Pnet's training samples from both directions of every path (the planner grows a
-    path from each end): (workspace index, x_t, x_goal, x_next) for every step."""
-    ws, xt, xg, xn = [], [], [], []
-    for i in range(len(paths)):
-        p = paths.path(i)
-        for q in (p, p[::-1]):
-            n = len(q) - 1
-            ws.append(np.full(n, paths.workspace[i]))
-            xt.append(q[:-1])
-            xg.append(np.repeat(q[-1:], n, axis=0))
-            xn.append(q[1:])
-    if not ws:
-        d = paths.states.shape[1]
-        return np.zeros(0, np.int64), np.zeros((0, d)), np.zeros((0, d)), np.zeros((0, d))
-    return np.concatenate(ws), np.concatenate(xt), np.concatenate(xg), np.concatenate(xn)
 
 
 def summary(paths: ExpertPaths) -> dict:

@@ -1,0 +1,105 @@
+"""Lightning training of MPNet's networks into an artifact folder (called by
+harness.artifacts.ensure_models; Lightning is imported only here)."""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mpnet.data.dataset import Dataset
+from mpnet.envs.workspace import EnvSpec, wrap_angle
+
+ENET_FILE, PNET_FILE = "enet.ckpt", "pnet.ckpt"
+
+
+def state_scale(spec: EnvSpec) -> list[float]:
+    """Per-dimension scale of the states: the workspace half-extent; rigid theta by pi."""
+    return [20.0, 20.0, math.pi] if spec.is_se2 else [20.0] * spec.state_dim
+
+
+def unwrapped(spec: EnvSpec, paths: list[np.ndarray]) -> list[np.ndarray]:
+    """Rigid paths with theta made continuous (each step along the shorter arc), so that
+    Pnet's targets never jump by 2 pi."""
+    if not spec.is_se2:
+        return paths
+    out = []
+    for p in paths:
+        p = p.copy()
+        for k in range(1, len(p)):
+            p[k, 2] = p[k - 1, 2] + wrap_angle(p[k, 2] - p[k - 1, 2])
+        out.append(p)
+    return out
+
+
+def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dict, progress: bool):
+    import lightning as L
+    from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
+    from lightning.pytorch.loggers import CSVLogger
+
+    loggers = [CSVLogger(str(folder), name=f"{name}_logs", version=0)]
+    try:
+        from lightning.pytorch.loggers import TensorBoardLogger
+        import tensorboard  # noqa: F401  (optional: logged when installed)
+
+        loggers.append(TensorBoardLogger(str(folder), name=f"{name}_tb", version=0))
+    except ImportError:
+        pass
+    checkpoint = ModelCheckpoint(dirpath=str(folder), filename=name, monitor="val_loss", mode="min",
+                                 save_top_k=1, enable_version_counter=False)
+    trainer = L.Trainer(max_epochs=epochs, accelerator=lightning["accelerator"], devices=lightning["devices"],
+                        strategy=lightning["strategy"], logger=loggers, default_root_dir=str(folder),
+                        callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
+                        enable_progress_bar=progress, enable_model_summary=False, log_every_n_steps=10)
+    return trainer, checkpoint
+
+
+def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
+    """Train Enet as a contractive autoencoder, then Pnet on its frozen codes; returns the
+    manifest fields."""
+    import logging
+
+    import lightning as L
+
+    # Lightning's hardware banners and tips would flood the Hydra log on every fit.
+    logging.getLogger("lightning.pytorch").setLevel(logging.WARNING)
+    from mpnet.models import (CloudDataModule, ContractiveAE, Decoder, Enet, EnetModule, MPNetDataModule,
+                              Pnet, PnetModule, waypoint_pairs)
+
+    L.seed_everything(params["seed"], workers=True, verbose=False)
+    flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
+    ae_clouds = np.concatenate([data.ae_clouds.reshape(len(data.ae_clouds), -1), flat_train])
+    in_dim = flat_train.shape[1]
+
+    t0 = time.perf_counter()
+    enet = Enet(in_dim, params["enet_hidden"], params["latent"])
+    ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
+    ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"])
+    trainer, ckpt = _trainer(folder, "enet", params["ae_epochs"], params["patience"], lightning, progress)
+    trainer.fit(ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"],
+                                                       params["seed"]))
+    ae_best = EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")
+    ae_seconds, ae_epochs = time.perf_counter() - t0, trainer.current_epoch
+
+    t1 = time.perf_counter()
+    paths = unwrapped(spec, data.paths.paths())
+    pairs = waypoint_pairs(paths, data.paths.workspace)
+    pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
+    module = PnetModule(pnet, ae_best.encoder, lr=params["lr"], optimizer=params["optimizer"],
+                        freeze_encoder=True, state_scale=state_scale(spec))
+    dm = MPNetDataModule(flat_train, pairs.ws_index, pairs.x_t, pairs.x_goal, pairs.x_next, params["batch_size"],
+                         params["val_fraction"], params["seed"], groups=pairs.path_id)
+    trainer, ckpt2 = _trainer(folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress)
+    trainer.fit(module, datamodule=dm)
+    pnet_seconds, pnet_epochs = time.perf_counter() - t1, trainer.current_epoch
+    return {
+        "files": [ENET_FILE, PNET_FILE],
+        "fit": {
+            "enet": {"seconds": ae_seconds, "epochs": ae_epochs, "best_val_loss": float(ckpt.best_model_score),
+                     "clouds": len(ae_clouds)},
+            "pnet": {"seconds": pnet_seconds, "epochs": pnet_epochs, "best_val_loss": float(ckpt2.best_model_score),
+                     "pairs": len(pairs.x_t)},
+            "bytes": {f: (folder / f).stat().st_size for f in (ENET_FILE, PNET_FILE)},
+        },
+    }

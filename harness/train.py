@@ -1,0 +1,23 @@
+"""`python -m harness.train +env=ENV [scale=S]`: train Enet (contractive autoencoder on
+point clouds) and then Pnet (on expert waypoint pairs, both directions) with Lightning."""
+from __future__ import annotations
+
+import json
+
+import hydra
+from omegaconf import DictConfig
+
+from harness.cli import run_hydra
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+def main(cfg: DictConfig) -> None:
+    from harness.artifacts import ensure_models
+
+    folder, manifest, built = ensure_models(cfg, progress=bool(cfg.progress))
+    print(f"{'trained' if built else 'cached'}: {folder}")
+    print(json.dumps(manifest["fit"], indent=2))
+
+
+if __name__ == "__main__":
+    run_hydra(main, required=("env",))
