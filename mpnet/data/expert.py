@@ -55,15 +55,9 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
     from ompl import base as ob
     from ompl import geometric as og
 
-    from mpnet.envs.ompl_space import make_space_information
+    from mpnet.envs.ompl_space import make_problem
 
-    si, to_tuple, set_state, keep = make_space_information(spec, checker)
-    s, g = si.allocState(), si.allocState()
-    set_state(s, start)
-    set_state(g, goal)
-    pdef = ob.ProblemDefinition(si)
-    pdef.setStartAndGoalStates(s, g)
-    pdef.setOptimizationObjective(ob.PathLengthOptimizationObjective(si))
+    si, pdef, to_tuple, keep = make_problem(spec, checker, start, goal)
     planner = og.RRTstar(si)
     planner.setProblemDefinition(pdef)
     planner.setup()

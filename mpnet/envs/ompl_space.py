@@ -78,17 +78,26 @@ def make_space_information(spec: EnvSpec, checker: CollisionChecker):
     return si, to_tuple, set_state, (space, mv)
 
 
-def is_solvable(spec: EnvSpec, checker: CollisionChecker, start, goal, seconds: float) -> bool:
-    """Does RRT-Connect find a path within `seconds`? (Screens generated queries so that
-    no test query lies in a pocket no planner can leave.)"""
-    from ompl import geometric as og
-
-    si, _, set_state, keep = make_space_information(spec, checker)
+def make_problem(spec: EnvSpec, checker: CollisionChecker, start, goal):
+    """A ProblemDefinition from start to goal with a path-length objective over a fresh
+    SpaceInformation. Returns (si, pdef, to_tuple, keep) (keep: see make_space_information)."""
+    si, to_tuple, set_state, keep = make_space_information(spec, checker)
     s, g = si.allocState(), si.allocState()
     set_state(s, start)
     set_state(g, goal)
     pdef = ob.ProblemDefinition(si)
     pdef.setStartAndGoalStates(s, g)
+    objective = ob.PathLengthOptimizationObjective(si)
+    pdef.setOptimizationObjective(objective)
+    return si, pdef, to_tuple, (*keep, s, g, objective)
+
+
+def is_solvable(spec: EnvSpec, checker: CollisionChecker, start, goal, seconds: float) -> bool:
+    """Does RRT-Connect find a path within `seconds`? (Screens generated queries so that
+    no test query lies in a pocket no planner can leave.)"""
+    from ompl import geometric as og
+
+    si, pdef, _, keep = make_problem(spec, checker, start, goal)
     planner = og.RRTConnect(si)
     planner.setProblemDefinition(pdef)
     planner.setup()

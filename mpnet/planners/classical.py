@@ -7,7 +7,7 @@ import time
 from ompl import base as ob
 from ompl import geometric as og
 
-from mpnet.envs.ompl_space import make_space_information
+from mpnet.envs.ompl_space import make_problem
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
 
 ALGORITHMS = {
@@ -54,16 +54,9 @@ class OmplPlanner:
             if problem.reference_cost is None:
                 raise ValueError("planner.stop=cost needs a reference cost for the query")
             target = self.cost_factor * problem.reference_cost
-        si, _, set_state, keep = make_space_information(problem.spec, problem.checker)
-        start, goal = si.allocState(), si.allocState()
-        set_state(start, problem.start)
-        set_state(goal, problem.goal)
-        pdef = ob.ProblemDefinition(si)
-        pdef.setStartAndGoalStates(start, goal)
-        objective = ob.PathLengthOptimizationObjective(si)
+        si, pdef, _, keep = make_problem(problem.spec, problem.checker, problem.start, problem.goal)
         if self.stop == "cost":
-            objective.setCostThreshold(ob.Cost(target))
-        pdef.setOptimizationObjective(objective)
+            pdef.getOptimizationObjective().setCostThreshold(ob.Cost(target))
         planner = ALGORITHMS[self.algorithm](si)
         if self.range is not None and hasattr(planner, "setRange"):
             planner.setRange(float(self.range))
@@ -88,7 +81,7 @@ class OmplPlanner:
         if self.algorithm in OPTIMIZING:
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
-        del planner, pdef, objective, start, goal, si, keep
+        del planner, pdef, si, keep
         if path is None:
             timed_out = time.perf_counter() - t0 >= budget_s * 0.999
             return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats)
