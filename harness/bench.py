@@ -256,8 +256,18 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     seed_everything(int(cfg.seed))
     spec = env_spec(cfg.env)
     testset, split = build_testset(cfg, spec)
+    extra = {}
+    if cfg.planner.get("needs_models"):
+        from harness.artifacts import ensure_models
+
+        models_folder, _, _ = ensure_models(cfg, progress=bool(cfg.progress))
+        extra = {"models_folder": models_folder, "spec": spec, "points_per_block": int(cfg.env.points_per_block),
+                 "data_seed": int(cfg.env.data_seed), "seed": int(cfg.seed)}
     try:
-        planner = hydra.utils.instantiate(cfg.planner)
+        # Objects (the spec, folders) cannot go through OmegaConf: bind them to a partial.
+        factory = hydra.utils.instantiate({k: v for k, v in cfg.planner.items() if k != "needs_models"},
+                                          _partial_=True)
+        planner = factory(**extra)
     except InstantiationException as e:
         raise UsageError(f"config key planner: {e.__cause__ or e}") from None
     if cfg.planner.get("stop") == "cost" and any(q.reference_cost is None for q in testset.queries):
