@@ -20,7 +20,7 @@ from mpnet.envs.generators import extra_ids, make_workspaces, point_cloud, split
 from mpnet.envs.workspace import EnvSpec, Workspace
 
 DATA_FILE = "data.npz"
-FORMAT = "mpnet-bench/data@1"
+FORMAT = "mpnet-bench/data@2"  # @2: clouds of a fixed total size per env
 
 
 @dataclass
