@@ -75,7 +75,7 @@ class PointChecker(CollisionChecker):
 
     def __init__(self, spec: EnvSpec, ws: Workspace, margin: float = PLANNING_MARGIN):
         super().__init__(spec, ws, margin)
-        self._boxes = [(tuple(l), tuple(h)) for l, h in zip(self.lo.tolist(), self.hi.tolist())]
+        self._boxes = [(tuple(lo), tuple(hi)) for lo, hi in zip(self.lo.tolist(), self.hi.tolist())]
         self._bounds = [tuple(b) for b in spec.bounds]
         self._d = spec.state_dim
 
@@ -89,8 +89,8 @@ class PointChecker(CollisionChecker):
         if not self._in_bounds(q):
             return False
         for lo, hi in self._boxes:
-            for v, l, h in zip(q, lo, hi):
-                if v < l or v > h:
+            for v, vlo, vhi in zip(q, lo, hi):
+                if v < vlo or v > vhi:
                     break
             else:
                 return False
@@ -127,13 +127,13 @@ class PointChecker(CollisionChecker):
 def _segment_hits_box(a, d, lo, hi) -> bool:
     """Slab test: does a + t d, t in [0, 1], meet the closed box [lo, hi]?"""
     t0, t1 = 0.0, 1.0
-    for ai, di, l, h in zip(a, d, lo, hi):
+    for ai, di, blo, bhi in zip(a, d, lo, hi):
         if di == 0.0:
-            if ai < l or ai > h:
+            if ai < blo or ai > bhi:
                 return False
             continue
         inv = 1.0 / di
-        ta, tb = (l - ai) * inv, (h - ai) * inv
+        ta, tb = (blo - ai) * inv, (bhi - ai) * inv
         if ta > tb:
             ta, tb = tb, ta
         if ta > t0:
