@@ -104,7 +104,7 @@ def _jsonable(v):
     return v
 
 
-def plan_query(spec: EnvSpec, planner: Planner, problem: Problem, budget_s: float) -> dict:
+def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     """Solve one query, timed: the record's fields. Its path cost and the fine re-check of
     a claimed success come later, in the log process (harness.log_process.judge)."""
     t_wall, t_cpu = time.perf_counter(), time.process_time()
@@ -155,7 +155,7 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, colli
                 problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost)
                 rec = {"query_id": q.id, "workspace_id": ws.id, "split": q.split,
                        "start": q.start.tolist(), "goal": q.goal.tolist(),
-                       **plan_query(spec, planner, problem, budget_s)}
+                       **plan_query(planner, problem, budget_s)}
                 if q.reference_cost is not None:
                     rec["reference_cost"] = q.reference_cost
                 log.add_query(rec)

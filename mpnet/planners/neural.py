@@ -87,41 +87,41 @@ class MPNetPlanner:
         return None
 
     def replan(self, checker, z, path, stats: dict, deadline: float) -> list:
-        """Algorithm 3 (neural): drop states in collision, keep connectable neighbours, and
-        replan each unconnectable pair with a short NeuralPlanner run."""
-        states = [q for q in path if checker.is_valid(np.asarray(q).tolist())]
-        if len(states) < 2 or not np.array_equal(states[0], path[0]) or not np.array_equal(states[-1], path[-1]):
-            states = [path[0], *states[1:-1], path[-1]] if len(states) >= 2 else [path[0], path[-1]]
-        out = [states[0]]
-        for x, y in zip(states[:-1], states[1:]):
-            if not checker.motion_valid(np.asarray(x).tolist(), np.asarray(y).tolist()):
-                mini = self.neural_planner(checker, z, np.asarray(x, float), np.asarray(y, float),
-                                           self.replan_steps, stats, deadline)
-                if mini is not None:
-                    out.extend(mini[1:-1])
-            out.append(y)
-        return out
+        """Algorithm 3 (neural): replan each unconnectable pair with a short NeuralPlanner
+        run; a pair it cannot connect stays for the next round."""
+        def connect(x, y):
+            mini = self.neural_planner(checker, z, x, y, self.replan_steps, stats, deadline)
+            return [] if mini is None else mini[1:-1]
+
+        return _repair(checker, path, connect)
 
     def classical_replan(self, problem: Problem, path, deadline: float, stats: dict):
-        """HR: RRT* on every segment that is still unconnectable, within the budget left."""
-        checker = problem.checker
-        states = [q for q in path if checker.is_valid(np.asarray(q).tolist())]
-        states = [path[0], *states[1:-1], path[-1]] if len(states) >= 2 else [path[0], path[-1]]
-        out = [states[0]]
-        for x, y in zip(states[:-1], states[1:]):
-            if not checker.motion_valid(np.asarray(x).tolist(), np.asarray(y).tolist()):
-                left = deadline - time.perf_counter()
-                if left <= 0:
-                    return None
-                seg = Problem(problem.spec, problem.workspace, checker, np.asarray(x, float), np.asarray(y, float))
-                res = self.fallback.solve(seg, left)
-                stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
-                if not res.solved:
-                    return None
-                out.extend(np.asarray(q, float) for q in res.path[1:-1])
-            out.append(y)
-        return out
+        """HR: RRT* on every segment that is still unconnectable, within the budget left;
+        None when one of them fails."""
+        def connect(x, y):
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                return None
+            res = self.fallback.solve(Problem(problem.spec, problem.workspace, problem.checker, x, y), left)
+            stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
+            return [np.asarray(q, float) for q in res.path[1:-1]] if res.solved else None
 
+        return _repair(problem.checker, path, connect)
+
+
+def _repair(checker, path, connect):
+    """Drop interior states in collision (start and goal are valid), keep connectable
+    neighbours, and put connect(x, y)'s states between the others; None when it gives None."""
+    states = [path[0], *[q for q in path[1:-1] if checker.is_valid(np.asarray(q).tolist())], path[-1]]
+    out = [states[0]]
+    for x, y in zip(states[:-1], states[1:]):
+        if not checker.motion_valid(np.asarray(x).tolist(), np.asarray(y).tolist()):
+            mid = connect(np.asarray(x, float), np.asarray(y, float))
+            if mid is None:
+                return None
+            out.extend(mid)
+        out.append(y)
+    return out
 
 def workspace_cloud(total_points: int, seed: int) -> Callable:
     """cloud(workspace): its point cloud of the env's fixed size, drawn from a generator
