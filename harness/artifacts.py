@@ -16,7 +16,8 @@ def data_params(cfg: DictConfig) -> DataParams:
         env=str(cfg.env.name), data_seed=int(cfg.env.data_seed), points_per_block=int(cfg.env.points_per_block),
         train_workspaces=int(cfg.scale.train.workspaces), paths_per_workspace=int(cfg.scale.train.paths),
         ae_workspaces=int(cfg.scale.train.ae_workspaces), expert_iterations=int(cfg.env.expert.iterations),
-        expert_max_seconds=float(cfg.env.expert.max_seconds))
+        expert_max_seconds=float(cfg.env.expert.max_seconds),
+        expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)))
 
 
 def ensure_dataset(cfg: DictConfig, progress: bool = True):

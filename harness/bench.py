@@ -230,6 +230,13 @@ def check_config(cfg: DictConfig) -> None:
     for key in ("rerun", "resume", "progress"):
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
+    steps = cfg.get("planner", {}).get("steer_steps")
+    if steps is not None:
+        if not OmegaConf.is_list(steps) or not all(
+                x is None or (isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0)
+                for x in steps):
+            raise UsageError(f"config key planner.steer_steps: expected null or a list of positive steps "
+                             f"(null entries: continuous), got {steps!r}")
 
 
 def build_testset(cfg: DictConfig, spec):

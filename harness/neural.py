@@ -10,7 +10,7 @@ from mpnet.planners.neural import MPNetPlanner, workspace_cloud
 
 
 def mpnet_planner(name: str, hybrid: bool, max_steps: int, replan_steps: int, replan_rounds: int,
-                  fallback: str, *, models_folder, spec: EnvSpec, points_per_block: int, data_seed: int,
+                  fallback: str, steer_steps=None, *, models_folder, spec: EnvSpec, points_per_block: int, data_seed: int,
                   seed: int) -> MPNetPlanner:
     """MPNet (NR, or HR with OMPL `fallback`) on the networks in models_folder."""
     from mpnet.models.checkpoint import load_pnet_checkpoint
@@ -25,4 +25,6 @@ def mpnet_planner(name: str, hybrid: bool, max_steps: int, replan_steps: int, re
 
     return MPNetPlanner(name, encode, step, workspace_cloud(points_per_block * spec.blocks, data_seed),
                         hybrid=hybrid, max_steps=max_steps, replan_steps=replan_steps, replan_rounds=replan_rounds,
-                        seed=seed, fallback=OmplPlanner(fallback, fallback) if hybrid else None)
+                        seed=seed, fallback=OmplPlanner(fallback, fallback) if hybrid else None,
+                        steer_steps=list(steer_steps) if steer_steps else None)
+

@@ -10,9 +10,16 @@ from mpnet.envs.collision import CollisionChecker, make_checker
 from mpnet.envs.workspace import EnvSpec, Workspace, wrap_angle
 
 
-def steer_to(checker: CollisionChecker, a, b) -> bool:
-    """Is the straight motion a -> b free? (Continuous check: exact for boxes.)"""
-    return checker.motion_valid(a, b)
+def steer_to(checker: CollisionChecker, a, b, step: float | None = None) -> bool:
+    """Is the straight motion a -> b free?
+
+    step None: the continuous check (exact for boxes). A step: the T-RO code's discretised
+    steerTo, states no farther apart than `step` (a coarse step can cut a corner, which is
+    why MPNet's feasibility check stays continuous).
+    """
+    if step is None:
+        return checker.motion_valid(a, b)
+    return bool(checker.valid_states(interpolate(checker.spec, a, b, step)).all())
 
 
 def is_feasible(checker: CollisionChecker, path: Sequence) -> bool:
@@ -25,8 +32,8 @@ def is_feasible(checker: CollisionChecker, path: Sequence) -> bool:
     return bool(checker.valid_motions(p[:-1], p[1:]).all())
 
 
-def lazy_states_contraction(checker: CollisionChecker, path: Sequence) -> list:
-    """Greedy LSC: from each kept state, jump to the farthest state it connects to directly."""
+def lazy_states_contraction(checker: CollisionChecker, path: Sequence, step: float | None = None) -> list:
+    """Greedy LSC: from each kept state, jump to the farthest state steer_to connects it to."""
     path = list(path)
     if len(path) <= 2:
         return path
@@ -35,7 +42,7 @@ def lazy_states_contraction(checker: CollisionChecker, path: Sequence) -> list:
     while i < len(path) - 1:
         nxt = i + 1
         for j in range(len(path) - 1, i + 1, -1):
-            if checker.motion_valid(path[i], path[j]):
+            if steer_to(checker, path[i], path[j], step):
                 nxt = j
                 break
         out.append(path[nxt])

@@ -236,6 +236,15 @@ def test_bad_config_values(tmp_path, override, key):
     assert p.returncode == 1 and f"config key {key}" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.parametrize("override", ["planner.steer_steps=[2.0,-1]", "planner.steer_steps=abc",
+                                      "planner.steer_steps=[true]"])
+def test_bad_steer_steps_fail_before_any_training(tmp_path, override):
+    p = run("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
+            f"cache_dir={tmp_path / 'cache'}", check=False)
+    assert p.returncode == 1 and "config key planner.steer_steps" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "cache").exists()
+
+
 def test_resume_refuses_other_workspaces(tmp_path):
     doc = json.loads((PROBLEMS / "s2d.json").read_text())
     a = tmp_path / "a.json"

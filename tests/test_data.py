@@ -26,6 +26,7 @@ def test_expert_paths_valid_and_reproducible(env):
     for i in range(len(a)):
         p = a.path(i)
         assert verify_path(spec, wss[a.workspace[i]][1], p, p[0], p[-1]) is None
+        assert len(p) >= 3  # blocked_only: the straight line start -> goal is blocked, as in the test queries
     assert np.all(a.cost <= a.raw_cost + 1e-9)
 
 

@@ -38,6 +38,19 @@ def test_steer_and_feasible():
     assert is_feasible(ch, [(-10, 0)])
 
 
+def test_coarse_steer_step_can_jump_a_thin_wall_the_continuous_check_cannot():
+    """The T-RO code's discretised steerTo at step 2.0 samples x = -0.5, 1.17 around a
+    0.4-wide wall: it passes; step 0.1 and the continuous check see the wall."""
+    thin = Workspace("thin", "file", [[0.0, 0.0]], [[0.4, 30.0]])
+    ch = make_checker(S2D, thin)
+    a, b = (-5.5, 0.0), (4.5, 0.0)
+    assert steer_to(ch, a, b, step=2.0)
+    assert not steer_to(ch, a, b, step=0.1)
+    assert not steer_to(ch, a, b)
+    assert lazy_states_contraction(ch, [a, (-1, 16), (1, 16), b], step=2.0) == [a, b]
+    assert len(lazy_states_contraction(ch, [a, (-1, 16), (1, 16), b])) == 4
+
+
 def test_rigid_cost_uses_shorter_arc():
     assert math.isclose(path_cost(RIGID, [(0, 0, 3.0), (0, 0, -3.0)]), 0.5 * (2 * math.pi - 6.0))
     assert math.isclose(path_cost(RIGID, [(0, 0, 0), (3, 4, 0)]), 5.0)

@@ -34,10 +34,10 @@ def random_free(spec, ws):
     return step
 
 
-def make(step, hybrid, seed=0):
+def make(step, hybrid, seed=0, steer_steps=None):
     return MPNetPlanner("mpnet_hr" if hybrid else "mpnet_nr", encode=lambda cloud: np.zeros(4), step=step,
                         cloud=workspace_cloud(1400, 0), hybrid=hybrid, seed=seed,
-                        fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None)
+                        fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None, steer_steps=steer_steps)
 
 
 @pytest.mark.parametrize("hybrid", [False, True])
@@ -79,3 +79,20 @@ def test_same_seed_same_path():
     paths = [make(straight(), False, seed=7).solve(Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal), 5.0).path
              for _ in range(2)]
     assert paths[0] == paths[1]
+
+
+def test_coarse_to_fine_steer_steps():
+    """With the T-RO schedule the coarse steps (2.0, 1.2, 0.5) all miss the 0.4-wide wall
+    between start and goal; the continuous feasibility check refuses [start, goal] each
+    round, and the 0.1 round sees the wall and replans over it."""
+    thin = Workspace("thin", "file", [[0.0, 0.0]], [[0.4, 30.0]])
+    p = Problem(S2D, thin, make_checker(S2D, thin), np.array([-5.5, 0.0]), np.array([4.5, 0.0]))
+    over = lambda z, x, goal, rng: np.array([x[0] / 2, 17.5])  # noqa: E731  (a waypoint above the wall)
+    planner = make(over, False, steer_steps=[2.0, 2.0, 2.0, 1.2, 0.5, 0.1, None])
+    assert [planner.steer_step(i) for i in (0, 3, 5, 6, 50)] == [2.0, 1.2, 0.1, None, None]
+    res = planner.solve(p, 5.0)
+    assert res.solved and verify_path(S2D, thin, res.path, p.start, p.goal) is None
+    assert res.stats["replans"] == 5 and res.stats["pnet_calls"] == 2
+    continuous = make(over, False).solve(p, 5.0)
+    assert continuous.solved and continuous.stats["replans"] == 0
+    assert make(over, False).steer_step(4) is None

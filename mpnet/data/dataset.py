@@ -35,6 +35,7 @@ class DataParams:
     ae_workspaces: int
     expert_iterations: int
     expert_max_seconds: float
+    expert_blocked_only: bool = True
 
     def key_config(self) -> dict:
         return {"format": FORMAT, **self.__dict__}
@@ -64,7 +65,7 @@ def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, pro
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
     total = p.points_per_block * spec.blocks
     paths = expert_paths(spec, list(enumerate(train)), p.paths_per_workspace, p.data_seed, p.expert_iterations,
-                         p.expert_max_seconds, jobs=jobs, progress=progress)
+                         p.expert_max_seconds, jobs=jobs, progress=progress, blocked_only=p.expert_blocked_only)
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),
         "train_centers": np.stack([w.centers for w in train]),

@@ -77,8 +77,11 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
 
 
 def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, seed: int, iterations: int,
-                    max_seconds: float, max_tries: int = 20) -> ExpertPaths:
-    """`count` expert paths between random valid states of one workspace."""
+                    max_seconds: float, blocked_only: bool = True, max_tries: int = 50) -> ExpertPaths:
+    """`count` expert paths between random valid states of one workspace.
+
+    blocked_only keeps the pairs whose straight line is blocked, as every test query's
+    is: a free pair only teaches Pnet to step onto the goal."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = make_checker(spec, ws)
@@ -88,6 +91,8 @@ def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, see
             break
         s, g = rng.uniform(spec.lower, spec.upper), rng.uniform(spec.lower, spec.upper)
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
+            continue
+        if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):
             continue
         path = rrt_star_path(spec, checker, s, g, iterations, max_seconds)
         if path is None:
@@ -108,17 +113,18 @@ def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, see
 
 def chunk_worker(args: tuple) -> ExpertPaths:
     """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path."""
-    spec, workspaces, count, seed, chunk, iterations, max_seconds = args
+    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
-    return ExpertPaths.concat([workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds)
+    return ExpertPaths.concat([workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds, blocked_only)
                                for idx, ws in workspaces], spec.state_dim)
 
 
 def expert_paths(spec: EnvSpec, workspaces: list[tuple[int, Workspace]], count: int, seed: int, iterations: int,
-                 max_seconds: float, jobs: int = 2, chunk_size: int = 1, progress=None) -> ExpertPaths:
+                 max_seconds: float, jobs: int = 2, chunk_size: int = 1, progress=None,
+                 blocked_only: bool = True) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
     `progress(n)` is called with the number of workspaces each finished chunk held."""
@@ -126,7 +132,7 @@ def expert_paths(spec: EnvSpec, workspaces: list[tuple[int, Workspace]], count: 
     from concurrent.futures import ProcessPoolExecutor
 
     chunks = [workspaces[i:i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
-    tasks = [(spec, c, count, seed, k, iterations, max_seconds) for k, c in enumerate(chunks)]
+    tasks = [(spec, c, count, seed, k, iterations, max_seconds, blocked_only) for k, c in enumerate(chunks)]
     results: list[ExpertPaths | None] = [None] * len(tasks)
     with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"),
                              max_tasks_per_child=1) as pool:

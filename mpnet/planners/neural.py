@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from mpnet.motion import is_feasible, lazy_states_contraction
+from mpnet.motion import is_feasible, lazy_states_contraction, steer_to
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
 
 
@@ -23,11 +23,16 @@ class MPNetPlanner:
     its time included). max_steps bounds the first NeuralPlanner call, replan_steps each
     replanning call; replan_rounds bounds neural replanning. HR then plans each segment
     that is still unconnectable with OMPL's RRT* (`fallback`), within the budget left.
+
+    steer_steps: None, steerTo is the continuous check throughout; or the T-RO code's
+    coarse-to-fine schedule, the steerTo step of the first NeuralPlanner run and of each
+    replanning round (the last entry repeats; an entry None is continuous). Whether a path
+    is feasible is always decided by the continuous check.
     """
 
     def __init__(self, name: str, encode: Callable, step: Callable, cloud: Callable, *, hybrid: bool = False,
                  max_steps: int = 80, replan_steps: int = 50, replan_rounds: int = 10, seed: int = 0,
-                 fallback=None):
+                 fallback=None, steer_steps=None):
         self.name = name
         self.encode = encode
         self.step = step
@@ -38,6 +43,11 @@ class MPNetPlanner:
         self.replan_rounds = replan_rounds
         self.rng = np.random.default_rng(seed)
         self.fallback = fallback
+        self.steer_steps = list(steer_steps) if steer_steps else [None]
+
+    def steer_step(self, stage: int) -> float | None:
+        """steerTo's step at stage 0 (first NeuralPlanner run) or replanning round `stage`."""
+        return self.steer_steps[min(stage, len(self.steer_steps) - 1)]
 
     def solve(self, problem: Problem, budget_s: float) -> Result:
         t0 = time.perf_counter()
@@ -49,16 +59,18 @@ class MPNetPlanner:
         z = self.encode(self.cloud(problem.workspace))
         checker = problem.checker
         start, goal = problem.start.astype(float), problem.goal.astype(float)
-        path = self.neural_planner(checker, z, start, goal, self.max_steps, stats, deadline)
+        step = self.steer_step(0)
+        path = self.neural_planner(checker, z, start, goal, self.max_steps, stats, deadline, step)
         if path is None:
             path = [start, goal]  # no coarse path: every segment of [start, goal] is left to replanning
         else:
-            path = lazy_states_contraction(checker, path)
+            path = lazy_states_contraction(checker, path, step)
         while not is_feasible(checker, path) and stats["replans"] < self.replan_rounds:
             if time.perf_counter() > deadline:
                 return Result(None, TIMEOUT, stats)
             stats["replans"] += 1
-            path = lazy_states_contraction(checker, self.replan(checker, z, path, stats, deadline))
+            step = self.steer_step(stats["replans"])
+            path = lazy_states_contraction(checker, self.replan(checker, z, path, stats, deadline, step), step)
         if not is_feasible(checker, path) and self.hybrid:
             stats["fallback_used"] = True
             path = self.classical_replan(problem, path, deadline, stats)
@@ -69,11 +81,12 @@ class MPNetPlanner:
         path = [problem.start.tolist(), *[np.asarray(q, float).tolist() for q in path[1:-1]], problem.goal.tolist()]
         return Result(path, EXACT, stats)
 
-    def neural_planner(self, checker, z, start, goal, max_steps: int, stats: dict, deadline: float):
+    def neural_planner(self, checker, z, start, goal, max_steps: int, stats: dict, deadline: float,
+                       step: float | None = None):
         """Algorithm 2: grow a path from each end by Pnet, alternating, until steer_to
         connects their tips; None when max_steps pass first."""
         a, b = [start], [goal]
-        if checker.motion_valid(start.tolist(), goal.tolist()):
+        if steer_to(checker, start.tolist(), goal.tolist(), step):
             return [start, goal]
         for _ in range(max_steps):
             if time.perf_counter() > deadline:
@@ -81,19 +94,19 @@ class MPNetPlanner:
             x_new = np.asarray(self.step(z, a[-1], b[-1], self.rng), float)
             stats["pnet_calls"] += 1
             a.append(x_new)
-            if checker.motion_valid(a[-1].tolist(), b[-1].tolist()):
+            if steer_to(checker, a[-1].tolist(), b[-1].tolist(), step):
                 return a + b[::-1] if a[0] is start else b + a[::-1]
             a, b = b, a
         return None
 
-    def replan(self, checker, z, path, stats: dict, deadline: float) -> list:
+    def replan(self, checker, z, path, stats: dict, deadline: float, step: float | None = None) -> list:
         """Algorithm 3 (neural): replan each unconnectable pair with a short NeuralPlanner
         run; a pair it cannot connect stays for the next round."""
         def connect(x, y):
-            mini = self.neural_planner(checker, z, x, y, self.replan_steps, stats, deadline)
+            mini = self.neural_planner(checker, z, x, y, self.replan_steps, stats, deadline, step)
             return [] if mini is None else mini[1:-1]
 
-        return _repair(checker, path, connect)
+        return _repair(checker, path, connect, step)
 
     def classical_replan(self, problem: Problem, path, deadline: float, stats: dict):
         """HR: RRT* on every segment that is still unconnectable, within the budget left;
@@ -109,13 +122,14 @@ class MPNetPlanner:
         return _repair(problem.checker, path, connect)
 
 
-def _repair(checker, path, connect):
-    """Drop interior states in collision (start and goal are valid), keep connectable
-    neighbours, and put connect(x, y)'s states between the others; None when it gives None."""
+def _repair(checker, path, connect, step: float | None = None):
+    """Drop interior states in collision (start and goal are valid), keep neighbours
+    steer_to connects, and put connect(x, y)'s states between the others; None when it
+    gives None."""
     states = [path[0], *[q for q in path[1:-1] if checker.is_valid(np.asarray(q).tolist())], path[-1]]
     out = [states[0]]
     for x, y in zip(states[:-1], states[1:]):
-        if not checker.motion_valid(np.asarray(x).tolist(), np.asarray(y).tolist()):
+        if not steer_to(checker, np.asarray(x).tolist(), np.asarray(y).tolist(), step):
             mid = connect(np.asarray(x, float), np.asarray(y, float))
             if mid is None:
                 return None
