@@ -43,7 +43,7 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
 def model_params(cfg: DictConfig) -> dict:
     """Everything that decides the trained networks (and so their cache key)."""
     m, f, t = cfg.scale.model, cfg.scale.fit, cfg.train
-    return {
+    params = {
         "format": "mpnet-bench/models@1",
         "enet_hidden": [int(x) for x in m.enet_hidden], "latent": int(m.latent),
         "pnet_hidden": [int(x) for x in m.pnet_hidden], "dropout": float(m.dropout),
@@ -51,6 +51,9 @@ def model_params(cfg: DictConfig) -> dict:
         "seed": int(t.seed), "lr": float(t.lr), "optimizer": str(t.optimizer), "lam": float(t.lam),
         "val_fraction": float(t.val_fraction), "patience": int(t.patience),
     }
+    if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
+        params["limit_batches"] = int(f.limit_batches)
+    return params
 
 
 def ensure_models(cfg: DictConfig, progress: bool = True):

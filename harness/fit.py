@@ -33,7 +33,8 @@ def unwrapped(spec: EnvSpec, paths: list[np.ndarray]) -> list[np.ndarray]:
     return out
 
 
-def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dict, progress: bool):
+def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dict, progress: bool,
+             limit_batches: int | None = None):
     import lightning as L
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
     from lightning.pytorch.loggers import CSVLogger
@@ -51,7 +52,8 @@ def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dic
     trainer = L.Trainer(max_epochs=epochs, accelerator=lightning["accelerator"], devices=lightning["devices"],
                         strategy=lightning["strategy"], logger=loggers, default_root_dir=str(folder),
                         callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
-                        enable_progress_bar=progress, enable_model_summary=False, log_every_n_steps=10)
+                        enable_progress_bar=progress, enable_model_summary=False, log_every_n_steps=10,
+                        limit_train_batches=limit_batches, limit_val_batches=limit_batches)
     return trainer, checkpoint
 
 
@@ -76,7 +78,8 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     enet = Enet(in_dim, params["enet_hidden"], params["latent"])
     ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
     ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"])
-    trainer, ckpt = _trainer(folder, "enet", params["ae_epochs"], params["patience"], lightning, progress)
+    trainer, ckpt = _trainer(folder, "enet", params["ae_epochs"], params["patience"], lightning, progress,
+                             params.get("limit_batches"))
     trainer.fit(ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"],
                                                        params["seed"]))
     ae_best = EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")
@@ -90,7 +93,8 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
                         freeze_encoder=True, state_scale=state_scale(spec))
     dm = MPNetDataModule(flat_train, pairs.ws_index, pairs.x_t, pairs.x_goal, pairs.x_next, params["batch_size"],
                          params["val_fraction"], params["seed"], groups=pairs.path_id)
-    trainer, ckpt2 = _trainer(folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress)
+    trainer, ckpt2 = _trainer(folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress,
+                              params.get("limit_batches"))
     trainer.fit(module, datamodule=dm)
     pnet_seconds, pnet_epochs = time.perf_counter() - t1, trainer.current_epoch
     return {

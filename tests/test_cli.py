@@ -287,3 +287,16 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path):
     _, msgs = read_mcap(tmp_path / "nr" / "trials.mcap")
     assert recheck(msgs) == sum(m["success"] for t, m in msgs if t == "/query")
     assert not any(m["fallback_used"] for t, m in msgs if t == "/query")
+
+
+@pytest.mark.parametrize("env", ["s2d", "rigid"])
+def test_paper_scale_dry_run(tmp_path, env):
+    """scale=paper composes and runs: the paper's networks, a few batches, a few queries."""
+    p = run("harness", f"+env={env}", "+planner=mpnet_hr", "+experiment=paper_dry_run", "progress=false",
+            "rerun=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.run.dir={tmp_path / 'run'}")
+    assert "seen" in p.stdout and "unseen" in p.stdout
+    manifest = json.loads(next((tmp_path / "cache" / "models").glob("*/manifest.json")).read_text())
+    assert manifest["config"]["pnet_hidden"] == [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32]
+    assert manifest["config"]["limit_batches"] == 2
+    rows = list(csv.DictReader((tmp_path / "run" / "queries.csv").open()))
+    assert len(rows) == 4
