@@ -40,6 +40,43 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
     return folder, load_dataset(folder, manifest), built
 
 
+TESTSET_FORMAT = "mpnet-bench/testset@1"
+
+
+def ensure_testset(cfg: DictConfig, progress: bool = True):
+    """The scale's generated test set, both splits, as problem files in the cache (built
+    now when missing); returns the splits cfg.splits asks for as one TestSet."""
+    from tqdm import tqdm
+
+    from mpnet.data.queries import make_testset
+    from mpnet.envs.workspace import TestSet
+    from mpnet.problems import dump_problems, load_problems
+
+    spec = env_spec(cfg.env)
+    sizes = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in ("seen", "unseen")}
+    key_config = {"format": TESTSET_FORMAT, "env": spec.name, "data_seed": int(cfg.env.data_seed),
+                  "solvable_s": float(cfg.env.solvable_s), "splits": {s: list(v) for s, v in sizes.items()}}
+
+    def build(folder: Path) -> dict:
+        with tqdm(total=sum(n for n, _ in sizes.values()), desc=f"test set {spec.name}", unit="workspace",
+                  file=sys.stderr, disable=not progress, dynamic_ncols=True) as bar:
+            ts = make_testset(spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update)
+        for split in sizes:
+            dump_problems(folder / f"{split}.json", ts, split=split)
+        return {"format": TESTSET_FORMAT, "files": [f"{s}.json" for s in sizes],
+                "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes}}
+
+    folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, {"git_rev": git_rev(), "versions": versions()})
+    workspaces, queries = [], []
+    for split in cfg.splits:
+        part = load_problems(folder / f"{split}.json", spec)
+        for item in (*part.workspaces, *part.queries):
+            item.split = split
+        workspaces += part.workspaces
+        queries += part.queries
+    return TestSet(spec, workspaces, queries)
+
+
 def model_params(cfg: DictConfig) -> dict:
     """Everything that decides the trained networks (and so their cache key)."""
     m, f, t = cfg.scale.model, cfg.scale.fit, cfg.train

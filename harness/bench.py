@@ -245,14 +245,13 @@ def check_config(cfg: DictConfig) -> None:
 
 
 def build_testset(cfg: DictConfig, spec):
-    """The problem file's test set, or the generated splits of the scale."""
-    from mpnet.data.queries import make_testset
+    """The problem file's test set, or the scale's generated splits (from the cache)."""
+    from harness.artifacts import ensure_testset
     from mpnet.problems import load_problems
 
     if cfg.problems:
         return load_problems(str(cfg.problems), spec), "file"
-    splits = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in cfg.splits}
-    return make_testset(spec, splits, int(cfg.env.data_seed), float(cfg.env.solvable_s)), "+".join(cfg.splits)
+    return ensure_testset(cfg, bool(cfg.progress)), "+".join(cfg.splits)
 
 
 def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> list[dict]:

@@ -11,8 +11,11 @@ from harness.cli import run_hydra
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 def main(cfg: DictConfig) -> None:
-    from harness.artifacts import ensure_dataset
+    from harness.artifacts import ensure_dataset, ensure_testset
 
+    testset = ensure_testset(cfg, progress=bool(cfg.progress))
+    print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries "
+          f"({', '.join(cfg.splits)})")
     folder, data, built = ensure_dataset(cfg, progress=bool(cfg.progress))
     m = data.manifest
     print(f"{'built' if built else 'cached'}: {folder}")

@@ -300,3 +300,19 @@ def test_paper_scale_dry_run(tmp_path, env):
     assert manifest["config"]["limit_batches"] == 2
     rows = list(csv.DictReader((tmp_path / "run" / "queries.csv").open()))
     assert len(rows) == 4
+
+
+def test_table1_experiment_and_report(tmp_path):
+    """The Table I sweep (narrowed to two planners and two seeds at tiny scale), then the
+    report over its folder: every run is in results.csv and Table I."""
+    sweep = tmp_path / "sweep"
+    run("harness", "-m", "+experiment=table1", "scale=tiny", "+env=s2d", "+planner=bit_star,mpnet_nr", "seed=0,1",
+        "progress=false", "rerun=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.sweep.dir={sweep}")
+    assert len(list(sweep.rglob("trials.mcap"))) == 4
+    out = tmp_path / "report"
+    run("harness.report", str(sweep), "--out", str(out), "--paper")
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert sorted((r["planner"], r["split"], r["seeds"], r["queries"]) for r in rows) == [
+        (p, s, "2", "8") for p in ("bit_star", "mpnet_nr") for s in ("seen", "unseen")]
+    table = (out / "table1.md").read_text()
+    assert "MPNet (NR)" in table and "BIT*" in table and "paper" in table

@@ -79,3 +79,30 @@ def test_data_cli_builds_once_under_concurrency(tmp_path):
     with np.load(folders[0] / "data.npz") as z:
         assert z["train_clouds"].shape == (2, 1400, 2) and z["ae_clouds"].shape == (20, 1400, 2)
         assert z["path_offsets"][-1] == len(z["path_states"])
+
+
+def test_cached_testset_is_the_generated_one(tmp_path):
+    """The data stage's test set (problem files in the cache) holds exactly the queries the
+    generator makes, with their splits; a second call reads the cache."""
+    from hydra import compose, initialize_config_dir
+
+    from harness.artifacts import ensure_testset
+    from mpnet.data.queries import make_testset
+
+    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+        cfg = compose("config", ["+env=c3d", "+planner=bit_star", "scale=tiny", f"cache_dir={tmp_path}"])
+    spec = get_spec("c3d")
+    got = ensure_testset(cfg, progress=False)
+    want = make_testset(spec, {"seen": (2, 2), "unseen": (2, 2)}, 0, float(cfg.env.solvable_s))
+    assert [(w.id, w.split) for w in got.workspaces] == [(w.id, w.split) for w in want.workspaces]
+    for a, b in zip(got.workspaces, want.workspaces):
+        assert np.array_equal(a.centers, b.centers) and np.array_equal(a.sizes, b.sizes)
+    assert [(q.id, q.workspace_id, q.split) for q in got.queries] == [(q.id, q.workspace_id, q.split)
+                                                                       for q in want.queries]
+    assert all(np.array_equal(a.start, b.start) and np.array_equal(a.goal, b.goal)
+               for a, b in zip(got.queries, want.queries))
+    (folder,) = (tmp_path / "testset").glob("*/")
+    assert read_manifest(folder, folder.name)["queries"] == {"seen": 4, "unseen": 4}
+    stamp = (folder / "seen.json").stat().st_mtime_ns
+    ensure_testset(cfg, progress=False)
+    assert (folder / "seen.json").stat().st_mtime_ns == stamp

@@ -41,8 +41,9 @@ def make_queries(spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str
 
 
 def make_testset(spec: EnvSpec, splits: dict[str, tuple[int, int]], seed: int = 0,
-                 solvable_s: float = 2.0) -> TestSet:
-    """splits: {"seen": (workspaces, queries per workspace), "unseen": (...)}."""
+                 solvable_s: float = 2.0, progress=None) -> TestSet:
+    """splits: {"seen": (workspaces, queries per workspace), "unseen": (...)};
+    progress(1) is called after each workspace."""
     workspaces: list[Workspace] = []
     queries: list[Query] = []
     for split, (n_ws, n_q) in splits.items():
@@ -50,4 +51,6 @@ def make_testset(spec: EnvSpec, splits: dict[str, tuple[int, int]], seed: int = 
             ws = make_workspace(spec, i, split, seed)
             workspaces.append(ws)
             queries += make_queries(spec, ws, n_q, seed, split, solvable_s)
+            if progress is not None:
+                progress(1)
     return TestSet(spec, workspaces, queries)

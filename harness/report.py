@@ -1,0 +1,884 @@
+"""`python -m harness.report DIR... [--out OUT] [--paper]`: the paper's tables, figures and an
+OMPL benchmark database, regenerated from trial logs alone (DESIGN §6 "Report").
+
+Only the `trials.mcap` files found under the given directories are read (topics `/run`,
+`/workspace`, `/query`): no planning, no artifacts, no torch or OMPL. A file that cannot be
+read (empty, corrupt, no `/run`) is skipped with one warning line; a file cut short (a
+killed writer, or truncated by hand) is read up to where it breaks, with one warning line.
+
+How the numbers are computed (also written to OUT/README.md):
+- Rows are env x split x planner, where split is each query's own `split` (a run's `/run`
+  may say "seen+unseen" or "file").
+- `queries` counts every logged query of every seed; `seeds` is the number of distinct
+  seeds. Several files with the same (env, planner, seed), e.g. a sweep run twice, all
+  count: their queries are pooled into that seed.
+- `success_mean` / `success_std`: mean and standard deviation of the per-seed success rates,
+  the std with ddof=1 (sample std) when there are two seeds or more, 0 for a single seed.
+- Time statistics (`time_*`), `cost_mean` and `collision_checks_median` are over the
+  successful queries of all seeds pooled (the paper's convention: time to a first solution);
+  `time_std_s` uses ddof=1 when there are two successes or more, else 0.
+- `pnet_calls_median`, `replans_mean` and `fallback_rate` are over every query that logged
+  the field (NaN for planners that do not).
+- Table I: mean ± std time in seconds, and the BIT*/MPNet (NR) ratio of mean times.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sqlite3
+import sys
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.trial_log import MCAP_NAME, read_log, rect_outlines
+
+ENV_ORDER = ("s2d", "c2d", "c3d", "rigid")
+ENV_LABELS = {"s2d": "Simple 2D", "c2d": "Complex 2D", "c3d": "Complex 3D", "rigid": "Rigid body"}
+SPLIT_ORDER = ("seen", "unseen")
+PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
+KNOWN_EXTRAS = ("rrt_star", "rrt_connect")
+PLANNER_LABELS = {"mpnet_nr": "MPNet (NR)", "mpnet_hr": "MPNet (HR)", "informed_rrt_star": "Informed-RRT*",
+                  "bit_star": "BIT*", "rrt_star": "RRT*", "rrt_connect": "RRT-Connect"}
+PLANNER_COLORS = {"mpnet_nr": "#1f77b4", "mpnet_hr": "#17becf", "informed_rrt_star": "#d62728",
+                  "bit_star": "#ff7f0e", "rrt_star": "#9467bd", "rrt_connect": "#2ca02c"}
+RATIO_COL = "bit_star_over_mpnet_nr"
+RATIO_LABEL = "BIT*/MPNet (NR)"
+PAPER = 'Qureshi, Simeonov, Bency, Yip, "Motion Planning Networks", ICRA 2019, arXiv:1806.05767'
+CITATION = (PAPER + ", Table I; their Informed-RRT* and BIT* were Python implementations, MPNet's times are "
+            "CPU time on an i7 with a GTX 1080")
+QUERY_COLS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "cpu_s", "path_cost",
+              "collision_checks", "state_checks", "motion_checks", "pnet_calls", "replans", "fallback_used")
+KEYS = ["env", "split", "planner"]
+RESULT_COLS = KEYS + ["queries", "seeds", "successes", "success_mean", "success_std", "time_mean_s", "time_std_s",
+                      "time_median_s", "time_p90_s", "cpu_mean_s", "cost_mean", "collision_checks_median",
+                      "pnet_calls_median", "replans_mean", "fallback_rate", "failures"]
+
+# OMPL's PlannerStatus, in the order its Benchmark writes the `status` enum.
+OMPL_STATUS = ("Unknown status", "Invalid start", "Invalid goal", "Unrecognized goal type", "Timeout",
+               "Approximate solution", "Exact solution", "Crash", "Abort", "Infeasible")
+ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH = 0, 1, 4, 6, 7
+
+
+# --------------------------------------------------------------------------- reading
+
+@dataclass
+class TrialFile:
+    """One readable trials.mcap: its /run message, workspaces by (split, id), queries."""
+
+    path: Path
+    run: dict
+    workspaces: dict[tuple[str, str], dict] = field(default_factory=dict)
+    queries: list[dict] = field(default_factory=list)
+    finalised: bool = True
+
+
+def find_logs(dirs: Iterable[str | Path]) -> tuple[list[Path], list[str]]:
+    """Every trials.mcap under the given directories (a file path is taken as is), sorted and
+    without duplicates; plus one warning per argument that is neither."""
+    found, warns = {}, []
+    for d in dirs:
+        p = Path(d)
+        if p.is_file():
+            found.setdefault(p.resolve(), p)
+        elif p.is_dir():
+            for f in p.rglob(MCAP_NAME):
+                if f.is_file():
+                    found.setdefault(f.resolve(), f)
+        else:
+            warns.append(f"warning: {d}: no such file or directory")
+    return sorted(found.values(), key=str), warns
+
+
+def read_trials(path: Path) -> tuple[TrialFile | None, str | None]:
+    """The file's contents, or None; and a one-line warning when it is skipped or cut short."""
+    try:
+        msgs, finalised = read_log(path, ("/run", "/workspace", "/query"))
+    except Exception as e:  # noqa: BLE001 - unreadable for any reason: skipped, never a traceback
+        return None, f"warning: skipped {path}: cannot read it ({type(e).__name__}: {e})"
+    run, out = None, None
+    for m in msgs:
+        if m.topic == "/run":
+            if run is None:
+                run = m.data
+                if not isinstance(run, dict) or not run.get("env") or not run.get("planner"):
+                    return None, f"warning: skipped {path}: its /run message names no env or planner"
+                out = TrialFile(path, run, finalised=finalised)
+        elif out is None or not isinstance(m.data, dict):
+            continue
+        elif m.topic == "/query":
+            out.queries.append(m.data)
+        else:
+            out.workspaces.setdefault((str(m.data.get("split")), str(m.data.get("workspace_id"))), m.data)
+    if out is None:
+        why = "no /run message" if msgs else "empty file" if _size(path) == 0 else "not a readable MCAP trial log"
+        return None, f"warning: skipped {path}: {why}"
+    if not finalised:
+        return out, (f"warning: {path} was not finalised (cut short?): read its {len(out.queries)} "
+                     "queries up to where it breaks")
+    return out, None
+
+
+def _size(path: Path) -> int | None:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return None
+
+
+def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
+    """Readable trial files, warnings (one line each) and the number of files skipped."""
+    paths, warns = find_logs(dirs)
+    files, skipped = [], 0
+    for p in paths:
+        tf, w = read_trials(p)
+        if w:
+            warns.append(w)
+        if tf is None:
+            skipped += 1
+        else:
+            files.append(tf)
+    return files, warns, skipped
+
+
+def _flag(v) -> float:
+    """A logged boolean as 1.0 / 0.0, anything else (missing, null) as NaN."""
+    return float(v) if isinstance(v, (bool, np.bool_)) else math.nan
+
+
+def _numbers(col: pd.Series) -> pd.Series:
+    """A column as floats; anything that is not a number (null, text, a list) becomes NaN."""
+    try:
+        return pd.to_numeric(col, errors="coerce").astype(float)
+    except (TypeError, ValueError):
+        return col.map(lambda v: float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan)
+
+
+def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
+    """One row per logged query (no paths): the run's env, planner and seed, the query's
+    scalar fields, and (file, qidx) to find the full message again."""
+    parts = []
+    for i, tf in enumerate(files):
+        if not tf.queries:
+            continue
+        df = pd.DataFrame.from_records(tf.queries, columns=list(QUERY_COLS))
+        df["success"] = [_flag(v) == 1.0 for v in df["success"]]
+        df["fallback_used"] = [_flag(v) for v in df["fallback_used"]]
+        for c in ("time_s", "cpu_s", "path_cost", "collision_checks", "state_checks", "motion_checks",
+                  "pnet_calls", "replans"):
+            df[c] = _numbers(df[c])
+        for c in ("query_id", "workspace_id", "split"):
+            df[c] = df[c].astype(str)
+        df["failure"] = df["failure"].astype(object).where(df["failure"].notna(), None)
+        df["file"] = i
+        df["qidx"] = np.arange(len(df))
+        df["env"] = str(tf.run["env"])
+        df["planner"] = str(tf.run["planner"])
+        seed = tf.run.get("seed")
+        df["seed"] = seed if isinstance(seed, int) and not isinstance(seed, bool) else -1
+        parts.append(df)
+    if not parts:
+        return pd.DataFrame(columns=list(QUERY_COLS) + ["file", "qidx", "env", "planner", "seed"])
+    df = pd.concat(parts, ignore_index=True)
+    df["success"] = df["success"].astype(bool)
+    return df
+
+
+# ------------------------------------------------------------------------- ordering
+
+def env_rank(env: str) -> tuple:
+    return (ENV_ORDER.index(env), "") if env in ENV_ORDER else (len(ENV_ORDER), env)
+
+
+def split_rank(split: str) -> tuple:
+    return (SPLIT_ORDER.index(split), "") if split in SPLIT_ORDER else (len(SPLIT_ORDER), split)
+
+
+def planner_rank(planner: str) -> tuple:
+    known = PAPER_PLANNERS + KNOWN_EXTRAS
+    return (known.index(planner), "") if planner in known else (len(known), planner)
+
+
+def planner_label(planner: str) -> str:
+    return PLANNER_LABELS.get(planner, planner)
+
+
+def env_label(env: str) -> str:
+    return ENV_LABELS.get(env, env)
+
+
+def _sort(df: pd.DataFrame, cols=("env", "split", "planner")) -> pd.DataFrame:
+    rank = {"env": env_rank, "split": split_rank, "planner": planner_rank}
+    if df.empty:
+        return df
+    order = sorted(range(len(df)), key=lambda i: tuple(rank[c](df[c].iat[i]) for c in cols))
+    return df.iloc[order].reset_index(drop=True)
+
+
+def natural_key(s: str) -> tuple:
+    """'ws10-2' after 'ws9-3': digit runs compare as numbers (types line up by position)."""
+    parts = re.split(r"(\d+)", str(s))
+    return tuple(int(p) if i % 2 else p for i, p in enumerate(parts))
+
+
+# ------------------------------------------------------------------------ statistics
+
+def _std(g, n_min: int = 2) -> pd.Series:
+    """Sample std (ddof=1) where a group has n_min values or more, else 0 (NaN when empty)."""
+    s1, n = g.std(ddof=1), g.count()
+    return s1.where(n >= n_min, 0.0).where(n > 0)
+
+
+def results_table(q: pd.DataFrame) -> pd.DataFrame:
+    """results.csv: one row per env x split x planner (see the module docstring)."""
+    if q.empty:
+        return pd.DataFrame(columns=RESULT_COLS)
+    g = q.groupby(KEYS, sort=False)
+    res = pd.DataFrame({"queries": g.size(), "seeds": g["seed"].nunique(), "successes": g["success"].sum()})
+    per_seed = q.groupby(KEYS + ["seed"], sort=False)["success"].mean().groupby(level=KEYS, sort=False)
+    res["success_mean"] = per_seed.mean()
+    res["success_std"] = _std(per_seed)
+    ok = q[q["success"] & np.isfinite(q["time_s"])]
+    t = ok.groupby(KEYS, sort=False)["time_s"]
+    res["time_mean_s"] = t.mean()
+    res["time_std_s"] = _std(t)
+    res["time_median_s"] = t.median()
+    res["time_p90_s"] = t.quantile(0.9)
+    res["cpu_mean_s"] = ok.groupby(KEYS, sort=False)["cpu_s"].mean()
+    res["cost_mean"] = ok.groupby(KEYS, sort=False)["path_cost"].mean()
+    res["collision_checks_median"] = ok.groupby(KEYS, sort=False)["collision_checks"].median()
+    res["pnet_calls_median"] = g["pnet_calls"].median()
+    res["replans_mean"] = g["replans"].mean()
+    res["fallback_rate"] = g["fallback_used"].mean()
+    fails = q[~q["success"]]
+    if len(fails):
+        counts = fails.assign(failure=fails["failure"].fillna("unknown")).groupby(KEYS + ["failure"]).size()
+        res["failures"] = counts.groupby(level=KEYS).apply(
+            lambda s: "; ".join(f"{k[-1]}: {v}" for k, v in sorted(s.items(), key=lambda kv: (-kv[1], kv[0][-1]))))
+    else:
+        res["failures"] = ""
+    res["failures"] = res["failures"].fillna("")
+    res = res.reset_index()
+    for c in ("queries", "seeds", "successes"):
+        res[c] = res[c].astype(int)
+    return _sort(res[RESULT_COLS])
+
+
+def _planner_columns(planners: Iterable[str]) -> list[str]:
+    """Table I's columns: the paper's four planners always, then any other logged planner."""
+    extra = sorted(set(planners) - set(PAPER_PLANNERS), key=planner_rank)
+    return list(PAPER_PLANNERS) + extra
+
+
+def load_paper() -> pd.DataFrame:
+    """The paper's Table I (harness/paper_table1.csv: env, split, planner, time_mean_s, time_std_s)."""
+    with resources.files("harness").joinpath("paper_table1.csv").open("r") as f:
+        return pd.read_csv(f)
+
+
+def table1(res: pd.DataFrame, paper: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[str]]:
+    """Table I as numbers: rows env x split (x source: ours, then the paper's where asked),
+    `<planner>_time_mean_s` / `_time_std_s` per planner column, and the BIT*/NR ratio."""
+    planners = _planner_columns(res["planner"] if len(res) else [])
+    sources = [("ours", res)] + ([("paper", paper)] if paper is not None else [])
+    vals = {(src, e, s, p): (m, sd) for src, df in sources
+            for e, s, p, m, sd in zip(df["env"], df["split"], df["planner"], df["time_mean_s"], df["time_std_s"])}
+    rows = []
+    for env, split in sorted(set(zip(res["env"], res["split"])), key=lambda k: (env_rank(k[0]), split_rank(k[1]))):
+        for src, _ in sources:
+            if src != "ours" and not any((src, env, split, p) in vals for p in planners):
+                continue
+            row = {"env": env, "split": split, "source": src}
+            for p in planners:
+                m, sd = vals.get((src, env, split, p), (math.nan, math.nan))
+                row[f"{p}_time_mean_s"], row[f"{p}_time_std_s"] = float(m), float(sd)
+            rows.append(row)
+    cols = ["env", "split", "source"] + [f"{p}_{s}" for p in planners for s in ("time_mean_s", "time_std_s")]
+    t = pd.DataFrame(rows, columns=cols)
+    t[RATIO_COL] = t["bit_star_time_mean_s"] / t["mpnet_nr_time_mean_s"]
+    return t.reset_index(drop=True), planners
+
+
+def success_cost(res: pd.DataFrame) -> pd.DataFrame:
+    """Success rate (mean and std over seeds, %) and mean path cost per env x split x planner."""
+    cols = ["env", "split", "planner", "success_mean_pct", "success_std_pct", "cost_mean", "queries", "seeds"]
+    if res.empty:
+        return pd.DataFrame(columns=cols)
+    out = res[["env", "split", "planner", "cost_mean", "queries", "seeds"]].copy()
+    out["success_mean_pct"] = 100.0 * res["success_mean"]
+    out["success_std_pct"] = 100.0 * res["success_std"]
+    return out[cols]
+
+
+# ------------------------------------------------------------------------ rendering
+
+def _decimals(x: float, digits: int = 3) -> int:
+    """Decimals that show `digits` significant digits of x (0 for large x)."""
+    return max(0, digits - 1 - math.floor(math.log10(abs(x)))) if x else digits - 1
+
+
+def _g(x, digits: int = 3) -> str:
+    """A number with `digits` significant digits (fixed point), blank when missing."""
+    if x is None or not np.isfinite(x):
+        return ""
+    return f"{x:.{_decimals(x, digits)}f}"
+
+
+def _pm(m, s, decimals: int | None = None, sep: str = " ± ") -> str:
+    """'mean ± std', both with the decimals that give the mean 3 significant digits."""
+    if m is None or not np.isfinite(m):
+        return ""
+    d = _decimals(m) if decimals is None else decimals
+    return f"{m:.{d}f}" + ("" if s is None or not np.isfinite(s) else f"{sep}{s:.{d}f}")
+
+
+def _tex_escape(s: str) -> str:
+    return re.sub(r"([&%$#_{}])", r"\\\1", s).replace("~", r"\textasciitilde{}")
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _tex_table(header: list[str], rows: list[list[str]], groups: list, caption: str, notes: list[str],
+               n_text: int = 2) -> str:
+    """A booktabs table, its first n_text columns left-aligned, the rest right; `groups` gives
+    each row's group so a \\midrule separates groups."""
+    spec = "l" * n_text + "r" * (len(header) - n_text)
+    out = [r"\begin{table}[t]", r"\centering", r"\caption{" + caption + "}", r"\begin{tabular}{" + spec + "}",
+           r"\toprule", " & ".join(header) + r" \\", r"\midrule"]
+    last = None
+    for g, r in zip(groups, rows):
+        if last is not None and g != last:
+            out.append(r"\midrule")
+        out.append(" & ".join(r) + r" \\")
+        last = g
+    out += [r"\bottomrule", r"\end{tabular}"]
+    out += [r"\par\smallskip{\footnotesize " + n + "}" for n in notes]
+    out.append(r"\end{table}")
+    return "\n".join(out) + "\n"
+
+
+def render_table1(t: pd.DataFrame, planners: list[str], with_paper: bool) -> tuple[str, str]:
+    """Table I as (Markdown, LaTeX)."""
+    labels = [planner_label(p) for p in planners]
+    head = ["Env", "Split"] + (["Source"] if with_paper else []) + labels + [RATIO_LABEL]
+    md_rows, tex_rows, groups = [], [], []
+    prev = None
+    for r in t.itertuples(index=False):
+        r = r._asdict()
+        cells = [_pm(r[f"{p}_time_mean_s"], r[f"{p}_time_std_s"]) for p in planners]
+        ratio = _g(r[RATIO_COL])
+        first = (r["env"], r["split"]) != prev
+        prev = (r["env"], r["split"])
+        lead = [env_label(r["env"]) if first else "", r["split"] if first else ""]
+        src = [r["source"]] if with_paper else []
+        md_rows.append(lead + src + cells + [ratio])
+        tex_rows.append([_tex_escape(x) for x in lead + src]
+                        + [_pm(r[f"{p}_time_mean_s"], r[f"{p}_time_std_s"], sep=r" $\pm$ ") for p in planners]
+                        + [ratio])
+        groups.append(r["env"])
+    what = ("Planning time in seconds, mean ± std over the successful queries of all seeds; "
+            f"{RATIO_LABEL}: ratio of mean times. Blank: no successful query logged.")
+    notes = [f"Layout of Table I of {CITATION}."]
+    if with_paper:
+        notes.append("Rows 'paper' are the paper's own numbers; our baselines are OMPL's C++ planners, "
+                     "so ratios are expected to differ.")
+    md = "# Table I: planning time [s]\n\n" + _md_table(head, md_rows) + "\n\n" + what + "\n\n" + \
+        "\n".join(f"Note: {n}" for n in notes) + "\n"
+    tex = _tex_table([_tex_escape(h) for h in head], tex_rows, groups,
+                     r"Planning time [s], mean $\pm$ std over successful queries; " + _tex_escape(RATIO_LABEL)
+                     + ": ratio of mean times.", [_tex_escape(n) for n in notes], 3 if with_paper else 2)
+    return md, tex
+
+
+def render_success_cost(sc: pd.DataFrame, with_paper: bool) -> tuple[str, str]:
+    """The success / path cost table as (Markdown, LaTeX)."""
+    head = ["Env", "Split", "Planner", "Success [%]", "Path cost", "Queries", "Seeds"]
+    md_rows, tex_rows, groups = [], [], []
+    prev = None
+    for r in sc.itertuples(index=False):
+        first = (r.env, r.split) != prev
+        prev = (r.env, r.split)
+        lead = [env_label(r.env) if first else "", r.split if first else ""]
+        succ = _pm(r.success_mean_pct, r.success_std_pct, 1)
+        rest = [planner_label(r.planner), succ, _g(r.cost_mean), str(r.queries), str(r.seeds)]
+        md_rows.append(lead + rest)
+        tex_rows.append([_tex_escape(x) for x in lead + rest[:1]]
+                        + [_pm(r.success_mean_pct, r.success_std_pct, 1, sep=r" $\pm$ ")] + rest[2:])
+        groups.append(r.env)
+    what = ("Success: mean ± std over seeds of the per-seed success rate (std: ddof=1 with two seeds or "
+            "more, else 0). Path cost: mean over successful queries.")
+    notes = []
+    if with_paper:
+        notes.append(f"The paper reports MPNet (NR) succeeding about 97% and MPNet (HR) 100% of the time ({PAPER}).")
+    md = "# Success rate and path cost\n\n" + _md_table(head, md_rows) + "\n\n" + what + "\n" + \
+        "".join(f"\nNote: {n}\n" for n in notes)
+    tex = _tex_table([_tex_escape(h) for h in head], tex_rows, groups,
+                     r"Success rate [\%], mean $\pm$ std over seeds, and mean path cost of successful queries.",
+                     [_tex_escape(n) for n in notes], 3)
+    return md, tex
+
+
+# ---------------------------------------------------------------------------- figures
+
+def _figure(n_panels: int, w: float = 4.0, h: float = 3.4):
+    from matplotlib.figure import Figure
+
+    ncols = min(max(n_panels, 1), 4)
+    nrows = math.ceil(max(n_panels, 1) / ncols)
+    fig = Figure(figsize=(w * ncols, h * nrows), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[n_panels:]:
+        ax.set_visible(False)
+    return fig, axes[:n_panels]
+
+
+def _save(fig, out: Path, name: str) -> list[Path]:
+    import matplotlib
+
+    paths = []
+    with matplotlib.rc_context({"svg.hashsalt": "mpnet-bench"}):
+        for ext in ("png", "svg"):
+            p = out / f"{name}.{ext}"
+            fig.savefig(p, dpi=120 if ext == "png" else None, metadata={"Date": None} if ext == "svg" else None)
+            paths.append(p)
+    return paths
+
+
+def _grouped_bars(res: pd.DataFrame, value: str, err: str, scale: float, ylabel: str, log: bool, title: str):
+    """One panel per env: splits on x, one bar per planner (error bar: std), as the paper's Fig. 4."""
+    envs = sorted(res["env"].unique(), key=env_rank)
+    planners = sorted(res["planner"].unique(), key=planner_rank)
+    fig, axes = _figure(len(envs))
+    width = 0.8 / max(len(planners), 1)
+    for ax, env in zip(axes, envs):
+        d = res[res["env"] == env]
+        splits = sorted(d["split"].unique(), key=split_rank)
+        x = np.arange(len(splits))
+        for k, p in enumerate(planners):
+            dp = d[d["planner"] == p].set_index("split").reindex(splits)
+            m = dp[value].to_numpy(float) * scale
+            s = np.nan_to_num(dp[err].to_numpy(float) * scale)
+            lower = np.minimum(s, 0.9 * m) if log else s  # a log axis has no zero: clip the lower bar
+            ax.bar(x - 0.4 + width * (k + 0.5), m, width, yerr=np.vstack([lower, s]), capsize=2,
+                   color=PLANNER_COLORS.get(p), label=planner_label(p), error_kw={"elinewidth": 0.8})
+        ax.set_xticks(x, splits)
+        ax.set_title(env_label(env))
+        ax.set_ylabel(ylabel)
+        if log:
+            ax.set_yscale("log")
+        ax.grid(axis="y", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 6), frameon=False)
+    fig.suptitle(title)
+    return fig
+
+
+def fig_time_per_planner(res: pd.DataFrame):
+    d = res[np.isfinite(res["time_mean_s"].astype(float))] if len(res) else res
+    if d.empty:
+        return None
+    return _grouped_bars(d, "time_mean_s", "time_std_s", 1.0, "planning time [s]", True,
+                         "Mean planning time ± std (successful queries)")
+
+
+def fig_success(res: pd.DataFrame):
+    if res.empty:
+        return None
+    return _grouped_bars(res, "success_mean", "success_std", 100.0, "success [%]", False,
+                         "Success rate, mean ± std over seeds")
+
+
+def fig_time_boxplot(q: pd.DataFrame):
+    ok = q[q["success"] & (q["time_s"] > 0)]
+    if ok.empty:
+        return None
+    envs = sorted(ok["env"].unique(), key=env_rank)
+    fig, axes = _figure(len(envs))
+    for ax, env in zip(axes, envs):
+        d = ok[ok["env"] == env]
+        planners = sorted(d["planner"].unique(), key=planner_rank)
+        data = [d.loc[d["planner"] == p, "time_s"].to_numpy() for p in planners]
+        bp = ax.boxplot(data, tick_labels=[planner_label(p) for p in planners], whis=(5, 95), showfliers=False,
+                        patch_artist=True, medianprops={"color": "black"})
+        for box, p in zip(bp["boxes"], planners):
+            box.set_facecolor(PLANNER_COLORS.get(p, "#bbbbbb"))
+        ax.set_yscale("log")
+        ax.set_title(env_label(env))
+        ax.set_ylabel("planning time [s]")
+        ax.tick_params(axis="x", labelrotation=30)
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle("Per-query planning time of successes (box: quartiles, whiskers: 5th-95th percentile)")
+    return fig
+
+
+def pick_example(q: pd.DataFrame, env: str) -> tuple[dict[str, int], int] | None:
+    """Rows of q to draw for env ({planner: row}, and the row whose workspace is drawn): the
+    first query, in (split, workspace, query, seed) order, that an MPNet planner (mpnet_nr,
+    else mpnet_hr) and BIT* both solved in the same workspace; failing that, the first solved
+    query of any planner, with every planner that solved it too."""
+    d = q[(q["env"] == env) & q["success"]]
+    if d.empty:
+        return None
+    keys = [(split_rank(s), natural_key(w), natural_key(i), seed) for s, w, i, seed in
+            zip(d["split"].tolist(), d["workspace_id"].tolist(), d["query_id"].tolist(), d["seed"].tolist())]
+    d = d.iloc[sorted(range(len(d)), key=keys.__getitem__)]
+    d = d.drop_duplicates(["planner", "split", "workspace_id", "query_id"])  # each planner's first seed
+    solved = {p: dict(zip(zip(g["split"], g["workspace_id"], g["query_id"]), g.index))
+              for p, g in d.groupby("planner", sort=False)}
+    bit = solved.get("bit_star", {})
+    for mp in ("mpnet_nr", "mpnet_hr"):
+        for key, r in solved.get(mp, {}).items():  # in the sorted order
+            if key in bit:
+                return {mp: r, "bit_star": bit[key]}, r
+    r = d.index[0]
+    key = (d.at[r, "split"], d.at[r, "workspace_id"], d.at[r, "query_id"])
+    return {p: rows[key] for p, rows in solved.items() if key in rows}, r
+
+
+def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
+    """One workspace of env: obstacles, start, goal and the chosen planners' paths."""
+    from matplotlib.patches import Rectangle
+
+    pick = pick_example(q, env)
+    if pick is None:
+        return None
+    chosen, ref = pick
+    tf = files[int(q.at[ref, "file"])]
+    msg = tf.queries[int(q.at[ref, "qidx"])]
+    ws = tf.workspaces.get((str(msg.get("split")), str(msg.get("workspace_id"))))
+    robot = ws.get("robot") if ws else None
+    kind = robot.get("kind") if isinstance(robot, dict) else None
+    if ws is None or kind not in ("point", "rectangle"):
+        return None
+    fig, (ax,) = _figure(1, 6.0, 6.0)
+    bounds = ws.get("bounds") or [[-20, 20], [-20, 20]]
+    wd = len((ws.get("obstacles") or [{"center": [0, 0]}])[0]["center"])
+    for o in ws.get("obstacles", []):
+        c, s = np.asarray(o["center"], float), np.asarray(o["size"], float)
+        ax.add_patch(Rectangle(tuple(c[:2] - s[:2] / 2), s[0], s[1], facecolor="0.55",
+                               alpha=0.85 if wd == 2 else 0.35, edgecolor="0.3", lw=0.5))
+    for p in sorted(chosen, key=planner_rank):
+        r = chosen[p]
+        m = files[int(q.at[r, "file"])].queries[int(q.at[r, "qidx"])]
+        path = np.asarray(m.get("path") or [], float)
+        if path.ndim != 2 or len(path) < 2:
+            continue
+        color = PLANNER_COLORS.get(p, "black")
+        ax.plot(path[:, 0], path[:, 1], "-o", color=color, ms=3, lw=1.8,
+                label=f"{planner_label(p)} (cost {_g(q.at[r, 'path_cost'])}, {_g(q.at[r, 'time_s'])} s)")
+        if kind == "rectangle" and path.shape[1] >= 3:
+            for o in rect_outlines(path[:, :3], robot.get("size", (2.0, 5.0))):
+                ax.plot(o[:, 0], o[:, 1], color=color, lw=0.7, alpha=0.6)
+    start, goal = np.asarray(msg["start"], float), np.asarray(msg["goal"], float)
+    ax.plot(*start[:2], "o", color="#2050f0", ms=9, label="start", zorder=5)
+    ax.plot(*goal[:2], "*", color="#f09000", ms=14, label="goal", zorder=5)
+    ax.set_xlim(*bounds[0])
+    ax.set_ylim(*bounds[1])
+    ax.set_aspect("equal")
+    proj = ", x-y projection" if wd == 3 else ""
+    ax.set_title(f"{env_label(env)}: {msg.get('split')} workspace {msg.get('workspace_id')}, "
+                 f"query {msg.get('query_id')}{proj}", fontsize=10)
+    fig.legend(loc="outside lower center", ncols=2, fontsize=8, frameon=False)
+    return fig
+
+
+def write_figures(res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], out: Path
+                  ) -> tuple[list[Path], list[str]]:
+    """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
+    whose data is malformed is left out with a warning line."""
+    out.mkdir(parents=True, exist_ok=True)
+    makers = [("time_per_planner", lambda: fig_time_per_planner(res)), ("success", lambda: fig_success(res)),
+              ("time_boxplot", lambda: fig_time_boxplot(q))]
+    makers += [(f"example_{env}", lambda env=env: fig_example(q, files, env))
+               for env in sorted(q["env"].unique(), key=env_rank)]
+    written, warns = [], []
+    for name, make in makers:
+        try:
+            fig = make()
+        except (KeyError, IndexError, TypeError, ValueError) as e:
+            warns.append(f"warning: figure {name} left out: malformed data in the logs ({type(e).__name__}: {e})")
+            continue
+        if fig is not None:
+            written += _save(fig, out, name)
+    return written, warns
+
+
+# ----------------------------------------------------------------- OMPL benchmark db
+
+_RUN_COLUMNS = (  # OMPL's own run properties first, then ours
+    ("time", "REAL"), ("memory", "REAL"), ("solved", "BOOLEAN"), ("status", "ENUM"),
+    ("approximate_solution", "BOOLEAN"), ("correct_solution", "BOOLEAN"), ("solution_length", "REAL"),
+    ("solution_segments", "INTEGER"), ("cpu_time", "REAL"), ("collision_checks", "INTEGER"),
+    ("state_checks", "INTEGER"), ("motion_checks", "INTEGER"), ("pnet_calls", "INTEGER"),
+    ("replans", "INTEGER"), ("fallback_used", "BOOLEAN"), ("seed", "INTEGER"), ("split", "VARCHAR(64)"),
+    ("workspace_id", "VARCHAR(256)"), ("query_id", "VARCHAR(256)"), ("failure", "VARCHAR(256)"),
+)
+
+_SCHEMA = """
+CREATE TABLE experiments
+    (id INTEGER PRIMARY KEY AUTOINCREMENT, name VARCHAR(512),
+    totaltime REAL, timelimit REAL, memorylimit REAL, runcount INTEGER,
+    version VARCHAR(128), hostname VARCHAR(1024), cpuinfo TEXT,
+    date DATETIME, seed VARCHAR(24), setup TEXT);
+CREATE TABLE plannerConfigs
+    (id INTEGER PRIMARY KEY AUTOINCREMENT,
+    name VARCHAR(512) NOT NULL, settings TEXT);
+CREATE TABLE enums
+    (name VARCHAR(512), value INTEGER, description TEXT,
+    PRIMARY KEY (name, value));
+CREATE TABLE runs
+    (id INTEGER PRIMARY KEY AUTOINCREMENT, experimentid INTEGER, plannerid INTEGER,
+    FOREIGN KEY (experimentid) REFERENCES experiments(id) ON DELETE CASCADE,
+    FOREIGN KEY (plannerid) REFERENCES plannerConfigs(id) ON DELETE CASCADE);
+CREATE TABLE progress
+    (runid INTEGER, time REAL, PRIMARY KEY (runid, time),
+    FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
+"""
+
+_VIEWS = """
+CREATE VIEW bestPlannerConfigsPerExperiment AS
+SELECT plannerid, experimentid, MIN(avg_solved) AS avg_solved, avg_total_time FROM
+  (SELECT plannerid, plannerName, experimentid, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time
+   FROM (SELECT plannerid, plannerConfigs.name AS plannerName, experimentid, solved, time AS total_time
+         FROM plannerConfigs INNER JOIN experiments INNER JOIN runs
+         ON plannerConfigs.id=runs.plannerid AND experiments.id=runs.experimentid)
+   GROUP BY plannerid, experimentid)
+GROUP BY plannerName, experimentid ORDER BY avg_solved DESC, avg_total_time ASC;
+CREATE VIEW bestPlannerConfigs AS
+SELECT plannerid, MIN(avg_solved) AS avg_solved, avg_total_time FROM
+  (SELECT plannerid, plannerName, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time
+   FROM (SELECT plannerid, plannerConfigs.name AS plannerName, experimentid, solved, time AS total_time
+         FROM plannerConfigs INNER JOIN experiments INNER JOIN runs
+         ON plannerConfigs.id=runs.plannerid AND experiments.id=runs.experimentid)
+   GROUP BY plannerid)
+GROUP BY plannerName ORDER BY avg_solved DESC, avg_total_time ASC;
+"""
+
+
+def planner_settings(config) -> str:
+    """The `planner:` section of a run's resolved config (YAML text), or all of it."""
+    import yaml
+
+    text = str(config or "")
+    try:
+        cfg = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+    if isinstance(cfg, dict) and isinstance(cfg.get("planner"), dict):
+        return yaml.safe_dump(cfg["planner"], sort_keys=False)
+    return text
+
+
+def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
+    """OMPL PlannerStatus values: exact solution for a success; timeout, invalid start,
+    crash (an exception in the planner) or unknown (no solution, a path that failed the
+    harness's re-check, ...) for a failure."""
+    f = failure.fillna("").astype(str)
+    st = np.full(len(f), ST_UNKNOWN)
+    st[f.eq("timeout").to_numpy()] = ST_TIMEOUT
+    st[f.eq("invalid_query").to_numpy()] = ST_INVALID_START
+    st[f.isin(("error", "exception", "crash")).to_numpy()] = ST_CRASH
+    st[success.to_numpy(bool)] = ST_EXACT
+    return st
+
+
+def _budget(config: str) -> float | None:
+    m = re.search(r"^budget_s:\s*([0-9.eE+-]+)\s*$", str(config or ""), re.MULTILINE)
+    try:
+        return float(m.group(1)) if m else None
+    except ValueError:
+        return None
+
+
+def _none(v):
+    """NaN to None (NULL); numpy scalars to Python ones."""
+    if v is None:
+        return None
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> int:
+    """OUT/benchmark.db in the schema of OMPL's benchmark statistics script, so Planner Arena
+    opens it: one experiment per env x split, one planner config per planner, one run per
+    query. Replaces any earlier file. Returns the number of runs written."""
+    if path.exists():
+        path.unlink()
+    conn = sqlite3.connect(path)
+    try:
+        c = conn.cursor()
+        c.execute("PRAGMA FOREIGN_KEYS = ON")
+        c.executescript(_SCHEMA)
+        for name, typ in _RUN_COLUMNS:
+            c.execute(f"ALTER TABLE runs ADD {name} {typ}")
+        c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
+        runs = {}
+        for tf in files:
+            runs.setdefault(str(tf.run["planner"]), tf.run)
+        planner_ids = {}
+        for p in sorted(runs, key=planner_rank):
+            c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)",
+                      (f"geometric_{p}", planner_settings(runs[p].get("config"))))
+            planner_ids[p] = c.lastrowid
+        if q.empty:
+            conn.commit()
+            return 0
+        ompl_versions = {str((tf.run.get("versions") or {}).get("ompl", "0.0.0")) for tf in files}
+        n = 0
+        order = _sort(q[["env", "split"]].drop_duplicates(), ("env", "split"))
+        for env, split in zip(order["env"], order["split"]):
+            d = q[(q["env"] == env) & (q["split"] == split)]
+            fruns = [files[i].run for i in sorted(d["file"].unique())]
+            budgets = {b for b in (_budget(r.get("config")) for r in fruns) if b is not None}
+            started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
+            hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
+            git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})
+            c.execute("INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
+                      " cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                      (f"{env} {split}", float(np.nansum(d["time_s"])), max(budgets) if budgets else None, 0.0,
+                       int(d.groupby("planner").size().max()), "OMPL " + ",".join(sorted(ompl_versions)),
+                       ", ".join(hosts), None, started[0] if started else None,
+                       ",".join(str(s) for s in sorted(d["seed"].unique())),
+                       f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}"))
+            exp_id = c.lastrowid
+            ok = d["success"].to_numpy(bool)
+            status = ompl_status(d["success"], d["failure"])
+            plen = np.array([len(files[f].queries[i].get("path") or []) for f, i in zip(d["file"], d["qidx"])])
+            cols = {
+                "time": d["time_s"], "memory": pd.Series(0.0, index=d.index), "solved": ok.astype(int),
+                "status": status, "approximate_solution": np.zeros(len(d), int), "correct_solution": ok.astype(int),
+                "solution_length": d["path_cost"].where(ok), "solution_segments": np.where(ok, plen - 1, np.nan),
+                "cpu_time": d["cpu_s"], "collision_checks": d["collision_checks"], "state_checks": d["state_checks"],
+                "motion_checks": d["motion_checks"], "pnet_calls": d["pnet_calls"], "replans": d["replans"],
+                "fallback_used": d["fallback_used"], "seed": d["seed"], "split": d["split"],
+                "workspace_id": d["workspace_id"], "query_id": d["query_id"], "failure": d["failure"],
+            }
+            ints = {"solution_segments", "collision_checks", "state_checks", "motion_checks", "pnet_calls",
+                    "replans", "fallback_used", "seed"}
+            data = [[exp_id] * len(d), [planner_ids[p] for p in d["planner"]]]
+            for name, _ in _RUN_COLUMNS:
+                v = np.asarray(cols[name], dtype=object)
+                data.append([None if x is None or (isinstance(x, float) and not math.isfinite(x))
+                             else (int(x) if name in ints else _none(x)) for x in v])
+            names = ["experimentid", "plannerid"] + [n for n, _ in _RUN_COLUMNS]
+            c.executemany(f"INSERT INTO runs ({','.join(names)}) VALUES ({','.join('?' * len(names))})",
+                          list(zip(*data)))
+            n += len(d)
+        c.executescript(_VIEWS)
+        conn.commit()
+        return n
+    finally:
+        conn.close()
+
+
+# ------------------------------------------------------------------------ the report
+
+def readme_text(n_files: int, n_queries: int, with_paper: bool) -> str:
+    """OUT/README.md: what each output is and how its numbers are computed."""
+    paper_rows = " (and the paper's rows)" if with_paper else ""
+    return f"""# mpnet-bench report
+
+Regenerated by `python -m harness.report` from {n_files} trial logs ({n_queries} queries); do not edit.
+
+- `results.csv`: one row per env × split × planner: queries, seeds, success, time, cost,
+  collision checks, planner stats.
+- `table1.md`, `table1.tex`, `table1.csv`: Table I, planning time mean ± std [s] per env × split
+  and planner, and the BIT*/MPNet (NR) ratio{paper_rows}.
+- `success_cost.md`, `success_cost.tex`, `success_cost.csv`: success rate [%] (mean ± std over
+  seeds) and mean path cost.
+- `figures/`: `time_per_planner` (bars: mean; error bars: std, the lower one clipped at a tenth
+  of the mean on the log axis), `success`, `time_boxplot`, `example_<env>`; PNG and SVG.
+- `benchmark.db`: an OMPL benchmark database (one experiment per env × split, one run per
+  query); open it in Planner Arena (plannerarena.org).
+
+How the numbers are computed:
+
+- The split of a row is each query's own `split`.
+- `queries` counts every logged query of every seed; `seeds` is the number of distinct seeds.
+  Files with the same env, planner and seed (e.g. a sweep run twice) all count: their queries
+  are pooled into that seed.
+- Success: mean ± std over seeds of each seed's success rate; the std is the sample std
+  (ddof=1) with two seeds or more, 0 with one.
+- Time (mean, std, median, p90), path cost and collision checks: over the successful queries of
+  all seeds pooled; the time std is the sample std (ddof=1), 0 for a single success.
+- `pnet_calls_median`, `replans_mean`, `fallback_rate`: over the queries that logged them.
+- `benchmark.db` status: exact solution for a success, timeout, invalid start (an invalid
+  query), crash (an exception), unknown (no solution, or a path that failed the harness's
+  re-check); `solved` and `correct_solution` are the harness's verdict, `solution_length`
+  the path cost.
+
+Paper numbers: {CITATION}.
+"""
+
+
+def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper: bool = False) -> dict:
+    """Read the trial logs under dirs and write every output into out. Returns a summary
+    dict (files, skipped, warnings, queries, outputs); files == 0 means nothing was written."""
+    files, warns, skipped = load(dirs)
+    summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": []}
+    if not files:
+        return summary
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    q = queries_frame(files)
+    summary["queries"] = len(q)
+    res = results_table(q)
+    res.to_csv(out / "results.csv", index=False)
+    written = [out / "results.csv"]
+    paper_df = load_paper() if paper else None
+    t, planners = table1(res, paper_df)
+    t.to_csv(out / "table1.csv", index=False)
+    md, tex = render_table1(t, planners, paper)
+    (out / "table1.md").write_text(md)
+    (out / "table1.tex").write_text(tex)
+    sc = success_cost(res)
+    sc.to_csv(out / "success_cost.csv", index=False)
+    md, tex = render_success_cost(sc, paper)
+    (out / "success_cost.md").write_text(md)
+    (out / "success_cost.tex").write_text(tex)
+    written += [out / n for n in ("table1.md", "table1.tex", "table1.csv",
+                                  "success_cost.md", "success_cost.tex", "success_cost.csv")]
+    summary["figures"], fig_warns = write_figures(res, q, files, out / "figures")
+    warns += fig_warns
+    write_benchmark_db(q, files, out / "benchmark.db")
+    (out / "README.md").write_text(readme_text(len(files), len(q), paper))
+    summary["outputs"] = written + [out / "benchmark.db", out / "README.md"]
+    return summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m harness.report",
+                                 description="Table I, figures and an OMPL benchmark database from trial logs.")
+    ap.add_argument("dirs", nargs="+", metavar="DIR", help="directories searched recursively for trials.mcap")
+    ap.add_argument("--out", default="reports", help="output directory (default: reports/)")
+    ap.add_argument("--paper", action="store_true", help="put the paper's Table I numbers beside ours")
+    args = ap.parse_args(argv)
+    try:
+        s = write_report(args.dirs, args.out, args.paper)
+    except OSError as e:
+        print(f"error: cannot write the report to {args.out}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    for w in s["warnings"]:
+        print(w, file=sys.stderr)
+    if not s["files"]:
+        print(f"error: no readable trials.mcap under {', '.join(args.dirs)}", file=sys.stderr)
+        return 1
+    out = Path(args.out)
+    print(f"read {s['files']} trial logs ({s['queries']} queries), skipped {s['skipped']}")
+    print(f"wrote {out}/: results.csv, table1.{{md,tex,csv}}, success_cost.{{md,tex,csv}}, benchmark.db, "
+          f"README.md, figures/ ({len(s['figures']) // 2} figures)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,275 @@
+"""`python -m harness.report` (DESIGN §6 "Report"): statistics from known logs, Table I with
+and without the paper's numbers, figures, the OMPL benchmark database, bad files."""
+from __future__ import annotations
+
+import math
+import os
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from harness.report import env_rank, load, main, pick_example, queries_frame
+from harness.trial_log import TrialLog
+from mpnet.envs.specs import SPECS
+from mpnet.envs.workspace import Workspace
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def ws(env: str, wid: str, split: str) -> Workspace:
+    wd = SPECS[env].workspace_dim
+    return Workspace(wid, split, np.array([[0.0] * wd, [10.0] * wd]), np.array([[4.0] * wd, [3.0] * wd]))
+
+
+def write_log(run_dir: Path, env: str, planner: str, seed: int, queries: list[dict]) -> Path:
+    """A trials.mcap with the given queries: dicts with split, wid, i, ok, t, and optional
+    cost, checks and planner stats; paths run start -> (0, 15) -> goal."""
+    spec = SPECS[env]
+    d = spec.state_dim
+    run = {"env": env, "planner": planner, "seed": seed, "split": "seen+unseen",
+           "config": f"budget_s: 10.0\nplanner:\n  name: {planner}\n", "git_rev": "abc1234",
+           "versions": {"ompl": "2.0.1"}, "host": "testhost", "started_at": "2026-11-21T12:00:00+00:00"}
+    with TrialLog(run_dir, run, spec, rerun=False) as log:
+        for q in queries:
+            log.add_workspace(ws(env, q["wid"], q["split"]))
+            start, mid, goal = np.full(d, -15.0), np.zeros(d), np.full(d, 15.0)
+            mid[1] = 15.0
+            if spec.is_se2:
+                start[2], mid[2], goal[2] = 0.0, 1.0, 0.5
+            rec = dict(query_id=f"{q['wid']}/{q['i']}", workspace_id=q["wid"], split=q["split"], start=start,
+                       goal=goal, success=q["ok"], failure=None if q["ok"] else q.get("failure", "timeout"),
+                       path=[start, mid, goal] if q["ok"] else [], time_s=q["t"], cpu_s=q["t"],
+                       path_cost=q.get("cost", 50.0) if q["ok"] else None, collision_checks=q.get("checks", 100),
+                       state_checks=1, motion_checks=1)
+            rec.update(q.get("stats", {}))
+            log.add_query(rec)
+    return run_dir / "trials.mcap"
+
+
+def Q(split, wid, i, ok, t, **kw):
+    return dict(split=split, wid=wid, i=i, ok=ok, t=t, **kw)
+
+
+def report(tmp_path, *dirs, paper=False):
+    out = tmp_path / "out"
+    rc = main([str(d) for d in dirs] + ["--out", str(out)] + (["--paper"] if paper else []))
+    return rc, out
+
+
+@pytest.fixture()
+def known(tmp_path):
+    """s2d: mpnet_nr seeds 0 and 1, bit_star seed 0 logged twice (two files)."""
+    logs = tmp_path / "logs"
+    nr = dict(pnet_calls=4, replans=1, fallback_used=False)
+    write_log(logs / "nr0", "s2d", "mpnet_nr", 0, [
+        Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10, stats=nr),
+        Q("seen", "0", 1, True, 0.2, cost=20.0, checks=20, stats={**nr, "pnet_calls": 6, "replans": 0}),
+        Q("seen", "1", 0, True, 0.3, cost=30.0, checks=30, stats={**nr, "fallback_used": True}),
+        Q("seen", "1", 1, False, 9.0, checks=999, stats=nr),
+        Q("unseen", "100", 0, True, 0.5, cost=5.0, stats=nr)])
+    write_log(logs / "nr1", "s2d", "mpnet_nr", 1, [
+        Q("seen", "0", 0, True, 0.4, cost=40.0, checks=40, stats=nr),
+        Q("seen", "0", 1, False, 1.0, failure="no_solution", stats=nr)])
+    for k in ("a", "b"):
+        write_log(logs / k / "bit0", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 2.0, cost=12.0),
+                                                            Q("seen", "0", 1, True, 3.0, cost=14.0)])
+    return logs
+
+
+def test_statistics_exact(tmp_path, known, capsys):
+    rc, out = report(tmp_path, known)
+    assert rc == 0
+    so = capsys.readouterr().out
+    assert "read 4 trial logs" in so and "skipped 0" in so
+    res = pd.read_csv(out / "results.csv", keep_default_na=False, na_values=[""])
+    assert list(zip(res["split"], res["planner"])) == [("seen", "mpnet_nr"), ("seen", "bit_star"),
+                                                       ("unseen", "mpnet_nr")]
+    nr = res.iloc[0]
+    assert (nr["env"], nr["queries"], nr["seeds"], nr["successes"]) == ("s2d", 6, 2, 4)
+    assert nr["success_mean"] == pytest.approx(0.625)                      # seeds: 3/4 and 1/2
+    assert nr["success_std"] == pytest.approx(0.25 / math.sqrt(2))         # ddof=1 over 2 seeds
+    assert nr["time_mean_s"] == pytest.approx(0.25)                        # successes 0.1 .. 0.4
+    assert nr["time_std_s"] == pytest.approx(np.std([0.1, 0.2, 0.3, 0.4], ddof=1))
+    assert nr["time_median_s"] == pytest.approx(0.25)
+    assert nr["time_p90_s"] == pytest.approx(0.37)
+    assert nr["cost_mean"] == pytest.approx(25.0)
+    assert nr["collision_checks_median"] == pytest.approx(25.0)
+    assert nr["pnet_calls_median"] == pytest.approx(4.0)                    # over all 6 queries
+    assert nr["replans_mean"] == pytest.approx(5 / 6)
+    assert nr["fallback_rate"] == pytest.approx(1 / 6)
+    assert nr["failures"] == "no_solution: 1; timeout: 1"
+    bit = res.iloc[1]                                                       # one seed, two files
+    assert (bit["queries"], bit["seeds"], bit["success_mean"], bit["success_std"]) == (4, 1, 1.0, 0.0)
+    assert bit["time_mean_s"] == pytest.approx(2.5) and bit["cost_mean"] == pytest.approx(13.0)
+    assert math.isnan(bit["pnet_calls_median"]) and math.isnan(bit["fallback_rate"])
+    un = res.iloc[2]
+    assert (un["queries"], un["seeds"], un["success_std"], un["time_std_s"]) == (1, 1, 0.0, 0.0)
+
+    t1 = pd.read_csv(out / "table1.csv")
+    assert list(t1["split"]) == ["seen", "unseen"] and set(t1["source"]) == {"ours"}
+    row = t1.iloc[0]
+    assert row["mpnet_nr_time_mean_s"] == pytest.approx(0.25)
+    assert row["bit_star_over_mpnet_nr"] == pytest.approx(10.0)
+    assert math.isnan(row["mpnet_hr_time_mean_s"]) and math.isnan(t1.iloc[1]["bit_star_over_mpnet_nr"])
+    md = (out / "table1.md").read_text()
+    assert "| Simple 2D | seen | 0.250 ± 0.129 |  |  | 2.50 ± 0.58 | 10.0 |" in md
+    sc = (out / "success_cost.md").read_text()
+    assert "| Simple 2D | seen | MPNet (NR) | 62.5 ± 17.7 | 25.0 | 6 | 2 |" in sc
+    assert "ddof=1" in (out / "README.md").read_text()
+
+
+def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
+    logs = tmp_path / "logs"
+    write_log(logs / "b", "c2d", "bit_star", 0, [Q("unseen", "100", 0, True, 0.002)])
+    write_log(logs / "r", "c2d", "rrt_connect", 0, [Q("unseen", "100", 0, True, 0.001)])
+    write_log(logs / "i", "c2d", "informed_rrt_star", 0, [Q("unseen", "100", 0, False, 10.0)])
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    assert "| Complex 2D | unseen | Informed-RRT* | 0.0 ± 0.0 |  | 1 | 1 |" in (out / "success_cost.md").read_text()
+    md = (out / "table1.md").read_text()
+    head = "| Env | Split | MPNet (NR) | MPNet (HR) | Informed-RRT* | BIT* | RRT-Connect | BIT*/MPNet (NR) |"
+    assert head in md
+    assert "| Complex 2D | unseen |  |  |  | 0.00200 ± 0.00000 | 0.00100 ± 0.00000 |  |" in md
+    assert "arXiv:1806.05767" in md and "paper" not in md.split("\n\n")[1]
+
+    rc, out = report(tmp_path, logs, paper=True)
+    assert rc == 0
+    md = (out / "table1.md").read_text()
+    assert "| Env | Split | Source |" in md
+    assert "|  |  | paper | 0.180 ± 0.270 | 0.680 ± 0.410 | 6.31 ± 0.85 | 4.12 ± 1.99 |  | 22.9 |" in md
+    assert "Python implementations" in md
+    tex = (out / "table1.tex").read_text()
+    for cmd in (r"\toprule", r"\midrule", r"\bottomrule", r"$\pm$", "arXiv:1806.05767"):
+        assert cmd in tex
+    t1 = pd.read_csv(out / "table1.csv")
+    assert list(t1["source"]) == ["ours", "paper"]
+    assert t1.iloc[1]["bit_star_time_mean_s"] == pytest.approx(4.12)
+    assert (out / "success_cost.tex").read_text().count(r"\bottomrule") == 1
+
+
+def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
+    good = write_log(tmp_path / "logs" / "extra", "s2d", "bit_star", 1,
+                     [Q("seen", "0", k, True, 0.1) for k in range(20)])
+    data = good.read_bytes()
+    with open(good, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    cut = chunks[len(chunks) // 2].chunk_start_offset + 20  # mid-chunk, halfway through the queries
+    bad = tmp_path / "logs" / "bad"
+    (bad / "truncated").mkdir(parents=True)
+    (bad / "truncated" / "trials.mcap").write_bytes(data[:cut])
+    (bad / "garbage").mkdir()
+    (bad / "garbage" / "trials.mcap").write_bytes(os.urandom(5000))
+    (bad / "empty").mkdir()
+    (bad / "empty" / "trials.mcap").write_bytes(b"")
+    (bad / "norun").mkdir()
+    with open(bad / "norun" / "trials.mcap", "wb") as f:   # a valid MCAP file without /run
+        w = Writer(f)
+        w.start()
+        ch = w.register_channel("/query", "json", w.register_schema("x", "jsonschema", b"{}"))
+        w.add_message(ch, 1, b'{"query_id": "0"}', 1)
+        w.finish()
+    rc, out = report(tmp_path, tmp_path / "logs")
+    cap = capsys.readouterr()
+    assert rc == 0 and "Traceback" not in cap.err
+    lines = cap.err.strip().splitlines()
+    assert len(lines) == 4
+    for name in ("truncated", "garbage", "empty", "norun"):
+        assert sum(str(bad / name / "trials.mcap") in ln for ln in lines) == 1
+    assert "skipped 3" in cap.out
+    res = pd.read_csv(out / "results.csv")
+    bit = res[(res["planner"] == "bit_star") & (res["split"] == "seen")].iloc[0]
+    # the 4 known queries, the 20 of the good extra file, and what the truncated copy kept
+    assert 24 <= bit["queries"] < 44 and bit["seeds"] == 2
+
+
+def test_no_readable_files_exit_1(tmp_path):
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "junk" / "x").mkdir(parents=True)
+    (tmp_path / "junk" / "x" / "trials.mcap").write_bytes(b"not an mcap file")
+    for d, n_lines in ((tmp_path / "empty", 1), (tmp_path / "junk", 2)):
+        p = subprocess.run([sys.executable, "-m", "harness.report", str(d), "--out", str(tmp_path / "out")],
+                           cwd=REPO, check=False, capture_output=True, text=True, timeout=120)
+        assert p.returncode == 1 and "Traceback" not in p.stderr and p.stdout == ""
+        lines = p.stderr.strip().splitlines()
+        assert len(lines) == n_lines and lines[-1].startswith("error: no readable trials.mcap")
+    assert not (tmp_path / "out").exists()
+
+
+def test_benchmark_db(tmp_path, known):
+    for _ in range(2):  # a second report replaces the database
+        rc, out = report(tmp_path, known)
+        assert rc == 0
+    con = sqlite3.connect(out / "benchmark.db")
+    names = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    assert {"experiments", "plannerConfigs", "runs", "progress", "enums"} <= names
+    assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 11
+    assert [r[0] for r in con.execute("SELECT name FROM experiments ORDER BY id")] == ["s2d seen", "s2d unseen"]
+    planners = {r[0] for r in con.execute("SELECT name FROM plannerConfigs")}
+    assert planners == {"geometric_mpnet_nr", "geometric_bit_star"}
+    enums = dict(con.execute("SELECT description, value FROM enums WHERE name='status'"))
+    cols = [r[1] for r in con.execute("PRAGMA table_info(runs)")]
+    assert cols[:3] == ["id", "experimentid", "plannerid"]
+    assert {"time", "memory", "solved", "status", "solution_length", "collision_checks", "seed", "split",
+            "workspace_id", "query_id"} <= set(cols)
+    rows = con.execute("SELECT r.solved, r.status, r.solution_length, r.time, r.failure, r.query_id FROM runs r "
+                       "JOIN plannerConfigs p ON p.id = r.plannerid WHERE p.name = 'geometric_mpnet_nr' "
+                       "AND r.seed = 0 AND r.split = 'seen' ORDER BY r.query_id").fetchall()
+    assert rows == [(1, enums["Exact solution"], 10.0, 0.1, None, "0/0"),
+                    (1, enums["Exact solution"], 20.0, 0.2, None, "0/1"),
+                    (1, enums["Exact solution"], 30.0, 0.3, None, "1/0"),
+                    (0, enums["Timeout"], None, 9.0, "timeout", "1/1")]
+    assert con.execute("SELECT status FROM runs WHERE failure = 'no_solution'").fetchone()[0] == enums["Unknown status"]
+    assert con.execute("SELECT count(*) FROM progress").fetchone()[0] == 0
+    con.close()
+
+
+def test_figures_and_example_choice(tmp_path, capsys):
+    logs = tmp_path / "logs"
+    for env in ("rigid", "c3d"):
+        # query 0/0: only BIT* solved it; 0/1: both did (the example); 0/2: both did, later
+        write_log(logs / env / "nr", env, "mpnet_nr", 0, [Q("seen", "0", 0, False, 1.0), Q("seen", "0", 1, True, 0.1),
+                                                          Q("seen", "0", 2, True, 0.1)])
+        write_log(logs / env / "bit", env, "bit_star", 0, [Q("seen", "0", k, True, 1.0) for k in range(3)])
+    rc, out = report(tmp_path, logs)
+    assert rc == 0 and capsys.readouterr().err == ""
+    names = {p.name for p in (out / "figures").iterdir()}
+    for fig in ("time_per_planner", "success", "time_boxplot", "example_rigid", "example_c3d"):
+        assert {fig + ".png", fig + ".svg"} <= names
+    files, _, _ = load([logs])
+    q = queries_frame(files)
+    chosen, ref = pick_example(q, "rigid")
+    assert set(chosen) == {"mpnet_nr", "bit_star"} and q.at[ref, "query_id"] == "0/1"
+    assert {q.at[r, "query_id"] for r in chosen.values()} == {"0/1"}
+
+
+def test_env_order():
+    assert sorted(["zeta", "rigid", "arm7", "s2d", "c3d", "c2d"], key=env_rank) == \
+        ["s2d", "c2d", "c3d", "rigid", "arm7", "zeta"]
+
+
+def test_real_bench_runs(tmp_path):
+    """A tiny sweep of the real bench, then the report CLI on it."""
+    sweep = tmp_path / "sweep"
+    subprocess.run([sys.executable, "-m", "harness", "-m", "+env=s2d", "+planner=bit_star,rrt_connect", "seed=0,1",
+                    "scale=tiny", "rerun=false", "progress=false", f"hydra.sweep.dir={sweep}"],
+                   cwd=REPO, check=True, capture_output=True, timeout=300)
+    out = tmp_path / "out"
+    p = subprocess.run([sys.executable, "-m", "harness.report", str(sweep), "--out", str(out), "--paper"],
+                       cwd=REPO, check=False, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "read 4 trial logs (32 queries), skipped 0" in p.stdout
+    res = pd.read_csv(out / "results.csv")
+    assert len(res) == 4 and set(res["queries"]) == {8} and set(res["seeds"]) == {2}
+    assert (res["time_mean_s"] > 0).all() and (res["success_mean"] > 0.5).all()
+    for fig in ("time_per_planner", "success", "time_boxplot", "example_s2d"):
+        assert (out / "figures" / f"{fig}.png").stat().st_size > 0
+    con = sqlite3.connect(out / "benchmark.db")
+    assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 32
+    con.close()
