@@ -3,6 +3,7 @@ import csv
 import json
 import os
 import shutil
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
@@ -316,3 +317,10 @@ def test_table1_experiment_and_report(tmp_path):
         (p, s, "2", "8") for p in ("bit_star", "mpnet_nr") for s in ("seen", "unseen")]
     table = (out / "table1.md").read_text()
     assert "MPNet (NR)" in table and "BIT*" in table and "paper" in table
+    for fig in ("time_per_planner", "success", "time_boxplot", "example_s2d"):
+        assert (out / "figures" / f"{fig}.png").stat().st_size > 0
+    con = sqlite3.connect(out / "benchmark.db")
+    assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 32
+    con.close()
+    readme = (out / "README.md").read_text()
+    assert "Scale: tiny" in readme and "Compared with the paper" in readme

@@ -252,24 +252,3 @@ def test_figures_and_example_choice(tmp_path, capsys):
 def test_env_order():
     assert sorted(["zeta", "rigid", "arm7", "s2d", "c3d", "c2d"], key=env_rank) == \
         ["s2d", "c2d", "c3d", "rigid", "arm7", "zeta"]
-
-
-def test_real_bench_runs(tmp_path):
-    """A tiny sweep of the real bench, then the report CLI on it."""
-    sweep = tmp_path / "sweep"
-    subprocess.run([sys.executable, "-m", "harness", "-m", "+env=s2d", "+planner=bit_star,rrt_connect", "seed=0,1",
-                    "scale=tiny", "rerun=false", "progress=false", f"hydra.sweep.dir={sweep}"],
-                   cwd=REPO, check=True, capture_output=True, timeout=300)
-    out = tmp_path / "out"
-    p = subprocess.run([sys.executable, "-m", "harness.report", str(sweep), "--out", str(out), "--paper"],
-                       cwd=REPO, check=False, capture_output=True, text=True, timeout=120)
-    assert p.returncode == 0, p.stderr
-    assert "read 4 trial logs (32 queries), skipped 0" in p.stdout
-    res = pd.read_csv(out / "results.csv")
-    assert len(res) == 4 and set(res["queries"]) == {8} and set(res["seeds"]) == {2}
-    assert (res["time_mean_s"] > 0).all() and (res["success_mean"] > 0.5).all()
-    for fig in ("time_per_planner", "success", "time_boxplot", "example_s2d"):
-        assert (out / "figures" / f"{fig}.png").stat().st_size > 0
-    con = sqlite3.connect(out / "benchmark.db")
-    assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 32
-    con.close()
