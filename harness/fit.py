@@ -91,8 +91,12 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
     module = PnetModule(pnet, ae_best.encoder, lr=params["lr"], optimizer=params["optimizer"],
                         freeze_encoder=True, state_scale=state_scale(spec))
-    dm = MPNetDataModule(flat_train, pairs.ws_index, pairs.x_t, pairs.x_goal, pairs.x_next, params["batch_size"],
-                         params["val_fraction"], params["seed"], groups=pairs.path_id)
+    import torch
+
+    with torch.no_grad():  # the encoder is frozen: each workspace's code once, not once per batch
+        codes = module.encode(torch.from_numpy(np.ascontiguousarray(flat_train, np.float32))).numpy()
+    dm = MPNetDataModule(codes, pairs.ws_index, pairs.x_t, pairs.x_goal, pairs.x_next, params["batch_size"],
+                         params["val_fraction"], params["seed"], groups=pairs.path_id, features="codes")
     trainer, ckpt2 = _trainer(folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress,
                               params.get("limit_batches"))
     trainer.fit(module, datamodule=dm)

@@ -373,6 +373,30 @@ def test_train_enet_then_pnet_and_reload(tmp_path):
     np.testing.assert_allclose(np_pnet(z, x[0].numpy(), g[0].numpy()), ref[0].numpy(), rtol=1e-4, atol=1e-4)
 
 
+def test_precomputed_codes_give_the_same_loss_as_clouds():
+    """Training on a frozen encoder's codes, computed once, is training on the clouds."""
+    torch.manual_seed(0)
+    clouds, ws, x_t, x_goal, x_next = _pair_data(n=50)
+    mod = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4))
+    with torch.no_grad():
+        codes = mod.encode(torch.from_numpy(clouds).float()).numpy()
+    by_cloud = MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0)
+    by_code = MPNetDataModule(codes, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0,
+                              features="codes")
+    by_cloud.setup("fit")
+    by_code.setup("fit")
+    (a,), (b,) = list(by_cloud.val_dataloader()), list(by_code.val_dataloader())
+    assert "codes" in b and "clouds" not in b
+    with torch.no_grad():
+        la, lb = mod._loss(a, stochastic=False)[0], mod._loss(b, stochastic=False)[0]
+    assert torch.allclose(la, lb, rtol=1e-5, atol=1e-7)
+    end_to_end = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), freeze_encoder=False)
+    with pytest.raises(ValueError, match="frozen"):
+        end_to_end._loss(b, stochastic=False)
+    with pytest.raises(ValueError):
+        MPNetDataModule(codes, ws, x_t, x_goal, x_next, 8, 0.1, 0, features="pixels")
+
+
 def test_pnet_module_end_to_end_and_checks():
     torch.manual_seed(0)
     enet = Enet(120, (16,), 4)

@@ -2,7 +2,8 @@
 
 - :class:`MPNetDataModule`: Pnet's samples ``(workspace, x_t, x_goal, x_next)``; a batch is a
   dict ``{"clouds": (k, D), "ws": (B,), "x_t", "x_goal", "x_next": (B, state_dim)}`` where
-  ``clouds`` holds each distinct workspace of the batch once and ``ws`` indexes into it.
+  ``clouds`` holds each distinct workspace of the batch once and ``ws`` indexes into it
+  (``features="codes"``: per-workspace Enet codes instead of clouds, under the key ``codes``).
 - :class:`CloudDataModule`: flattened point clouds for the autoencoder; a batch is (B, D).
 - :func:`waypoint_pairs`: expert paths -> Pnet samples (both directions by default).
 
@@ -54,9 +55,10 @@ class PairDataset(Dataset):
     """Pnet samples over shared tensors; ``rows`` selects this split's samples."""
 
     def __init__(self, clouds: torch.Tensor, ws: torch.Tensor, x_t: torch.Tensor,
-                 x_goal: torch.Tensor, x_next: torch.Tensor, rows: np.ndarray):
+                 x_goal: torch.Tensor, x_next: torch.Tensor, rows: np.ndarray, key: str = "clouds"):
         self.clouds, self.ws, self.x_t, self.x_goal, self.x_next = clouds, ws, x_t, x_goal, x_next
         self.rows = torch.as_tensor(rows, dtype=torch.long)
+        self.key = key
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -64,7 +66,7 @@ class PairDataset(Dataset):
     def __getitems__(self, indices: Sequence[int]) -> dict[str, torch.Tensor]:
         r = self.rows[torch.as_tensor(indices, dtype=torch.long)]
         uniq, inverse = torch.unique(self.ws[r], return_inverse=True)
-        return {"clouds": self.clouds[uniq], "ws": inverse, "x_t": self.x_t[r],
+        return {self.key: self.clouds[uniq], "ws": inverse, "x_t": self.x_t[r],
                 "x_goal": self.x_goal[r], "x_next": self.x_next[r]}
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
@@ -128,14 +130,21 @@ class _Base(L.LightningDataModule):
 class MPNetDataModule(_Base):
     """Pnet's samples: ``clouds`` (n_ws, n_points * wdim) float32, point-major; sample ``i`` is
     ``(clouds[ws_index[i]], x_t[i], x_goal[i]) -> x_next[i]``. ``groups`` (optional, one id per
-    sample, e.g. the path id) keeps whole groups on one side of the split."""
+    sample, e.g. the path id) keeps whole groups on one side of the split.
+
+    ``features="codes"``: ``clouds`` holds each workspace's Enet code instead (a frozen
+    encoder's codes never change, so encoding them once saves most of Pnet's training time
+    when batches span many workspaces)."""
 
     def __init__(self, clouds: np.ndarray, ws_index: np.ndarray, x_t: np.ndarray,
                  x_goal: np.ndarray, x_next: np.ndarray, batch_size: int = 100,
                  val_fraction: float = 0.1, seed: int = 0, num_workers: int = 0,
-                 groups: np.ndarray | None = None):
+                 groups: np.ndarray | None = None, features: str = "clouds"):
         super().__init__(batch_size, val_fraction, seed, num_workers)
-        self.clouds = _float_tensor(clouds, "clouds", 2)
+        if features not in ("clouds", "codes"):
+            raise ValueError(f"features must be 'clouds' or 'codes', got {features!r}")
+        self.features = features
+        self.clouds = _float_tensor(clouds, features, 2)
         ws = np.asarray(ws_index)
         if ws.ndim != 1 or not np.issubdtype(ws.dtype, np.integer):
             raise ValueError(f"ws_index must be a 1-D integer array, got {ws.dtype} {ws.shape}")
@@ -163,8 +172,8 @@ class MPNetDataModule(_Base):
 
     def setup(self, stage: str | None = None) -> None:
         args = (self.clouds, self.ws, self.x_t, self.x_goal, self.x_next)
-        self.train_set = PairDataset(*args, self.train_indices)
-        self.val_set = PairDataset(*args, self.val_indices)
+        self.train_set = PairDataset(*args, self.train_indices, key=self.features)
+        self.val_set = PairDataset(*args, self.val_indices, key=self.features)
 
 
 class CloudDataModule(_Base):

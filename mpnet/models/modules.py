@@ -97,7 +97,9 @@ class PnetModule(L.LightningModule):
 
     Batches are dicts ``{"clouds": (k, D), "ws": (B,) index into clouds, "x_t", "x_goal",
     "x_next": (B, state_dim)}`` (what :class:`MPNetDataModule` yields: each workspace's
-    cloud is encoded once per batch), or tuples ``(cloud (B, D), x_t, x_goal, x_next)``.
+    cloud is encoded once per batch), the same with ``"codes"`` (k, latent) in place of
+    ``"clouds"`` (a frozen encoder's codes, computed once), or tuples ``(cloud (B, D), x_t,
+    x_goal, x_next)``.
     """
 
     def __init__(self, pnet: Pnet | dict[str, Any], encoder: Enet | dict[str, Any],
@@ -146,13 +148,17 @@ class PnetModule(L.LightningModule):
     # -- training -----------------------------------------------------------------------
     def _unpack(self, batch):
         if isinstance(batch, dict):
-            return batch["clouds"], batch["ws"], batch["x_t"], batch["x_goal"], batch["x_next"]
+            return batch.get("clouds"), batch["ws"], batch["x_t"], batch["x_goal"], batch["x_next"]
         cloud, x_t, x_goal, x_next = batch
         return cloud, None, x_t, x_goal, x_next
 
     def _loss(self, batch, stochastic: bool) -> tuple[torch.Tensor, int]:
         clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
-        if self.freeze_encoder:
+        if isinstance(batch, dict) and "codes" in batch:
+            if not self.freeze_encoder:
+                raise ValueError("precomputed codes need a frozen encoder (freeze_encoder=True)")
+            z = batch["codes"]
+        elif self.freeze_encoder:
             with torch.no_grad():
                 z = self.encode(clouds)
         else:
