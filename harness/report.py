@@ -4,22 +4,27 @@ OMPL benchmark database, regenerated from trial logs alone (DESIGN §6 "Report")
 Only the `trials.mcap` files found under the given directories are read (topics `/run`,
 `/workspace`, `/query`): no planning, no artifacts, no torch or OMPL. A file that cannot be
 read (empty, corrupt, no `/run`) is skipped with one warning line; a file cut short (a
-killed writer, or truncated by hand) is read up to where it breaks, with one warning line.
+killed writer, or truncated by hand) is read up to where it breaks, with one warning line;
+a file with a `/run` but no `/query` gets one warning line. No query at all is an error.
 
 How the numbers are computed (also written to OUT/README.md):
 - Rows are env x split x planner, where split is each query's own `split` (a run's `/run`
   may say "seen+unseen" or "file").
 - `queries` counts every logged query of every seed; `seeds` is the number of distinct
   seeds. Several files with the same (env, planner, seed), e.g. a sweep run twice, all
-  count: their queries are pooled into that seed.
+  count: their queries are pooled into that seed, with one warning line per (env, planner,
+  seed) whose queries appear in more than one file. A file whose `/run` has no integer
+  seed counts as a seed of its own (with a warning), so such files are never pooled.
 - `success_mean` / `success_std`: mean and standard deviation of the per-seed success rates,
   the std with ddof=1 (sample std) when there are two seeds or more, 0 for a single seed.
-- Time statistics (`time_*`), `cost_mean` and `collision_checks_median` are over the
-  successful queries of all seeds pooled (the paper's convention: time to a first solution);
-  `time_std_s` uses ddof=1 when there are two successes or more, else 0.
+- Time statistics (`time_*`) are over the successful queries of all seeds pooled that logged
+  a finite time (the paper's convention: time to a first solution); `time_std_s` uses ddof=1
+  when there are two such queries or more, else 0. `cpu_mean_s`, `cost_mean` and
+  `collision_checks_median` are over all successful queries (each over those that logged it).
 - `pnet_calls_median`, `replans_mean` and `fallback_rate` are over every query that logged
   the field (NaN for planners that do not).
-- Table I: mean ± std time in seconds, and the BIT*/MPNet (NR) ratio of mean times.
+- Table I: mean ± std time in seconds, and the BIT*/MPNet (NR) ratio of mean times; other
+  planners come after the ratio, so the first columns are the paper's layout.
 """
 from __future__ import annotations
 
@@ -52,6 +57,11 @@ RATIO_LABEL = "BIT*/MPNet (NR)"
 PAPER = 'Qureshi, Simeonov, Bency, Yip, "Motion Planning Networks", ICRA 2019, arXiv:1806.05767'
 CITATION = (PAPER + ", Table I; their Informed-RRT* and BIT* were Python implementations, MPNet's times are "
             "CPU time on an i7 with a GTX 1080")
+# The paper's sizes: train workspaces x expert paths, then seen and unseen test workspaces x
+# queries per workspace; and its Pnet's hidden layers (to tell a smaller network).
+PAPER_SCALE = (100, 4000, 100, 200, 10, 2000)
+PAPER_SCALE_TEXT = "100 × 4000 paths; 100 × 200 seen, 10 × 2000 unseen"
+PAPER_PNET_HIDDEN = (1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32)
 QUERY_COLS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "cpu_s", "path_cost",
               "collision_checks", "state_checks", "motion_checks", "pnet_calls", "replans", "fallback_used")
 KEYS = ["env", "split", "planner"]
@@ -121,6 +131,8 @@ def read_trials(path: Path) -> tuple[TrialFile | None, str | None]:
     if not finalised:
         return out, (f"warning: {path} was not finalised (cut short?): read its {len(out.queries)} "
                      "queries up to where it breaks")
+    if not out.queries:
+        return out, f"warning: {path}: no queries"
     return out, None
 
 
@@ -129,6 +141,12 @@ def _size(path: Path) -> int | None:
         return path.stat().st_size
     except OSError:
         return None
+
+
+def run_seed(run: dict) -> int | None:
+    """The /run message's seed when it is an integer, else None."""
+    seed = run.get("seed")
+    return seed if isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)) else None
 
 
 def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
@@ -141,8 +159,11 @@ def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
             warns.append(w)
         if tf is None:
             skipped += 1
-        else:
-            files.append(tf)
+            continue
+        files.append(tf)
+        if tf.queries and run_seed(tf.run) is None:
+            warns.append(f"warning: {p}: its /run has no integer seed ({tf.run.get('seed')!r}): "
+                         "its queries count as a seed of their own")
     return files, warns, skipped
 
 
@@ -161,8 +182,11 @@ def _numbers(col: pd.Series) -> pd.Series:
 
 def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
     """One row per logged query (no paths): the run's env, planner and seed, the query's
-    scalar fields, and (file, qidx) to find the full message again."""
+    scalar fields, and (file, qidx) to find the full message again. A file without an
+    integer seed gets a negative seed of its own, below every logged one, so that it is
+    neither pooled with another file nor lost."""
     parts = []
+    free_seed = min([s for s in map(run_seed, (tf.run for tf in files)) if s is not None] + [0]) - 1
     for i, tf in enumerate(files):
         if not tf.queries:
             continue
@@ -179,8 +203,10 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
         df["qidx"] = np.arange(len(df))
         df["env"] = str(tf.run["env"])
         df["planner"] = str(tf.run["planner"])
-        seed = tf.run.get("seed")
-        df["seed"] = seed if isinstance(seed, int) and not isinstance(seed, bool) else -1
+        seed = run_seed(tf.run)
+        if seed is None:
+            seed, free_seed = free_seed, free_seed - 1
+        df["seed"] = int(seed)
         parts.append(df)
     if not parts:
         return pd.DataFrame(columns=list(QUERY_COLS) + ["file", "qidx", "env", "planner", "seed"])
@@ -243,15 +269,16 @@ def results_table(q: pd.DataFrame) -> pd.DataFrame:
     per_seed = q.groupby(KEYS + ["seed"], sort=False)["success"].mean().groupby(level=KEYS, sort=False)
     res["success_mean"] = per_seed.mean()
     res["success_std"] = _std(per_seed)
-    ok = q[q["success"] & np.isfinite(q["time_s"])]
-    t = ok.groupby(KEYS, sort=False)["time_s"]
+    solved = q[q["success"]]
+    t = solved[np.isfinite(solved["time_s"])].groupby(KEYS, sort=False)["time_s"]
     res["time_mean_s"] = t.mean()
     res["time_std_s"] = _std(t)
     res["time_median_s"] = t.median()
     res["time_p90_s"] = t.quantile(0.9)
-    res["cpu_mean_s"] = ok.groupby(KEYS, sort=False)["cpu_s"].mean()
-    res["cost_mean"] = ok.groupby(KEYS, sort=False)["path_cost"].mean()
-    res["collision_checks_median"] = ok.groupby(KEYS, sort=False)["collision_checks"].median()
+    by = solved.groupby(KEYS, sort=False)
+    res["cpu_mean_s"] = by["cpu_s"].mean()
+    res["cost_mean"] = by["path_cost"].mean()
+    res["collision_checks_median"] = by["collision_checks"].median()
     res["pnet_calls_median"] = g["pnet_calls"].median()
     res["replans_mean"] = g["replans"].mean()
     res["fallback_rate"] = g["fallback_used"].mean()
@@ -269,6 +296,24 @@ def results_table(q: pd.DataFrame) -> pd.DataFrame:
     return _sort(res[RESULT_COLS])
 
 
+def duplicate_warnings(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
+    """One line per (env, planner, seed) with queries (same split, workspace and query id)
+    logged in more than one file: they all count, as documented, but it is seldom meant
+    (e.g. a sweep run twice into different directories)."""
+    key = ["env", "planner", "seed", "split", "workspace_id", "query_id"]
+    per_file = q[key + ["file"]].drop_duplicates()
+    d = per_file[per_file.duplicated(key, keep=False)]
+    out = []
+    groups = sorted(d.groupby(["env", "planner", "seed"], sort=False),
+                    key=lambda kv: (env_rank(kv[0][0]), planner_rank(kv[0][1]), kv[0][2]))
+    for (env, planner, seed), g in groups:
+        n = len(g.drop_duplicates(key))
+        names = ", ".join(str(files[i].path) for i in sorted(g["file"].unique()))
+        out.append(f"warning: {env} {planner} seed {seed}: {n} queries logged in more than one file, "
+                   f"all counted: {names}")
+    return out
+
+
 def _planner_columns(planners: Iterable[str]) -> list[str]:
     """Table I's columns: the paper's four planners always, then any other logged planner."""
     extra = sorted(set(planners) - set(PAPER_PLANNERS), key=planner_rank)
@@ -276,14 +321,25 @@ def _planner_columns(planners: Iterable[str]) -> list[str]:
 
 
 def load_paper() -> pd.DataFrame:
-    """The paper's Table I (harness/paper_table1.csv: env, split, planner, time_mean_s, time_std_s)."""
+    """The paper's Table I (harness/paper_table1.csv: env, split, planner, time_mean_s, time_std_s),
+    with the times also as printed (`time_mean_text`, `time_std_text`): the tables show the
+    paper's numbers exactly as given, never reformatted."""
     with resources.files("harness").joinpath("paper_table1.csv").open("r") as f:
-        return pd.read_csv(f)
+        df = pd.read_csv(f, dtype=str, keep_default_na=False)
+    for c, text in (("time_mean_s", "time_mean_text"), ("time_std_s", "time_std_text")):
+        df[text] = df[c].str.strip()
+        df[c] = pd.to_numeric(df[text], errors="coerce").astype(float)
+    return df
+
+
+def _time_cols(planners: Iterable[str]) -> list[str]:
+    return [f"{p}_{s}" for p in planners for s in ("time_mean_s", "time_std_s")]
 
 
 def table1(res: pd.DataFrame, paper: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[str]]:
     """Table I as numbers: rows env x split (x source: ours, then the paper's where asked),
-    `<planner>_time_mean_s` / `_time_std_s` per planner column, and the BIT*/NR ratio."""
+    `<planner>_time_mean_s` / `_time_std_s` per planner column, the paper's four planners
+    first, then the BIT*/NR ratio, then any other planner (so the paper's layout comes first)."""
     planners = _planner_columns(res["planner"] if len(res) else [])
     sources = [("ours", res)] + ([("paper", paper)] if paper is not None else [])
     vals = {(src, e, s, p): (m, sd) for src, df in sources
@@ -298,9 +354,10 @@ def table1(res: pd.DataFrame, paper: pd.DataFrame | None = None) -> tuple[pd.Dat
                 m, sd = vals.get((src, env, split, p), (math.nan, math.nan))
                 row[f"{p}_time_mean_s"], row[f"{p}_time_std_s"] = float(m), float(sd)
             rows.append(row)
-    cols = ["env", "split", "source"] + [f"{p}_{s}" for p in planners for s in ("time_mean_s", "time_std_s")]
-    t = pd.DataFrame(rows, columns=cols)
+    t = pd.DataFrame(rows, columns=["env", "split", "source"] + _time_cols(planners))
     t[RATIO_COL] = t["bit_star_time_mean_s"] / t["mpnet_nr_time_mean_s"]
+    extra = [p for p in planners if p not in PAPER_PLANNERS]
+    t = t[["env", "split", "source"] + _time_cols(PAPER_PLANNERS) + [RATIO_COL] + _time_cols(extra)]
     return t.reset_index(drop=True), planners
 
 
@@ -366,36 +423,61 @@ def _tex_table(header: list[str], rows: list[list[str]], groups: list, caption: 
     return "\n".join(out) + "\n"
 
 
-def render_table1(t: pd.DataFrame, planners: list[str], with_paper: bool) -> tuple[str, str]:
-    """Table I as (Markdown, LaTeX)."""
-    labels = [planner_label(p) for p in planners]
-    head = ["Env", "Split"] + (["Source"] if with_paper else []) + labels + [RATIO_LABEL]
+def render_table1(t: pd.DataFrame, planners: list[str], with_paper: bool, res: pd.DataFrame | None = None,
+                  paper: pd.DataFrame | None = None) -> tuple[str, str]:
+    """Table I as (Markdown, LaTeX), columns in t's order (the paper's planners, the ratio, the
+    others). A planner of res that ran but has no time to show reads "— (successes/queries)"
+    rather than blank, which is kept for a planner not run; the paper's rows are its numbers
+    as printed (load_paper's text columns)."""
+    counts = {} if res is None else {
+        (e, s, p): (int(k), int(n)) for e, s, p, k, n in
+        zip(res["env"], res["split"], res["planner"], res["successes"], res["queries"])}
+    printed = {} if paper is None or "time_mean_text" not in paper else {
+        (e, s, p): (m, sd) for e, s, p, m, sd in
+        zip(paper["env"], paper["split"], paper["planner"], paper["time_mean_text"], paper["time_std_text"])}
+    main = [p for p in planners if p in PAPER_PLANNERS]
+    extra = [p for p in planners if p not in PAPER_PLANNERS]
+    head = (["Env", "Split"] + (["Source"] if with_paper else []) + [planner_label(p) for p in main]
+            + [RATIO_LABEL] + [planner_label(p) for p in extra])
+
+    def cell(r: dict, p: str, sep: str, dash: str) -> str:
+        key = (r["env"], r["split"], p)
+        if r["source"] == "paper" and key in printed:
+            m, sd = printed[key]
+            return m + (f"{sep}{sd}" if sd else "")
+        text = _pm(r[f"{p}_time_mean_s"], r[f"{p}_time_std_s"], sep=sep)
+        if not text and r["source"] == "ours" and key in counts:
+            return f"{dash} ({counts[key][0]}/{counts[key][1]})"
+        return text
+
     md_rows, tex_rows, groups = [], [], []
     prev = None
     for r in t.itertuples(index=False):
         r = r._asdict()
-        cells = [_pm(r[f"{p}_time_mean_s"], r[f"{p}_time_std_s"]) for p in planners]
         ratio = _g(r[RATIO_COL])
         first = (r["env"], r["split"]) != prev
         prev = (r["env"], r["split"])
         lead = [env_label(r["env"]) if first else "", r["split"] if first else ""]
         src = [r["source"]] if with_paper else []
-        md_rows.append(lead + src + cells + [ratio])
-        tex_rows.append([_tex_escape(x) for x in lead + src]
-                        + [_pm(r[f"{p}_time_mean_s"], r[f"{p}_time_std_s"], sep=r" $\pm$ ") for p in planners]
-                        + [ratio])
+        md_rows.append(lead + src + [cell(r, p, " ± ", "—") for p in main] + [ratio]
+                       + [cell(r, p, " ± ", "—") for p in extra])
+        tex_rows.append([_tex_escape(x) for x in lead + src] + [cell(r, p, r" $\pm$ ", "---") for p in main]
+                        + [ratio] + [cell(r, p, r" $\pm$ ", "---") for p in extra])
         groups.append(r["env"])
     what = ("Planning time in seconds, mean ± std over the successful queries of all seeds; "
-            f"{RATIO_LABEL}: ratio of mean times. Blank: no successful query logged.")
+            f"{RATIO_LABEL}: ratio of mean times. — (0/N): the planner ran N queries here and solved none "
+            "(— (k/N): k solved, none with a logged time); blank: the planner was not run.")
     notes = [f"Layout of Table I of {CITATION}."]
     if with_paper:
-        notes.append("Rows 'paper' are the paper's own numbers; our baselines are OMPL's C++ planners, "
-                     "so ratios are expected to differ.")
+        notes.append("Rows 'paper' are the paper's own numbers as printed; their BIT*/MPNet (NR) is the ratio of "
+                     "the paper's mean times, computed here. Our baselines are OMPL's C++ planners, so ratios "
+                     "are expected to differ.")
     md = "# Table I: planning time [s]\n\n" + _md_table(head, md_rows) + "\n\n" + what + "\n\n" + \
         "\n".join(f"Note: {n}" for n in notes) + "\n"
     tex = _tex_table([_tex_escape(h) for h in head], tex_rows, groups,
                      r"Planning time [s], mean $\pm$ std over successful queries; " + _tex_escape(RATIO_LABEL)
-                     + ": ratio of mean times.", [_tex_escape(n) for n in notes], 3 if with_paper else 2)
+                     + r": ratio of mean times. --- (0/$N$): ran $N$ queries, solved none; blank: not run.",
+                     [_tex_escape(n) for n in notes], 3 if with_paper else 2)
     return md, tex
 
 
@@ -594,8 +676,12 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
 def write_figures(res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], out: Path
                   ) -> tuple[list[Path], list[str]]:
     """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
-    whose data is malformed is left out with a warning line."""
+    whose data is malformed is left out with a warning line. The PNG and SVG files of an
+    earlier report in out are removed first, so none outlives the data it was drawn from."""
     out.mkdir(parents=True, exist_ok=True)
+    for old in out.iterdir():
+        if old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
+            old.unlink()
     makers = [("time_per_planner", lambda: fig_time_per_planner(res)), ("success", lambda: fig_success(res)),
               ("time_boxplot", lambda: fig_time_boxplot(q))]
     makers += [(f"example_{env}", lambda env=env: fig_example(q, files, env))
@@ -708,10 +794,15 @@ def _none(v):
     return v.item() if isinstance(v, np.generic) else v
 
 
+def _path_len(v) -> int:
+    return len(v) if isinstance(v, (list, tuple)) else 0
+
+
 def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> int:
     """OUT/benchmark.db in the schema of OMPL's benchmark statistics script, so Planner Arena
-    opens it: one experiment per env x split, one planner config per planner, one run per
-    query. Replaces any earlier file. Returns the number of runs written."""
+    opens it: one experiment per env x split, one planner config per (planner name, settings)
+    as that script keys them (runs of one planner with other settings get their own), one run
+    per query. Replaces any earlier file. Returns the number of runs written."""
     if path.exists():
         path.unlink()
     conn = sqlite3.connect(path)
@@ -722,23 +813,23 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
         for name, typ in _RUN_COLUMNS:
             c.execute(f"ALTER TABLE runs ADD {name} {typ}")
         c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
-        runs = {}
-        for tf in files:
-            runs.setdefault(str(tf.run["planner"]), tf.run)
-        planner_ids = {}
-        for p in sorted(runs, key=planner_rank):
-            c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)",
-                      (f"geometric_{p}", planner_settings(runs[p].get("config"))))
-            planner_ids[p] = c.lastrowid
+        configs = [(str(tf.run["planner"]), planner_settings(tf.run.get("config"))) for tf in files]
+        config_ids = {}
+        for p, settings in sorted(set(configs), key=lambda k: (planner_rank(k[0]), k[1])):
+            c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)", (f"geometric_{p}", settings))
+            config_ids[(p, settings)] = c.lastrowid
+        file_config = [config_ids[k] for k in configs]
         if q.empty:
             conn.commit()
             return 0
-        ompl_versions = {str((tf.run.get("versions") or {}).get("ompl", "0.0.0")) for tf in files}
         n = 0
         order = _sort(q[["env", "split"]].drop_duplicates(), ("env", "split"))
         for env, split in zip(order["env"], order["split"]):
             d = q[(q["env"] == env) & (q["split"] == split)]
             fruns = [files[i].run for i in sorted(d["file"].unique())]
+            ompl = sorted({str(r["versions"]["ompl"]) for r in fruns
+                           if isinstance(r.get("versions"), dict) and r["versions"].get("ompl") is not None})
+            logged_seed = np.array([run_seed(files[f].run) is not None for f in d["file"]], bool)
             budgets = {b for b in (_budget(r.get("config")) for r in fruns) if b is not None}
             started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
             hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
@@ -746,26 +837,27 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
             c.execute("INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
                       " cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
                       (f"{env} {split}", float(np.nansum(d["time_s"])), max(budgets) if budgets else None, 0.0,
-                       int(d.groupby("planner").size().max()), "OMPL " + ",".join(sorted(ompl_versions)),
+                       int(d.groupby("planner").size().max()), "OMPL " + (",".join(ompl) or "unknown"),
                        ", ".join(hosts), None, started[0] if started else None,
-                       ",".join(str(s) for s in sorted(d["seed"].unique())),
+                       ",".join(str(s) for s in sorted(d.loc[logged_seed, "seed"].unique())),
                        f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}"))
             exp_id = c.lastrowid
             ok = d["success"].to_numpy(bool)
             status = ompl_status(d["success"], d["failure"])
-            plen = np.array([len(files[f].queries[i].get("path") or []) for f, i in zip(d["file"], d["qidx"])])
+            plen = np.array([_path_len(files[f].queries[i].get("path")) for f, i in zip(d["file"], d["qidx"])], int)
             cols = {
-                "time": d["time_s"], "memory": pd.Series(0.0, index=d.index), "solved": ok.astype(int),
+                "time": d["time_s"], "memory": np.full(len(d), np.nan), "solved": ok.astype(int),
                 "status": status, "approximate_solution": np.zeros(len(d), int), "correct_solution": ok.astype(int),
-                "solution_length": d["path_cost"].where(ok), "solution_segments": np.where(ok, plen - 1, np.nan),
+                "solution_length": d["path_cost"].where(ok),
+                "solution_segments": np.where(ok & (plen > 0), np.maximum(plen - 1, 0), np.nan),
                 "cpu_time": d["cpu_s"], "collision_checks": d["collision_checks"], "state_checks": d["state_checks"],
                 "motion_checks": d["motion_checks"], "pnet_calls": d["pnet_calls"], "replans": d["replans"],
-                "fallback_used": d["fallback_used"], "seed": d["seed"], "split": d["split"],
+                "fallback_used": d["fallback_used"], "seed": d["seed"].where(logged_seed), "split": d["split"],
                 "workspace_id": d["workspace_id"], "query_id": d["query_id"], "failure": d["failure"],
             }
             ints = {"solution_segments", "collision_checks", "state_checks", "motion_checks", "pnet_calls",
                     "replans", "fallback_used", "seed"}
-            data = [[exp_id] * len(d), [planner_ids[p] for p in d["planner"]]]
+            data = [[exp_id] * len(d), [file_config[f] for f in d["file"]]]
             for name, _ in _RUN_COLUMNS:
                 v = np.asarray(cols[name], dtype=object)
                 data.append([None if x is None or (isinstance(x, float) and not math.isfinite(x))
@@ -783,12 +875,48 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
 
 # ------------------------------------------------------------------------ the report
 
+def scale_sizes(scale) -> tuple[int, ...] | None:
+    """A config's `scale:` section as PAPER_SCALE's six sizes, None when any is missing."""
+    try:
+        sizes = (scale["train"]["workspaces"], scale["train"]["paths"], scale["test"]["seen"]["workspaces"],
+                 scale["test"]["seen"]["queries"], scale["test"]["unseen"]["workspaces"],
+                 scale["test"]["unseen"]["queries"])
+    except (KeyError, TypeError, IndexError):
+        return None
+    return sizes if all(isinstance(v, int) and not isinstance(v, bool) for v in sizes) else None
+
+
+def _smaller_net(scale) -> bool:
+    try:
+        hidden = scale["model"]["pnet_hidden"]
+        return sum(int(h) for h in hidden) < sum(PAPER_PNET_HIDDEN)
+    except (KeyError, TypeError, ValueError):
+        return False
+
+
+def scale_bullet(name: str, sizes: tuple[int, ...] | None, smaller_net: bool = False) -> str:
+    """How a scale found in the logs compares with the paper's sizes, from the sizes its runs
+    logged; from its name alone when they did not log them."""
+    if sizes is None:
+        if name == "unknown":
+            return f"The logs do not say at which scale they ran; the paper: {PAPER_SCALE_TEXT}."
+        return f"Scale `{name}`: the paper's sizes." if name == "paper" else \
+            f"Scale `{name}`: smaller than the paper's."
+    nets = "smaller networks " if smaller_net else ""
+    if tuple(sizes) == PAPER_SCALE:
+        return f"Our `{name}` scale has the paper's sizes ({PAPER_SCALE_TEXT})" + \
+            (", with smaller networks." if smaller_net else ".")
+    tw, tp, sw, sq, uw, uq = sizes
+    return (f"Our `{name}` scale trains {nets}on {tw} workspaces × {tp} expert paths and tests on "
+            f"{sw * sq} seen + {uw * uq} unseen queries per seed; the paper: {PAPER_SCALE_TEXT}.")
+
+
 def provenance(files: list[TrialFile]) -> dict:
     """Where the logs came from, read from their /run messages: git revisions, hosts,
-    dates, scales, budgets and versions."""
+    dates, scales (with their sizes where logged), budgets and versions."""
     import yaml
 
-    revs, hosts, scales, budgets, starts = set(), set(), set(), set(), []
+    revs, hosts, scales, budgets, starts, scale_rows = set(), set(), set(), set(), [], set()
     versions: dict[str, set] = {}
     for f in files:
         r = f.run
@@ -796,29 +924,34 @@ def provenance(files: list[TrialFile]) -> dict:
         hosts.add(str(r.get("host", "unknown")))
         if r.get("started_at"):
             starts.append(str(r["started_at"]))
-        for k, v in (r.get("versions") or {}).items():
+        vers = r.get("versions")
+        for k, v in (vers.items() if isinstance(vers, dict) else ()):
             versions.setdefault(k, set()).add(str(v))
         try:
             cfg = yaml.safe_load(r.get("config") or "") or {}
         except yaml.YAMLError:
             cfg = {}
-        if isinstance(cfg, dict):
-            scale = cfg.get("scale")
-            scales.add(str(scale.get("name")) if isinstance(scale, dict) else "unknown")
-            if cfg.get("budget_s") is not None:
-                budgets.add(str(cfg["budget_s"]))
+        scale = cfg.get("scale") if isinstance(cfg, dict) else None
+        name = str(scale.get("name")) if isinstance(scale, dict) else "unknown"
+        scales.add(name)
+        scale_rows.add((name, scale_sizes(scale), _smaller_net(scale)))
+        if isinstance(cfg, dict) and cfg.get("budget_s") is not None:
+            budgets.add(str(cfg["budget_s"]))
     return {"git_rev": sorted(revs), "host": sorted(hosts), "scale": sorted(scales), "budget_s": sorted(budgets),
+            "scales": sorted(scale_rows, key=lambda t: (t[0], t[1] or (), t[2])),
             "from": min(starts) if starts else "unknown", "to": max(starts) if starts else "unknown",
             "versions": {k: sorted(v) for k, v in sorted(versions.items())}}
 
 
 def readme_text(n_files: int, n_queries: int, with_paper: bool, prov: dict | None = None,
-                dirs: Iterable[str] = ()) -> str:
-    """OUT/README.md: where the logs came from, what each output is, how its numbers are
-    computed, and how they compare with the paper's."""
+                dirs: Iterable[str] = (), warnings: Iterable[str] = ()) -> str:
+    """OUT/README.md: where the logs came from, what went wrong reading them, what each
+    output is, how its numbers are computed, and how they compare with the paper's."""
     paper_rows = " (and the paper's rows)" if with_paper else ""
     prov = prov or provenance([])
     vers = ", ".join(f"{k} {'/'.join(v)}" for k, v in prov["versions"].items()) or "unknown"
+    scale_text = "\n".join("- " + scale_bullet(*row) for row in prov.get("scales") or [("unknown", None, False)])
+    warn_text = "\n".join(f"- {w.removeprefix('warning: ')}" for w in warnings) or "none"
     return f"""# mpnet-bench report
 
 Regenerated by `python -m harness.report {' '.join(map(str, dirs))}{' --paper' if with_paper else ''}`
@@ -839,6 +972,13 @@ python -m harness -m +experiment=table1 [scale=quick]     # 4 envs x 4 planners 
 python -m harness.report multirun/<date>/<time> --paper
 ```
 
+## Warnings
+
+What the report warned about (files skipped or partly read, files without queries, queries
+logged in more than one file, figures left out):
+
+{warn_text}
+
 ## Compared with the paper
 
 - The paper's Informed-RRT* and BIT* (2D, 3D and rigid-body cases) were Python
@@ -847,9 +987,7 @@ python -m harness.report multirun/<date>/<time> --paper
   our ratios as a failure to reproduce, nor the paper's as ours.
 - The paper timed MPNet on a machine with a GPU (i7 + GTX 1080); ours plan on the CPU of
   the machine above, Pnet as numpy matmuls on one thread.
-- Our `quick` scale trains smaller networks on fewer expert paths (100 workspaces x 40
-  paths) and tests on fewer queries (200 seen, 200 unseen per seed) than the paper
-  (100 x 4000 paths; 100 x 200 seen, 10 x 2000 unseen); `scale=paper` has the paper's.
+{scale_text}
 - A success here is a path that passed the harness's fine re-check (every 0.01 along the
   path, exact boxes); the paper does not say how its paths were checked.
 
@@ -871,16 +1009,23 @@ How the numbers are computed:
 - The split of a row is each query's own `split`.
 - `queries` counts every logged query of every seed; `seeds` is the number of distinct seeds.
   Files with the same env, planner and seed (e.g. a sweep run twice) all count: their queries
-  are pooled into that seed.
+  are pooled into that seed (listed under Warnings when the same query is in several files).
+  A file whose run logged no integer seed counts as a seed of its own.
 - Success: mean ± std over seeds of each seed's success rate; the std is the sample std
   (ddof=1) with two seeds or more, 0 with one.
-- Time (mean, std, median, p90), path cost and collision checks: over the successful queries of
-  all seeds pooled; the time std is the sample std (ddof=1), 0 for a single success.
+- Time (mean, std, median, p90): over the successful queries of all seeds pooled that logged a
+  finite time; the std is the sample std (ddof=1), 0 for a single one.
+- CPU time, path cost and collision checks: over all successful queries of all seeds pooled.
 - `pnet_calls_median`, `replans_mean`, `fallback_rate`: over the queries that logged them.
+- Table I: the paper's four planners, the BIT*/MPNet (NR) ratio, then any other planner;
+  "— (0/N)": the planner ran N queries there and solved none; blank: not run.
 - `benchmark.db` status: exact solution for a success, timeout, invalid start (an invalid
   query), crash (an exception), unknown (no solution, or a path that failed the harness's
   re-check); `solved` and `correct_solution` are the harness's verdict, `solution_length`
-  the path cost.
+  the path cost, `solution_segments` the path's points less one (NULL for a failure or an
+  empty path), `memory` NULL (not measured). One planner config per planner name and
+  settings (the run config's `planner:` section); each experiment's `version` is the OMPL
+  version its own runs logged.
 
 Paper numbers: {CITATION}.
 """
@@ -888,22 +1033,24 @@ Paper numbers: {CITATION}.
 
 def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper: bool = False) -> dict:
     """Read the trial logs under dirs and write every output into out. Returns a summary
-    dict (files, skipped, warnings, queries, outputs); files == 0 means nothing was written."""
+    dict (files, skipped, warnings, queries, outputs); files == 0 or queries == 0 means nothing
+    was written."""
     files, warns, skipped = load(dirs)
     summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": []}
-    if not files:
+    if not files or not any(tf.queries for tf in files):
         return summary
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     q = queries_frame(files)
     summary["queries"] = len(q)
+    warns += duplicate_warnings(q, files)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     res = results_table(q)
     res.to_csv(out / "results.csv", index=False)
     written = [out / "results.csv"]
     paper_df = load_paper() if paper else None
     t, planners = table1(res, paper_df)
     t.to_csv(out / "table1.csv", index=False)
-    md, tex = render_table1(t, planners, paper)
+    md, tex = render_table1(t, planners, paper, res, paper_df)
     (out / "table1.md").write_text(md)
     (out / "table1.tex").write_text(tex)
     sc = success_cost(res)
@@ -916,7 +1063,7 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
     summary["figures"], fig_warns = write_figures(res, q, files, out / "figures")
     warns += fig_warns
     write_benchmark_db(q, files, out / "benchmark.db")
-    (out / "README.md").write_text(readme_text(len(files), len(q), paper, provenance(files), dirs))
+    (out / "README.md").write_text(readme_text(len(files), len(q), paper, provenance(files), dirs, warns))
     summary["outputs"] = written + [out / "benchmark.db", out / "README.md"]
     return summary
 
@@ -937,6 +1084,10 @@ def main(argv: list[str] | None = None) -> int:
         print(w, file=sys.stderr)
     if not s["files"]:
         print(f"error: no readable trials.mcap under {', '.join(args.dirs)}", file=sys.stderr)
+        return 1
+    if not s["queries"]:
+        print(f"error: no queries in the {s['files']} readable trials.mcap under {', '.join(args.dirs)}",
+              file=sys.stderr)
         return 1
     out = Path(args.out)
     print(f"read {s['files']} trial logs ({s['queries']} queries), skipped {s['skipped']}")

@@ -28,14 +28,15 @@ def ws(env: str, wid: str, split: str) -> Workspace:
     return Workspace(wid, split, np.array([[0.0] * wd, [10.0] * wd]), np.array([[4.0] * wd, [3.0] * wd]))
 
 
-def write_log(run_dir: Path, env: str, planner: str, seed: int, queries: list[dict]) -> Path:
+def write_log(run_dir: Path, env: str, planner: str, seed, queries: list[dict], config: str | None = None,
+              **run_kw) -> Path:
     """A trials.mcap with the given queries: dicts with split, wid, i, ok, t, and optional
-    cost, checks and planner stats; paths run start -> (0, 15) -> goal."""
+    cost, checks and planner stats (any query field); paths run start -> (0, 15) -> goal."""
     spec = SPECS[env]
     d = spec.state_dim
     run = {"env": env, "planner": planner, "seed": seed, "split": "seen+unseen",
-           "config": f"budget_s: 10.0\nplanner:\n  name: {planner}\n", "git_rev": "abc1234",
-           "versions": {"ompl": "2.0.1"}, "host": "testhost", "started_at": "2026-11-21T12:00:00+00:00"}
+           "config": config or f"budget_s: 10.0\nplanner:\n  name: {planner}\n", "git_rev": "abc1234",
+           "versions": {"ompl": "2.0.1"}, "host": "testhost", "started_at": "2026-11-21T12:00:00+00:00", **run_kw}
     with TrialLog(run_dir, run, spec, rerun=False) as log:
         for q in queries:
             log.add_workspace(ws(env, q["wid"], q["split"]))
@@ -67,7 +68,7 @@ def report(tmp_path, *dirs, paper=False):
 def known(tmp_path):
     """s2d: mpnet_nr seeds 0 and 1, bit_star seed 0 logged twice (two files)."""
     logs = tmp_path / "logs"
-    nr = dict(pnet_calls=4, replans=1, fallback_used=False)
+    nr = {"pnet_calls": 4, "replans": 1, "fallback_used": False}
     write_log(logs / "nr0", "s2d", "mpnet_nr", 0, [
         Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10, stats=nr),
         Q("seen", "0", 1, True, 0.2, cost=20.0, checks=20, stats={**nr, "pnet_calls": 6, "replans": 0}),
@@ -86,8 +87,14 @@ def known(tmp_path):
 def test_statistics_exact(tmp_path, known, capsys):
     rc, out = report(tmp_path, known)
     assert rc == 0
-    so = capsys.readouterr().out
-    assert "read 4 trial logs" in so and "skipped 0" in so
+    cap = capsys.readouterr()
+    assert "read 4 trial logs" in cap.out and "skipped 0" in cap.out
+    # bit_star seed 0 is logged twice: counted twice, with one warning naming both files
+    dup = f"warning: s2d bit_star seed 0: 2 queries logged in more than one file, all counted: " \
+          f"{known / 'a' / 'bit0' / 'trials.mcap'}, {known / 'b' / 'bit0' / 'trials.mcap'}"
+    assert cap.err.strip().splitlines() == [dup]
+    readme = (out / "README.md").read_text()
+    assert "## Warnings" in readme and dup.removeprefix("warning: ") in readme
     res = pd.read_csv(out / "results.csv", keep_default_na=False, na_values=[""])
     assert list(zip(res["split"], res["planner"])) == [("seen", "mpnet_nr"), ("seen", "bit_star"),
                                                        ("unseen", "mpnet_nr")]
@@ -134,16 +141,25 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     assert rc == 0
     assert "| Complex 2D | unseen | Informed-RRT* | 0.0 ± 0.0 |  | 1 | 1 |" in (out / "success_cost.md").read_text()
     md = (out / "table1.md").read_text()
-    head = "| Env | Split | MPNet (NR) | MPNet (HR) | Informed-RRT* | BIT* | RRT-Connect | BIT*/MPNet (NR) |"
+    # the paper's layout first (its four planners, the ratio), then the other planners;
+    # a planner that ran and solved nothing reads "— (0/N)", one not run is blank
+    head = "| Env | Split | MPNet (NR) | MPNet (HR) | Informed-RRT* | BIT* | BIT*/MPNet (NR) | RRT-Connect |"
     assert head in md
-    assert "| Complex 2D | unseen |  |  |  | 0.00200 ± 0.00000 | 0.00100 ± 0.00000 |  |" in md
+    assert "| Complex 2D | unseen |  |  | — (0/1) | 0.00200 ± 0.00000 |  | 0.00100 ± 0.00000 |" in md
+    assert "— (0/N)" in md and "blank: the planner was not run" in md
     assert "arXiv:1806.05767" in md and "paper" not in md.split("\n\n")[1]
+    assert list(pd.read_csv(out / "table1.csv").columns) == [
+        "env", "split", "source", "mpnet_nr_time_mean_s", "mpnet_nr_time_std_s", "mpnet_hr_time_mean_s",
+        "mpnet_hr_time_std_s", "informed_rrt_star_time_mean_s", "informed_rrt_star_time_std_s",
+        "bit_star_time_mean_s", "bit_star_time_std_s", "bit_star_over_mpnet_nr", "rrt_connect_time_mean_s",
+        "rrt_connect_time_std_s"]
+    assert "--- (0/1)" in (out / "table1.tex").read_text()
 
     rc, out = report(tmp_path, logs, paper=True)
     assert rc == 0
     md = (out / "table1.md").read_text()
     assert "| Env | Split | Source |" in md
-    assert "|  |  | paper | 0.180 ± 0.270 | 0.680 ± 0.410 | 6.31 ± 0.85 | 4.12 ± 1.99 |  | 22.9 |" in md
+    assert "|  |  | paper | 0.18 ± 0.27 | 0.68 ± 0.41 | 6.31 ± 0.85 | 4.12 ± 1.99 | 22.9 |  |" in md
     assert "Python implementations" in md
     tex = (out / "table1.tex").read_text()
     for cmd in (r"\toprule", r"\midrule", r"\bottomrule", r"$\pm$", "arXiv:1806.05767"):
@@ -152,6 +168,21 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     assert list(t1["source"]) == ["ours", "paper"]
     assert t1.iloc[1]["bit_star_time_mean_s"] == pytest.approx(4.12)
     assert (out / "success_cost.tex").read_text().count(r"\bottomrule") == 1
+
+
+def test_paper_numbers_as_printed(tmp_path):
+    """--paper shows the paper's numbers exactly as harness/paper_table1.csv gives them."""
+    logs = tmp_path / "logs"
+    write_log(logs / "nr", "rigid", "mpnet_nr", 0, [Q("seen", "0", 0, True, 0.5)])
+    write_log(logs / "s", "s2d", "mpnet_nr", 0, [Q("seen", "0", 0, True, 0.5)])
+    rc, out = report(tmp_path, logs, paper=True)
+    assert rc == 0
+    md = (out / "table1.md").read_text()
+    assert "|  |  | paper | 0.32 ± 0.28 | 1.92 ± 1.30 | 30.25 ± 27.59 | 11.10 ± 5.59 | 34.7 |" in md
+    assert "|  |  | paper | 0.11 ± 0.037 | 0.19 ± 0.14 | 5.36 ± 0.34 | 2.71 ± 1.72 | 24.6 |" in md
+    assert "ratio of the paper's mean times, computed here" in md
+    tex = (out / "table1.tex").read_text()
+    assert r"30.25 $\pm$ 27.59 & 11.10 $\pm$ 5.59 & 34.7" in tex
 
 
 def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
@@ -179,6 +210,9 @@ def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
     cap = capsys.readouterr()
     assert rc == 0 and "Traceback" not in cap.err
     lines = cap.err.strip().splitlines()
+    dups = [ln for ln in lines if "logged in more than one file" in ln]  # bit_star seeds 0 and 1
+    assert len(dups) == 2 and str(bad / "truncated" / "trials.mcap") in dups[1]
+    lines = [ln for ln in lines if ln not in dups]
     assert len(lines) == 4
     for name in ("truncated", "garbage", "empty", "norun"):
         assert sum(str(bad / name / "trials.mcap") in ln for ln in lines) == 1
@@ -247,6 +281,119 @@ def test_figures_and_example_choice(tmp_path, capsys):
     chosen, ref = pick_example(q, "rigid")
     assert set(chosen) == {"mpnet_nr", "bit_star"} and q.at[ref, "query_id"] == "0/1"
     assert {q.at[r, "query_id"] for r in chosen.values()} == {"0/1"}
+
+
+def test_cost_cpu_checks_over_every_success(tmp_path):
+    """A success without a logged time is left out of the time statistics only."""
+    logs = tmp_path / "logs"
+    write_log(logs / "nr", "s2d", "mpnet_nr", 0, [
+        Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10),
+        Q("seen", "0", 1, True, None, cost=30.0, checks=30, stats={"cpu_s": 0.5}),
+        Q("seen", "0", 2, False, 9.0, checks=999)])
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    r = pd.read_csv(out / "results.csv").iloc[0]
+    assert (r["successes"], r["success_mean"]) == (2, pytest.approx(2 / 3))
+    assert (r["time_mean_s"], r["time_std_s"], r["time_median_s"]) == (pytest.approx(0.1), 0.0, pytest.approx(0.1))
+    assert r["cost_mean"] == pytest.approx(20.0)
+    assert r["cpu_mean_s"] == pytest.approx(0.3)
+    assert r["collision_checks_median"] == pytest.approx(20.0)
+
+
+def test_stale_figures_are_removed(tmp_path):
+    logs = tmp_path / "logs"
+    write_log(logs / "s", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)])
+    write_log(logs / "c", "c2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)])
+    rc, out = report(tmp_path, logs)
+    assert rc == 0 and (out / "figures" / "example_c2d.svg").exists()
+    (out / "figures" / "notes.txt").write_text("mine")
+    rc, out = report(tmp_path, logs / "s")
+    names = {p.name for p in (out / "figures").iterdir()}
+    assert rc == 0 and "example_s2d.png" in names and "notes.txt" in names
+    assert not {"example_c2d.png", "example_c2d.svg"} & names
+
+
+def test_benchmark_db_configs_segments_versions(tmp_path):
+    logs = tmp_path / "logs"
+    write_log(logs / "b0", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0), Q("seen", "0", 1, False, 9.0),
+                                                  Q("seen", "0", 2, True, 1.0, stats={"path": []})])
+    write_log(logs / "b1", "s2d", "bit_star", 1, [Q("seen", "0", 0, True, 1.0)],
+              config="budget_s: 10.0\nplanner:\n  name: bit_star\n  range: 2.0\n")
+    write_log(logs / "b2", "s2d", "bit_star", 2, [Q("seen", "0", 0, True, 1.0)])
+    write_log(logs / "c", "c2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)], versions={"ompl": "1.6.0"})
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    con = sqlite3.connect(out / "benchmark.db")
+    configs = con.execute("SELECT id, name, settings FROM plannerConfigs ORDER BY id").fetchall()
+    assert [(n, "range: 2.0" in st) for _, n, st in configs] == [("geometric_bit_star", False),
+                                                                 ("geometric_bit_star", True)]
+    seeds_of = dict(con.execute("SELECT p.settings, group_concat(DISTINCT r.seed) FROM runs r "
+                                "JOIN plannerConfigs p ON p.id = r.plannerid GROUP BY p.id"))
+    assert sorted(seeds_of.values()) == ["0,2", "1"]
+    rows = con.execute("SELECT r.query_id, r.solved, r.solution_segments, r.memory FROM runs r "
+                       "JOIN experiments e ON e.id = r.experimentid WHERE e.name = 's2d seen' AND r.seed = 0 "
+                       "ORDER BY r.query_id").fetchall()
+    assert rows == [("0/0", 1, 2, None), ("0/1", 0, None, None), ("0/2", 1, None, None)]
+    assert con.execute("SELECT count(*) FROM runs WHERE memory IS NOT NULL OR solution_segments < 0").fetchone() \
+        == (0,)
+    assert dict(con.execute("SELECT name, version FROM experiments")) == {"s2d seen": "OMPL 2.0.1",
+                                                                         "c2d seen": "OMPL 1.6.0"}
+    con.close()
+
+
+def test_files_without_queries(tmp_path, capsys):
+    logs = tmp_path / "logs"
+    empty = write_log(logs / "empty", "s2d", "bit_star", 0, [])
+    rc, out = report(tmp_path, logs)
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert rc == 1 and cap.out == "" and not out.exists()
+    assert lines[0] == f"warning: {empty}: no queries"
+    assert len(lines) == 2 and lines[1].startswith("error: no queries in the 1 readable trials.mcap")
+
+    write_log(logs / "full", "s2d", "bit_star", 1, [Q("seen", "0", 0, True, 1.0)])
+    rc, out = report(tmp_path, logs)
+    assert rc == 0 and capsys.readouterr().err.strip().splitlines() == [f"warning: {empty}: no queries"]
+    assert f"- {empty}: no queries" in (out / "README.md").read_text()
+
+
+def test_files_without_an_integer_seed_are_seeds_of_their_own(tmp_path, capsys):
+    logs = tmp_path / "logs"
+    write_log(logs / "a", "s2d", "bit_star", None, [Q("seen", "0", 0, True, 1.0)])
+    write_log(logs / "b", "s2d", "bit_star", "seven", [Q("seen", "0", 0, False, 9.0)])
+    write_log(logs / "c", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 2.0)])
+    rc, out = report(tmp_path, logs)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert rc == 0 and len(lines) == 2
+    assert lines[0].startswith(f"warning: {logs / 'a' / 'trials.mcap'}: its /run has no integer seed (None)")
+    assert lines[1].startswith(f"warning: {logs / 'b' / 'trials.mcap'}: its /run has no integer seed ('seven')")
+    r = pd.read_csv(out / "results.csv").iloc[0]
+    assert (r["queries"], r["seeds"], r["success_mean"]) == (3, 3, pytest.approx(2 / 3))
+    con = sqlite3.connect(out / "benchmark.db")
+    assert sorted(con.execute("SELECT seed FROM runs").fetchall(), key=str) == [(0,), (None,), (None,)]
+    assert con.execute("SELECT seed FROM experiments").fetchone() == ("0",)
+    con.close()
+
+
+def test_readme_scales_and_no_warnings(tmp_path, capsys):
+    logs = tmp_path / "logs"
+    quick = ("budget_s: 10.0\nscale:\n  name: quick\n  test:\n    seen: {workspaces: 20, queries: 10}\n"
+             "    unseen: {workspaces: 10, queries: 20}\n  train: {workspaces: 100, paths: 40}\n"
+             "  model: {pnet_hidden: [512, 256, 128, 64]}\nplanner:\n  name: bit_star\n")
+    write_log(logs / "q", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)], config=quick)
+    write_log(logs / "p", "s2d", "mpnet_nr", 0, [Q("seen", "0", 0, True, 1.0)],
+              config="budget_s: 10.0\nscale:\n  name: paper\nplanner:\n  name: mpnet_nr\n")
+    write_log(logs / "o", "s2d", "rrt_star", 0, [Q("seen", "0", 0, True, 1.0)],
+              config="budget_s: 10.0\nscale:\n  name: mine\nplanner:\n  name: rrt_star\n")
+    rc, out = report(tmp_path, logs)
+    assert rc == 0 and capsys.readouterr().err == ""
+    readme = (out / "README.md").read_text()
+    assert "## Warnings" in readme and readme.split("## Warnings")[1].split("##")[0].strip().endswith("none")
+    assert ("- Our `quick` scale trains smaller networks on 100 workspaces × 40 expert paths and tests on "
+            "200 seen + 200 unseen queries per seed; the paper: 100 × 4000 paths; 100 × 200 seen, "
+            "10 × 2000 unseen.") in readme
+    assert "- Scale `paper`: the paper's sizes." in readme
+    assert "- Scale `mine`: smaller than the paper's." in readme
 
 
 def test_env_order():
