@@ -58,6 +58,9 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
                   "solvable_s": float(cfg.env.solvable_s), "splits": {s: list(v) for s, v in sizes.items()}}
 
     def build(folder: Path) -> dict:
+        from ompl import util as ou
+
+        ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
         with tqdm(total=sum(n for n, _ in sizes.values()), desc=f"test set {spec.name}", unit="workspace",
                   file=sys.stderr, disable=not progress, dynamic_ncols=True) as bar:
             ts = make_testset(spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update)

@@ -14,11 +14,11 @@ def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_dataset, ensure_testset
 
     testset = ensure_testset(cfg, progress=bool(cfg.progress))
-    print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries "
-          f"({', '.join(cfg.splits)})")
     folder, data, built = ensure_dataset(cfg, progress=bool(cfg.progress))
     m = data.manifest
     print(f"{'built' if built else 'cached'}: {folder}")
+    print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries "
+          f"({', '.join(cfg.splits)})")
     print(f"{m['expert']['paths']} expert paths over {len(data.train_ids)} workspaces, "
           f"{len(data.ae_clouds)} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB")
     print(json.dumps(m["expert"], indent=2))
