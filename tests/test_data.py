@@ -61,6 +61,21 @@ def test_failed_build_leaves_nothing(tmp_path):
     assert [p.name for p in (tmp_path / "thing").iterdir() if not p.name.endswith(".lock")] == []
 
 
+def test_store_clears_the_temp_folder_of_a_killed_builder(tmp_path):
+    """A builder killed outright (SIGKILL) leaves its temp folder; the next build removes it."""
+    key = content_key({"kind": "thing", "a": 1})
+    stale = tmp_path / "thing" / f".{key}.tmp-deadbeef"
+    stale.mkdir(parents=True)
+    (stale / "half").write_text("x")
+
+    def build(folder):
+        (folder / "x.txt").write_text("hi")
+        return {"files": ["x.txt"]}
+
+    folder, _, built = ensure(tmp_path, "thing", {"a": 1}, build)
+    assert built and not stale.exists() and (folder / "x.txt").exists()
+
+
 def test_data_cli_builds_once_under_concurrency(tmp_path):
     """Two jobs asking for the same dataset at once: one builds, the other waits and reuses."""
     cmd = [sys.executable, "-m", "harness.data", "+env=s2d", "scale=tiny", "progress=false",

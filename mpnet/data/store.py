@@ -65,6 +65,8 @@ def ensure(root: str | Path, kind: str, config: dict, build: Callable[[Path], di
                 return folder, read_manifest(folder, key), False
             except ArtifactError:
                 shutil.rmtree(folder)
+        for stale in base.glob(f".{key}.tmp-*"):  # left by a builder killed outright (we hold the lock)
+            shutil.rmtree(stale, ignore_errors=True)
         tmp = base / f".{key}.tmp-{uuid.uuid4().hex[:8]}"
         tmp.mkdir()
         try:
