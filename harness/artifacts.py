@@ -20,8 +20,14 @@ def data_params(cfg: DictConfig) -> DataParams:
         expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)))
 
 
+def provenance() -> dict:
+    """Manifest fields of an artifact built now (git runs only when something is built)."""
+    return {"git_rev": git_rev(), "versions": versions()}
+
+
 def ensure_dataset(cfg: DictConfig, progress: bool = True):
-    """The env's training dataset at this scale: from the cache, or built now."""
+    """The env's training dataset at this scale, from the cache or built now: (folder,
+    manifest, built); `load_dataset(folder, manifest)` reads it."""
     from tqdm import tqdm
 
     spec = env_spec(cfg.env)
@@ -35,9 +41,7 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
         finally:
             bar.close()
 
-    folder, manifest, built = ensure(cfg.cache_dir, "data", params.key_config(), build,
-                                     {"git_rev": git_rev(), "versions": versions()})
-    return folder, load_dataset(folder, manifest), built
+    return ensure(cfg.cache_dir, "data", params.key_config(), build, provenance)
 
 
 TESTSET_FORMAT = "mpnet-bench/testset@1"
@@ -69,7 +73,7 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
         return {"format": TESTSET_FORMAT, "files": [f"{s}.json" for s in sizes],
                 "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes}}
 
-    folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, {"git_rev": git_rev(), "versions": versions()})
+    folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, provenance)
     workspaces, queries = [], []
     for split in cfg.splits:
         part = load_problems(folder / f"{split}.json", spec)
@@ -100,7 +104,7 @@ def ensure_models(cfg: DictConfig, progress: bool = True):
     """The env's trained Enet and Pnet at this scale: from the cache, or trained now
     (building the dataset first if it is missing)."""
     spec = env_spec(cfg.env)
-    data_folder, data, _ = ensure_dataset(cfg, progress)
+    data_folder, data_manifest, _ = ensure_dataset(cfg, progress)
     params = model_params(cfg)
     lightning = {"accelerator": str(cfg.train.accelerator), "devices": cfg.train.devices,
                  "strategy": str(cfg.train.strategy)}
@@ -108,8 +112,9 @@ def ensure_models(cfg: DictConfig, progress: bool = True):
     def build(folder: Path) -> dict:
         from harness.fit import fit_models
 
+        data = load_dataset(data_folder, data_manifest)  # only to train: a cached model needs its key alone
         return fit_models(spec, data, params, lightning, folder, progress)
 
-    key_config = {"data": data.manifest["key"], **params}
+    key_config = {"data": data_manifest["key"], **params}
     return ensure(cfg.cache_dir, "models", key_config, build,
-                  {"git_rev": git_rev(), "versions": versions(), "data_folder": str(data_folder)})
+                  lambda: {**provenance(), "data_folder": str(data_folder)})

@@ -14,13 +14,12 @@ def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_dataset, ensure_testset
 
     testset = ensure_testset(cfg, progress=bool(cfg.progress))
-    folder, data, built = ensure_dataset(cfg, progress=bool(cfg.progress))
-    m = data.manifest
+    folder, m, built = ensure_dataset(cfg, progress=bool(cfg.progress))
     print(f"{'built' if built else 'cached'}: {folder}")
     print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries "
           f"({', '.join(cfg.splits)})")
-    print(f"{m['expert']['paths']} expert paths over {len(data.train_ids)} workspaces, "
-          f"{len(data.ae_clouds)} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB")
+    print(f"{m['expert']['paths']} expert paths over {m['sizes']['train_ids'][0]} workspaces, "
+          f"{m['sizes']['ae_clouds'][0]} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB")
     print(json.dumps(m["expert"], indent=2))
 
 

@@ -26,5 +26,5 @@ def mpnet_planner(name: str, hybrid: bool, max_steps: int, replan_steps: int, re
     return MPNetPlanner(name, encode, step, workspace_cloud(points_per_block * spec.blocks, data_seed),
                         hybrid=hybrid, max_steps=max_steps, replan_steps=replan_steps, replan_rounds=replan_rounds,
                         seed=seed, fallback=OmplPlanner(fallback, fallback) if hybrid else None,
-                        steer_steps=list(steer_steps) if steer_steps else None)
+                        steer_steps=steer_steps)
 

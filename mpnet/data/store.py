@@ -45,10 +45,11 @@ def read_manifest(folder: Path, key: str) -> dict:
 
 
 def ensure(root: str | Path, kind: str, config: dict, build: Callable[[Path], dict],
-           provenance: dict | None = None) -> tuple[Path, dict, bool]:
+           provenance: Callable[[], dict] | None = None) -> tuple[Path, dict, bool]:
     """The artifact of `kind` for `config` under `root`, building it if absent.
 
-    build(tmp_folder) writes the files and returns manifest fields (must include "files").
+    build(tmp_folder) writes the files and returns manifest fields (must include "files");
+    provenance() gives further manifest fields, asked for only when building.
     Returns (folder, manifest, built_now)."""
     key = content_key({"kind": kind, **config})
     base = Path(root) / kind
@@ -74,7 +75,7 @@ def ensure(root: str | Path, kind: str, config: dict, build: Callable[[Path], di
             manifest = {
                 "kind": kind, "key": key, "config": config,
                 "created_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-                **(provenance or {}), **fields,
+                **(provenance() if provenance else {}), **fields,
             }
             (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True, default=str))
             os.replace(tmp, folder)
