@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 
 from omegaconf import DictConfig
@@ -44,7 +45,17 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
     return ensure(cfg.cache_dir, "data", params.key_config(), build, provenance)
 
 
-TESTSET_FORMAT = "mpnet-bench/testset@1"
+TESTSET_FORMAT = "mpnet-bench/testset@2"  # @2: reference costs
+
+
+def reference_params(cfg: DictConfig, spec) -> dict:
+    """What decides the test set's reference costs (none for the exact 2D ones)."""
+    from mpnet.data.reference import is_exact
+
+    if is_exact(spec):
+        return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
+    return {"iterations": int(cfg.env.expert.iterations), "expert_s": float(cfg.env.expert.max_seconds),
+            "bit_star_s": float(cfg.env.reference.bit_star_s)}
 
 
 def ensure_testset(cfg: DictConfig, progress: bool = True):
@@ -53,13 +64,15 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
     from tqdm import tqdm
 
     from mpnet.data.queries import make_testset
+    from mpnet.data.reference import describe, reference_costs
     from mpnet.envs.workspace import TestSet
     from mpnet.problems import dump_problems, load_problems
 
     spec = env_spec(cfg.env)
     sizes = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in ("seen", "unseen")}
     key_config = {"format": TESTSET_FORMAT, "env": spec.name, "data_seed": int(cfg.env.data_seed),
-                  "solvable_s": float(cfg.env.solvable_s), "splits": {s: list(v) for s, v in sizes.items()}}
+                  "solvable_s": float(cfg.env.solvable_s), "splits": {s: list(v) for s, v in sizes.items()},
+                  "reference": reference_params(cfg, spec)}
 
     def build(folder: Path) -> dict:
         from ompl import util as ou
@@ -68,10 +81,17 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
         with tqdm(total=sum(n for n, _ in sizes.values()), desc=f"test set {spec.name}", unit="workspace",
                   file=sys.stderr, disable=not progress, dynamic_ncols=True) as bar:
             ts = make_testset(spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update)
+        t0 = time.perf_counter()
+        with tqdm(total=len(ts.workspaces), desc=f"reference costs {spec.name}", unit="workspace",
+                  file=sys.stderr, disable=not progress, dynamic_ncols=True) as bar:
+            reference_costs(spec, ts.workspaces, ts.queries, **key_config["reference"],
+                            seed=int(cfg.env.data_seed), jobs=int(cfg.jobs), progress=bar.update)
+        ref_s = time.perf_counter() - t0
         for split in sizes:
             dump_problems(folder / f"{split}.json", ts, split=split)
         return {"format": TESTSET_FORMAT, "files": [f"{s}.json" for s in sizes],
-                "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes}}
+                "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes},
+                "reference": {"method": describe(spec), "seconds": ref_s}}
 
     folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, provenance)
     workspaces, queries = [], []

@@ -130,9 +130,25 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     return rec
 
 
+def cost_target(target: Planner, problem: Problem, budget_s: float) -> dict:
+    """The target planner's result on the query, for the log: its verified path's cost
+    (None when it failed) and time."""
+    from mpnet.motion import path_cost, verify_path
+
+    rec = plan_query(target, problem, budget_s)
+    ok = rec["success"] and verify_path(problem.spec, problem.workspace, rec["path"], problem.start, problem.goal,
+                                        problem.spec.validation_step) is None
+    cost = path_cost(problem.spec, rec["path"]) if ok else None
+    return {"target_planner": target.name, "target_cost": cost if cost else None, "target_time_s": rec["time_s"]}
+
+
 def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, collision: str = "native",
-              progress: bool = True, timing: QueryTiming | None = None) -> None:
-    """Plan every query of the test set not already in the log, handing each to the log."""
+              progress: bool = True, timing: QueryTiming | None = None, target: Planner | None = None) -> None:
+    """Plan every query of the test set not already in the log, handing each to the log.
+
+    With a `target` planner (time to equal quality), target plans each query first,
+    untimed; its verified path's cost becomes the problem's cost basis for `planner`
+    (stop=cost), and a query it fails is logged as failure "no_target" without planning."""
     from threadpoolctl import threadpool_limits
     from tqdm import tqdm
 
@@ -158,8 +174,17 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, colli
                 checker.reset_counts()
                 problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost)
                 rec = {"query_id": q.id, "workspace_id": ws.id, "split": q.split,
-                       "start": q.start.tolist(), "goal": q.goal.tolist(),
-                       **plan_query(planner, problem, budget_s)}
+                       "start": q.start.tolist(), "goal": q.goal.tolist()}
+                if target is not None:
+                    got = cost_target(target, problem, budget_s)
+                    rec.update(got)
+                    checker.reset_counts()
+                    problem.reference_cost = got["target_cost"]
+                if target is None or problem.reference_cost is not None:
+                    rec.update(plan_query(planner, problem, budget_s))
+                else:
+                    rec.update({"success": False, "failure": "no_target", "path": [], "time_s": 0.0, "cpu_s": 0.0,
+                                **checker.counts(), "planner_status": "no_target"})
                 if q.reference_cost is not None:
                     rec["reference_cost"] = q.reference_cost
                 log.add_query(rec)
@@ -235,7 +260,17 @@ def check_config(cfg: DictConfig) -> None:
     for key in ("rerun", "resume", "progress"):
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
-    steps = cfg.get("planner", {}).get("steer_steps")
+    planner = cfg.get("planner", {})
+    for sub in (planner, planner.get("cost_target") or {}):
+        if sub.get("_target_") == "harness.neural.mpnet_planner":
+            from harness.neural import check_ablation
+
+            try:
+                check_ablation(sub.get("name"), sub.get("proposal", "pnet"), sub.get("encoding", "cloud"),
+                               sub.get("dropout", True))
+            except ValueError as e:
+                raise UsageError(str(e)) from None
+    steps = planner.get("steer_steps")
     if steps is not None:
         if not OmegaConf.is_list(steps) or not all(
                 x is None or (isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0)
@@ -247,10 +282,15 @@ def check_config(cfg: DictConfig) -> None:
 def build_testset(cfg: DictConfig, spec):
     """The problem file's test set, or the scale's generated splits (from the cache)."""
     from harness.artifacts import ensure_testset
+    from mpnet.data.reference import is_exact, reference_costs
     from mpnet.problems import load_problems
 
     if cfg.problems:
-        return load_problems(str(cfg.problems), spec), "file"
+        testset = load_problems(str(cfg.problems), spec)
+        if is_exact(spec):  # exact references cost microseconds: fill the ones the file lacks
+            reference_costs(spec, testset.workspaces, [q for q in testset.queries if q.reference_cost is None],
+                            iterations=0, expert_s=0.0, bit_star_s=0.0)
+        return testset, "file"
     return ensure_testset(cfg, bool(cfg.progress)), "+".join(cfg.splits)
 
 
@@ -267,21 +307,29 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     seed_everything(int(cfg.seed))
     spec = env_spec(cfg.env)
     testset, split = build_testset(cfg, spec)
+    target_cfg = cfg.planner.get("cost_target")
     extra = {}
-    if cfg.planner.get("needs_models"):
+    if cfg.planner.get("needs_models") or (target_cfg is not None and target_cfg.get("needs_models")):
         from harness.artifacts import ensure_models
 
         models_folder, _, _ = ensure_models(cfg, progress=bool(cfg.progress))
         extra = {"models_folder": models_folder, "spec": spec, "points_per_block": int(cfg.env.points_per_block),
                  "data_seed": int(cfg.env.data_seed), "seed": int(cfg.seed)}
-    try:
-        # Objects (the spec, folders) cannot go through OmegaConf: bind them to a partial.
-        factory = hydra.utils.instantiate({k: v for k, v in cfg.planner.items() if k != "needs_models"},
-                                          _partial_=True)
-        planner = factory(**extra)
-    except InstantiationException as e:
-        raise UsageError(f"config key planner: {e.__cause__ or e}") from None
-    if cfg.planner.get("stop") == "cost" and any(q.reference_cost is None for q in testset.queries):
+
+    def make(planner_cfg, key: str, models: bool):
+        try:
+            # Objects (the spec, folders) cannot go through OmegaConf: bind them to a partial.
+            factory = hydra.utils.instantiate(
+                {k: v for k, v in planner_cfg.items() if k not in ("needs_models", "cost_target")}, _partial_=True)
+            return factory(**(extra if models else {}))
+        except InstantiationException as e:
+            raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
+
+    planner = make(cfg.planner, "planner", bool(cfg.planner.get("needs_models")))
+    target = None if target_cfg is None else make(target_cfg, "planner.cost_target",
+                                                   bool(target_cfg.get("needs_models")))
+    if target is None and cfg.planner.get("stop") == "cost" \
+            and any(q.reference_cost is None for q in testset.queries):
         raise UsageError("planner.stop=cost needs a reference cost for every query "
                          "(give `reference_cost` per query in a problem file)")
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
@@ -296,7 +344,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
             print(f"resuming: {len(log.done)} queries already logged in {run_dir}", file=sys.stderr)
         try:
             run_bench(testset, planner, log, budget_s=float(cfg.budget_s), collision=str(cfg.env.collision),
-                      progress=bool(cfg.progress), timing=timing)
+                      progress=bool(cfg.progress), timing=timing, target=target)
         except KeyboardInterrupt:
             log.close()
             print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +40,10 @@ def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dic
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
     from lightning.pytorch.loggers import CSVLogger
 
+    # Enet's and Pnet's checkpoints share the artifact folder on purpose; and Lightning 2.6.6
+    # calls a pytree API torch 2.13 deprecates. Neither is the user's to act on.
+    warnings.filterwarnings("ignore", message=r"Checkpoint directory .* exists and is not empty")
+    warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\)")
     loggers = [CSVLogger(str(folder), name=f"{name}_logs", version=0)]
     try:
         from lightning.pytorch.loggers import TensorBoardLogger

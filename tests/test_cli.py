@@ -172,8 +172,9 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
     import time
 
     out = tmp_path / "run"
+    cheap_refs = ["env.reference.bit_star_s=0.01", "env.expert.iterations=10"]  # a test set built in seconds
     args = [sys.executable, "-m", "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]",
-            "progress=false", f"hydra.run.dir={out}"]
+            "progress=false", f"hydra.run.dir={out}", *cheap_refs]
     proc = subprocess.Popen(args, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     csv_file = out / "queries.csv"
@@ -186,7 +187,7 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
     first = [m["query_id"] for t, m in msgs if t == "/query"]
     assert 0 < len(first) < 200
     run("harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
-        "resume=true", f"hydra.run.dir={out}")
+        "resume=true", f"hydra.run.dir={out}", *cheap_refs)
     _, msgs = read_mcap(out / "trials.mcap")
     ids = [m["query_id"] for t, m in msgs if t == "/query"]
     assert len(ids) == len(set(ids)) == 200
@@ -202,21 +203,42 @@ def test_existing_run_dir_is_not_overwritten(tmp_path):
 
 
 def test_every_env_and_planner_config_runs(tmp_path):
-    """Each conf/env × conf/planner at the smallest size, as one sweep."""
+    """Each conf/env × base planner, and s2d × every conf/planner (ablations and time to
+    equal quality), at the smallest size."""
     from harness.cli import choices
 
     envs, planners = choices("env"), choices("planner")
-    run("harness", "-m", f"+env={','.join(envs)}", f"+planner={','.join(planners)}", "scale=tiny", "splits=[unseen]",
-        "rerun=false", "progress=false", f"hydra.sweep.dir={tmp_path / 'sweep'}", f"cache_dir={tmp_path / 'cache'}")
-    files = sorted((tmp_path / "sweep").rglob("trials.mcap"))
-    assert len(files) == len(envs) * len(planners)
-    for f in files:
-        _, msgs = read_mcap(f)
-        queries = [m for t, m in msgs if t == "/query"]
-        verified = recheck(msgs)
-        assert len(queries) == 4 and verified == sum(q["success"] for q in queries)
-        if "mpnet_nr" not in str(f):  # a 2-epoch tiny Pnet plans what it can; the rest always solve
-            assert verified >= 3
+    base = [p for p in planners if not any(p.startswith(b + "_") for b in ("mpnet_nr", "mpnet_hr")) and "_to_nr" not in p]
+    variants = sorted(set(planners) - set(base))
+    assert {"mpnet_nr_random", "mpnet_hr_zeros", "bit_star_to_nr_x1.1"} <= set(variants)
+    for name, env_list, planner_list in (("base", envs, base), ("variants", ["s2d"], variants)):
+        run("harness", "-m", f"+env={','.join(env_list)}", f"+planner={','.join(planner_list)}", "scale=tiny",
+            "splits=[unseen]", "rerun=false", "progress=false", f"hydra.sweep.dir={tmp_path / name}",
+            f"cache_dir={tmp_path / 'cache'}")
+        files = sorted((tmp_path / name).rglob("trials.mcap"))
+        assert len(files) == len(env_list) * len(planner_list)
+        for f in files:
+            _, msgs = read_mcap(f)
+            queries = [m for t, m in msgs if t == "/query"]
+            verified = recheck(msgs)
+            assert len(queries) == 4 and verified == sum(q["success"] for q in queries)
+            planner = f.parent.parent.name
+            assert all(m["planner"] == planner for t, m in msgs if t == "/run")
+            if "_to_nr" in planner:  # every query carries NR's target; no target, no planning
+                assert all("target_cost" in q and q["target_planner"] == "mpnet_nr" for q in queries)
+                assert all(q["failure"] == "no_target" for q in queries if q["target_cost"] is None)
+            elif not planner.startswith("mpnet_nr"):  # a 2-epoch tiny Pnet plans what it can; the rest always solve
+                assert verified >= 3
+            if f.parent.parent.parent.name in ("s2d", "c2d"):  # exact reference costs, a lower bound
+                assert all(q["reference_cost"] > 0 for q in queries)
+                assert all(q["path_cost"] >= q["reference_cost"] - 1e-9 for q in queries if q["success"])
+
+
+def test_ablation_under_mpnet_name_is_refused(tmp_path):
+    p = run("harness", "+env=s2d", "+planner=mpnet_nr", "planner.proposal=random", "scale=tiny",
+            f"hydra.run.dir={tmp_path}", f"cache_dir={tmp_path / 'cache'}", check=False)
+    assert p.returncode == 1 and "config key planner.name" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "cache").exists()
 
 
 def test_joblib_launcher(tmp_path):

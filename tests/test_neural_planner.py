@@ -96,3 +96,52 @@ def test_coarse_to_fine_steer_steps():
     continuous = make(over, False).solve(p, 5.0)
     assert continuous.solved and continuous.stats["replans"] == 0
     assert make(over, False).steer_step(4) is None
+
+
+def test_straight_step_known_answers():
+    from mpnet.planners.neural import straight_step
+
+    assert straight_step(S2D, np.array([0.0, 0.0]), np.array([20.0, 0.0]), 0.1).tolist() == pytest.approx([2.0, 0.0])
+    assert straight_step(S2D, np.array([0.0, 0.0]), np.array([1.0, 1.0]), 0.1).tolist() == [1.0, 1.0]
+    rigid = get_spec("rigid")
+    nxt = straight_step(rigid, np.array([0.0, 0.0, 3.0]), np.array([0.0, 0.0, -3.0]), 0.05)
+    assert nxt[2] == pytest.approx(3.0 + 0.05 * np.pi) or nxt[2] == pytest.approx(3.0 + 0.05 * np.pi - 2 * np.pi)
+
+
+def never(*_):
+    raise AssertionError("Pnet was asked for a proposal")
+
+
+@pytest.mark.parametrize("proposal", ["random", "straight"])
+def test_ablated_proposals_never_call_pnet(proposal):
+    """proposal=random / straight replace Pnet and keep the rest: NR's paths still verify,
+    HR still solves every query."""
+    ws = make_workspace(S2D, 4, "seen")
+    queries = make_queries(S2D, ws, 8, seed=3, split="seen")
+    for hybrid in (False, True):
+        planner = MPNetPlanner("x", encode=lambda cloud: np.zeros(4), step=never, cloud=workspace_cloud(1400, 0),
+                               hybrid=hybrid, fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
+                               proposal=proposal)
+        solved = 0
+        for q in queries:
+            res = planner.solve(Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal), 5.0)
+            if res.solved:
+                assert verify_path(S2D, ws, res.path, q.start, q.goal) is None
+                solved += 1
+        assert solved == len(queries) if hybrid else solved >= (6 if proposal == "random" else 0)
+
+
+def test_random_proposals_are_valid_states():
+    from mpnet.planners.neural import random_valid_state
+
+    ws = make_workspace(S2D, 1, "seen")
+    checker = make_checker(S2D, ws)
+    rng = np.random.default_rng(0)
+    states = [random_valid_state(S2D, checker, rng) for _ in range(50)]
+    assert all(checker.is_valid(q.tolist()) for q in states)
+    assert len({tuple(q) for q in states}) == 50
+
+
+def test_unknown_proposal_names_its_key():
+    with pytest.raises(ValueError, match="planner.proposal"):
+        MPNetPlanner("x", encode=None, step=None, cloud=None, proposal="bogus")

@@ -84,6 +84,10 @@ def test_stop_at_first_is_fast_and_stop_at_cost_is_better():
     assert path_cost(get_spec("s2d"), res.path) <= 1.05 * optimum + 1e-6
     with pytest.raises(ValueError, match="reference cost"):
         target_planner.solve(problem("s2d", WALL, start, goal), 1.0)
+    below = OmplPlanner("bit_star", "bit_star", stop="cost", cost_factor=0.95)
+    res = below.solve(problem("s2d", WALL, start, goal, reference_cost=optimum), 0.5)
+    assert not res.solved and res.path is None and res.status == "timeout"
+    assert res.stats["best_cost"] >= optimum - 1e-6  # it found paths, none at the target
 
 
 def test_bad_planner_config():

@@ -15,7 +15,21 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from harness.report import env_rank, load, main, pick_example, queries_frame
+from harness.report import (
+    BOOT_N,
+    boot_interval,
+    boot_medians,
+    comparator_of,
+    env_rank,
+    fisher_p,
+    load,
+    main,
+    pick_example,
+    planner_label,
+    planner_rank,
+    queries_frame,
+    wilson,
+)
 from harness.trial_log import TrialLog
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
@@ -119,6 +133,23 @@ def test_statistics_exact(tmp_path, known, capsys):
     un = res.iloc[2]
     assert (un["queries"], un["seeds"], un["success_std"], un["time_std_s"]) == (1, 1, 0.0, 0.0)
 
+    # logs without reference_cost, ablations or time-to-equal-quality runs: blanks, no crash
+    assert nr["success_rate"] == pytest.approx(4 / 6)
+    assert (nr["success_ci_low"], nr["success_ci_high"]) == pytest.approx(wilson_by_hand(4, 6))
+    assert nr["time_median_ci_low"] <= nr["time_median_s"] <= nr["time_median_ci_high"]
+    assert nr["quality_n"] == 0 and math.isnan(nr["quality_median"]) and math.isnan(nr["quality_p90"])
+    # NR seed 0 costs 10, 20 against bit_star seed 0's 12, 14 (NR seed 1 has no BIT* pair)
+    assert nr["cost_over_bit_star_n"] == 2
+    assert nr["cost_over_bit_star_median"] == pytest.approx((10 / 12 + 20 / 14) / 2)
+    assert bit["cost_over_bit_star_n"] == 0 and math.isnan(bit["cost_over_bit_star_median"])
+    assert (bit["comparator"], bit["success_diff_significant"]) == ("mpnet_nr", False)
+    assert bit["success_p_vs"] == pytest.approx(0.4666667)                  # Fisher: 4/4 against 4/6
+    assert bit["time_diff_significant"] and bit["time_ratio_vs"] == pytest.approx(10.0)
+    assert isinstance(nr["comparator"], float) and math.isnan(nr["comparator"])  # NR: no comparator
+    assert (out / "quality.csv").exists() and not (out / "ablations.md").exists()
+    assert not (out / "equal_quality.md").exists()
+    assert "`ablations.*`: not written" in readme and "`equal_quality.*`: not written" in readme
+
     t1 = pd.read_csv(out / "table1.csv")
     assert list(t1["split"]) == ["seen", "unseen"] and set(t1["source"]) == {"ours"}
     row = t1.iloc[0]
@@ -128,7 +159,8 @@ def test_statistics_exact(tmp_path, known, capsys):
     md = (out / "table1.md").read_text()
     assert "| Simple 2D | seen | 0.250 ± 0.129 |  |  | 2.50 ± 0.58 | 10.0 |" in md
     sc = (out / "success_cost.md").read_text()
-    assert "| Simple 2D | seen | MPNet (NR) | 62.5 ± 17.7 | 25.0 | 6 | 2 |" in sc
+    # pooled 4/6 = 66.7% with its Wilson interval [30.0, 90.3]
+    assert "| Simple 2D | seen | MPNet (NR) | 62.5 ± 17.7 | 66.7 [30.0, 90.3] | 25.0 | 6 | 2 |" in sc
     assert "ddof=1" in (out / "README.md").read_text()
 
 
@@ -139,7 +171,8 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     write_log(logs / "i", "c2d", "informed_rrt_star", 0, [Q("unseen", "100", 0, False, 10.0)])
     rc, out = report(tmp_path, logs)
     assert rc == 0
-    assert "| Complex 2D | unseen | Informed-RRT* | 0.0 ± 0.0 |  | 1 | 1 |" in (out / "success_cost.md").read_text()
+    assert "| Complex 2D | unseen | Informed-RRT* | 0.0 ± 0.0 | 0.0 [0.0, 79.3] |  | 1 | 1 |" in \
+        (out / "success_cost.md").read_text()
     md = (out / "table1.md").read_text()
     # the paper's layout first (its four planners, the ratio), then the other planners;
     # a planner that ran and solved nothing reads "— (0/N)", one not run is blank
@@ -394,6 +427,181 @@ def test_readme_scales_and_no_warnings(tmp_path, capsys):
             "10 × 2000 unseen.") in readme
     assert "- Scale `paper`: the paper's sizes." in readme
     assert "- Scale `mine`: smaller than the paper's." in readme
+
+
+def wilson_by_hand(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    p = k / n
+    centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return centre - half / (1 + z * z / n), centre + half / (1 + z * z / n)
+
+
+def test_wilson_fisher_bootstrap_known_values():
+    assert wilson(3, 4) == pytest.approx(wilson_by_hand(3, 4))
+    assert wilson(0, 1) == pytest.approx((0.0, wilson_by_hand(0, 1)[1]))
+    assert all(math.isnan(x) for x in wilson(0, 0))
+    # hypergeometric by hand: margins 5 / 5 of 10, P(x) = C(5, x)^2 / 252; |x - 2.5| >= 1.5
+    assert fisher_p(4, 5, 1, 5) == pytest.approx(52 / 252)
+    assert fisher_p(3, 4, 1, 4) == pytest.approx(34 / 70)
+    assert math.isnan(fisher_p(1, 1, 0, 0))
+    # the order-statistic bootstrap has the distribution of medians of resamples drawn with replacement
+    brute = np.random.default_rng(1)
+    for x in ([1.0, 2.0, 3.0, 4.0, 10.0], [1.0, 2.0, 3.0, 4.0, 5.0, 7.0], [0.5, 0.5, 2.0, np.inf]):
+        fast = boot_medians(x, ("test", len(x)))
+        slow = np.median(brute.choice(x, (BOOT_N, len(x))), axis=1)
+        assert len(fast) == BOOT_N and set(fast) <= set(slow) | {np.inf}
+        for v in sorted(set(slow)):
+            assert np.mean(fast == v) == pytest.approx(np.mean(slow == v), abs=0.02)
+        assert np.array_equal(fast, boot_medians(x, ("test", len(x))))   # seeded: reproducible
+    assert boot_interval(boot_medians([0.5] * 5, ("c",))) == (0.5, 0.5)
+    assert boot_medians([], ("e",)) is None and all(math.isnan(v) for v in boot_interval(None))
+    lo, hi = boot_interval(boot_medians([1.0, np.inf, np.inf], ("inf",)))
+    assert lo == 1.0 and hi == np.inf
+
+
+def test_planner_names():
+    assert comparator_of("mpnet_nr") is None and comparator_of("mpnet_hr") == "mpnet_nr"
+    assert comparator_of("mpnet_nr_zeros") == "mpnet_nr" and comparator_of("mpnet_hr_zeros") == "mpnet_hr"
+    assert comparator_of("bit_star") == "mpnet_nr"
+    assert planner_label("mpnet_hr_nodropout") == "MPNet (HR): nodropout"
+    assert planner_label("informed_rrt_star_to_nr_x1.1") == "Informed-RRT* to NR ×1.1"
+    names = ["bit_star_to_nr", "mpnet_hr_random", "mpnet_nr_zeros", "mpnet_nr_random", "rrt_star", "bit_star",
+             "mpnet_nr"]
+    assert sorted(names, key=planner_rank) == ["mpnet_nr", "bit_star", "rrt_star", "mpnet_nr_random",
+                                               "mpnet_nr_zeros", "mpnet_hr_random", "bit_star_to_nr"]
+
+
+def eq_config(name: str, factor: float | None = None) -> str:
+    extra = "" if factor is None else f"  stop: cost\n  cost_factor: {factor}\n"
+    return f"budget_s: 10.0\nplanner:\n  name: {name}\n{extra}"
+
+
+@pytest.fixture()
+def quality_logs(tmp_path):
+    """s2d seen: MPNet (NR), (HR), Informed-RRT*, BIT* with reference costs, two ablations, and
+    two time-to-equal-quality runs; rigid: one run with a planned reference."""
+    logs = tmp_path / "qlogs"
+
+    def ref(r):
+        return {"reference_cost": r}
+
+    write_log(logs / "nr", "s2d", "mpnet_nr", 0, [
+        Q("seen", "0", 0, True, 0.1, cost=11.0, stats=ref(10.0)),          # quality 1.1
+        Q("seen", "0", 1, True, 0.2, cost=26.0, stats=ref(20.0)),          # 1.3
+        Q("seen", "0", 2, True, 0.3, cost=48.0, stats=ref(30.0)),          # 1.6
+        Q("seen", "0", 3, False, 9.0, stats=ref(40.0)),
+        Q("seen", "0", 4, True, 0.2, cost=5.0)])                           # no reference: not in quality
+    write_log(logs / "bit0", "s2d", "bit_star", 0, [
+        Q("seen", "0", 0, True, 0.1, cost=10.0), Q("seen", "0", 1, True, 0.2, cost=20.0),
+        Q("seen", "0", 2, False, 9.0), Q("seen", "0", 3, True, 0.3, cost=5.0), Q("seen", "0", 4, False, 9.0)])
+    write_log(logs / "bit1", "s2d", "bit_star", 1, [Q("seen", "0", 0, True, 0.2, cost=100.0)])  # no NR seed 1
+    write_log(logs / "irrt", "s2d", "informed_rrt_star", 0, [Q("seen", "0", i, True, 5.0 + i) for i in range(5)])
+    write_log(logs / "hr", "s2d", "mpnet_hr", 0, [Q("seen", "0", i, True, 0.5) for i in range(5)])
+    write_log(logs / "hr_zeros", "s2d", "mpnet_hr_zeros", 0, [Q("seen", "0", i, True, 0.5) for i in range(5)])
+    write_log(logs / "nr_random", "s2d", "mpnet_nr_random", 0,
+              [Q("seen", "0", 0, True, 1.0, cost=10.0, stats=ref(10.0))] + [Q("seen", "0", i, False, 9.0)
+                                                                           for i in range(1, 5)])
+
+    def target(cost, t):
+        return {"target_planner": "mpnet_nr", "target_cost": cost, "target_time_s": t}
+
+    no_target = Q("seen", "0", 3, False, 0.0, failure="no_target", stats=target(None, 0.5))
+    write_log(logs / "to_nr", "s2d", "bit_star_to_nr", 0, [   # factor from the name: 1.0
+        Q("seen", "0", 0, True, 1.0, cost=9.9, stats=target(10.0, 0.1)),
+        Q("seen", "0", 1, True, 2.0, cost=20.0, stats=target(20.0, 0.3)),
+        Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)), no_target], config=eq_config("bit_star_to_nr"))
+    write_log(logs / "to_nr_x", "s2d", "bit_star_to_nr_x1.1", 0, [  # factor from the config: 1.1
+        Q("seen", "0", 0, True, 0.5, cost=10.9, stats=target(10.0, 0.1)),
+        Q("seen", "0", 1, True, 9.0, cost=25.0, stats=target(20.0, 0.3)),   # above 1.1 x 20: a miss
+        Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)), no_target],
+        config=eq_config("bit_star_to_nr_x1.1", 1.1))
+    rigid_cfg = ("budget_s: 10.0\nenv:\n  name: rigid\n  expert: {iterations: 2000}\n  reference: {bit_star_s: 1.0}\n"
+                 "planner:\n  name: bit_star\n")
+    write_log(logs / "rigid", "rigid", "bit_star", 0, [Q("seen", "0", 0, True, 0.1, cost=9.0, stats=ref(10.0))],
+              config=rigid_cfg)
+    return logs
+
+
+def test_quality_ablations_equal_quality(tmp_path, quality_logs, capsys):
+    rc, out = report(tmp_path, quality_logs)
+    assert rc == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [("warning: bit_star_to_nr_x1.1: 1 of its logged successes have a path cost above factor x "
+                    "target cost: counted as not reaching the target")]
+    res = pd.read_csv(out / "results.csv")
+    s2d = res[res["env"] == "s2d"].set_index("planner")
+    # the time-to-equal-quality runs are not rows of results.csv; the ablations are, after the others
+    assert list(s2d.index) == ["mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star", "mpnet_nr_random",
+                               "mpnet_hr_zeros"]
+    nr, bit, rnd, hrz = s2d.loc["mpnet_nr"], s2d.loc["bit_star"], s2d.loc["mpnet_nr_random"], s2d.loc["mpnet_hr_zeros"]
+    for r in s2d.itertuples():   # every success rate has its interval
+        assert (r.success_ci_low, r.success_ci_high) == pytest.approx(wilson_by_hand(r.successes, r.queries))
+    assert (nr["successes"], nr["queries"]) == (4, 5) and (bit["successes"], bit["queries"]) == (4, 6)
+    assert (nr["quality_n"], nr["quality_median"], nr["quality_p90"]) == (3, pytest.approx(1.3),
+                                                                         pytest.approx(1.3 + 0.8 * 0.3))
+    assert (nr["cost_over_bit_star_n"], nr["cost_over_bit_star_median"]) == (2, pytest.approx(1.2))
+    assert (rnd["quality_n"], rnd["quality_median"], rnd["cost_over_bit_star_median"]) == (1, 1.0, 1.0)
+    assert bit["quality_n"] == 0 and math.isnan(bit["cost_over_bit_star_median"])
+    assert res[res["env"] == "rigid"].iloc[0]["quality_median"] == pytest.approx(0.9)
+    # significance against the comparator
+    assert rnd["comparator"] == "mpnet_nr" and rnd["success_p_vs"] == pytest.approx(52 / 252)
+    assert not rnd["success_diff_significant"] and rnd["time_diff_significant"]
+    assert rnd["time_ratio_vs"] == pytest.approx(5.0) and rnd["time_ratio_vs_ci_low"] > 1
+    assert hrz["comparator"] == "mpnet_hr" and (hrz["time_ratio_vs"], hrz["time_ratio_vs_ci_low"],
+                                                hrz["time_ratio_vs_ci_high"]) == (1.0, 1.0, 1.0)
+    assert not hrz["time_diff_significant"] and (hrz["time_median_ci_low"], hrz["time_median_ci_high"]) == (0.5, 0.5)
+    assert not bit["time_diff_significant"] and bit["time_ratio_vs_ci_low"] < 1 < bit["time_ratio_vs_ci_high"]
+    assert s2d.loc["informed_rrt_star", "time_diff_significant"] and s2d.loc["mpnet_hr", "comparator"] == "mpnet_nr"
+
+    md = (out / "table1.md").read_text()   # BIT*'s median time and the ratio: not significant
+    assert "| Simple 2D | seen | 0.200 ± 0.082 | 0.500 ± 0.000 | 7.00 ± 1.58 | ≈ 0.200 ± 0.082 | ≈ 1.00 |" in md
+    assert "random" not in md and "to NR" not in md and "≈ before a time" in md
+    assert r"$\approx$ 1.00" in (out / "table1.tex").read_text()
+    assert set(pd.read_csv(out / "success_cost.csv")["planner"]) == {"mpnet_nr", "mpnet_hr", "informed_rrt_star",
+                                                                      "bit_star"}
+    sc = (out / "success_cost.md").read_text()
+    assert "|  |  | Informed-RRT* | ≈ 100.0 ± 0.0 | 100.0 [56.6, 100.0] | 50.0 | 5 | 1 |" in sc
+    assert "Fisher exact" in sc
+
+    q = pd.read_csv(out / "quality.csv")
+    assert len(q) == len(res)
+    qmd = (out / "quality.md").read_text()
+    assert "| Simple 2D | seen | MPNet (NR) | 1.30 | 1.54 | 3 | 1.20 | 2 |" in qmd
+    assert "exact shortest path" in qmd and "2000 iterations" in qmd and "1.0 s" in qmd
+
+    ab = pd.read_csv(out / "ablations.csv")
+    assert list(ab["planner"]) == ["mpnet_nr", "mpnet_nr_random", "mpnet_hr", "mpnet_hr_zeros"]
+    assert list(ab["base"]) == ["mpnet_nr", "mpnet_nr", "mpnet_hr", "mpnet_hr"]
+    assert ab["success_p_vs"].isna().tolist() == [True, False, True, False]   # bases are not compared
+    amd = (out / "ablations.md").read_text()
+    lo, hi = wilson_by_hand(1, 5)
+    assert f"| MPNet (NR): random | a uniformly random valid state instead of Pnet's proposal | " \
+           f"≈ 20.0 [{100 * lo:.1f}, {100 * hi:.1f}] | 1.00 [1.00, 1.00] | 5.00 [" in amd
+    assert "| MPNet (HR): zeros | Pnet given a zero workspace code | ≈ 100.0 [56.6, 100.0] | " \
+           "≈ 0.500 [0.500, 0.500] | 1.00 [1.00, 1.00] |" in amd
+
+    eq = pd.read_csv(out / "equal_quality.csv")
+    assert list(zip(eq["algorithm"], eq["factor"])) == [("bit_star", 1.0), ("bit_star", 1.1)]
+    one, x11 = eq.iloc[0], eq.iloc[1]
+    assert (one["queries"], one["no_target"], one["targeted"], one["reached"]) == (4, 1, 3, 2)
+    assert (one["reach_ci_low"], one["reach_ci_high"]) == pytest.approx(wilson_by_hand(2, 3))
+    assert (one["time_to_reach_median_s"], one["censored"], one["time_reached_median_s"]) == (2.0, False, 1.5)
+    assert (one["target_time_median_s"], one["time_ratio"]) == (pytest.approx(0.2), pytest.approx(10.0))
+    assert (x11["targeted"], x11["reached"], x11["censored"], x11["budget_s"]) == (3, 1, True, 10.0)
+    assert math.isinf(x11["time_to_reach_median_s"]) and math.isinf(x11["time_ratio"])
+    assert x11["time_reached_median_s"] == 0.5
+    emd = (out / "equal_quality.md").read_text()
+    assert "| Simple 2D | seen | BIT* | cost ≤ 1 × MPNet (NR)'s | 1 | 3 | 66.7 [20.8, 93.9] | 2.00 [" in emd
+    assert "|  |  | BIT* | cost ≤ 1.1 × MPNet (NR)'s | 1 | 3 | 33.3 [6.1, 79.2] | > budget (10.0 s) [" in emd
+    assert "| > 50.0 |" in emd
+    readme = (out / "README.md").read_text()
+    for name in ("quality.md", "ablations.md", "equal_quality.md", "Wilson", "Fisher", f"{BOOT_N} resamples",
+                 "rigid (Rigid body): path cost = OMPL's SE(2) metric"):
+        assert name in readme
+
+    # a later report without those runs removes their tables
+    rc, out = report(tmp_path, quality_logs / "bit0")
+    assert rc == 0 and not any((out / f"{n}.{e}").exists() for n in ("quality", "ablations", "equal_quality")
+                               for e in ("md", "csv"))
 
 
 def test_env_order():

@@ -8,6 +8,7 @@ from ompl import base as ob
 from ompl import geometric as og
 
 from mpnet.envs.ompl_space import make_problem
+from mpnet.motion import path_cost
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
 
 ALGORITHMS = {
@@ -25,7 +26,8 @@ class OmplPlanner:
     stop="first": return the first exact solution (the paper's initial path); OMPL's
     exact-solution condition does not stop optimizing planners, so a condition on the
     planner's best cost does. stop="cost": run until the path cost reaches
-    cost_factor x the problem's reference cost (or the budget ends). `range` is the planner's maximum edge length
+    cost_factor x the problem's reference cost; a path that never gets there is no
+    solution (timeout). `range` is the planner's maximum edge length
     (None: OMPL's default); `params` are OMPL planner parameters by
     snake_case name (rewire_factor -> setRewireFactor).
     """
@@ -82,6 +84,8 @@ class OmplPlanner:
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
         del planner, pdef, si, keep
+        if path is not None and target is not None and path_cost(problem.spec, path) > target * (1 + 1e-9):
+            path = None  # stop=cost claims a solution only at the target: a longer path is not one
         if path is None:
             timed_out = time.perf_counter() - t0 >= budget_s * 0.999
             return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats)

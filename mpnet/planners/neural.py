@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from mpnet.envs.workspace import wrap_angle
 from mpnet.motion import is_feasible, lazy_states_contraction, steer_to
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
 
@@ -27,12 +28,23 @@ class MPNetPlanner:
     steer_steps: None, steerTo is the continuous check throughout; or the T-RO code's
     coarse-to-fine schedule, the steerTo step of the first NeuralPlanner run and of each
     replanning round (the last entry repeats; an entry None is continuous). Whether a path
-    is feasible is always decided by the continuous check.
+    is feasible is always decided by the continuous check. fallback_restart_s: HR restarts
+    a segment's RRT* after this long, then after twice that, ... (None: one run).
+
+    proposal: where NeuralPlanner's next state comes from: "pnet" (the network), or, to
+    ablate it with everything else unchanged, "random" (a uniformly random valid state)
+    or "straight" (a step of straight_step toward the other tree's end, measured in the
+    networks' normalised coordinates: state / the bounds' half-widths).
     """
 
     def __init__(self, name: str, encode: Callable, step: Callable, cloud: Callable, *, hybrid: bool = False,
                  max_steps: int = 80, replan_steps: int = 50, replan_rounds: int = 10, seed: int = 0,
-                 fallback=None, steer_steps=None):
+                 fallback=None, steer_steps=None, proposal: str = "pnet", straight_step: float = 0.1,
+                 fallback_restart_s: float | None = None):
+        if proposal not in PROPOSALS:
+            raise ValueError(f"config key planner.proposal: expected one of {', '.join(PROPOSALS)}, got {proposal!r}")
+        if not straight_step > 0:
+            raise ValueError(f"config key planner.straight_step: expected a positive step, got {straight_step!r}")
         self.name = name
         self.encode = encode
         self.step = step
@@ -44,6 +56,9 @@ class MPNetPlanner:
         self.rng = np.random.default_rng(seed)
         self.fallback = fallback
         self.steer_steps = list(steer_steps) if steer_steps else [None]
+        self.proposal = proposal
+        self.fallback_restart_s = None if fallback_restart_s is None else float(fallback_restart_s)
+        self.straight_step = float(straight_step)
 
     def steer_step(self, stage: int) -> float | None:
         """steerTo's step at stage 0 (first NeuralPlanner run) or replanning round `stage`."""
@@ -60,7 +75,7 @@ class MPNetPlanner:
         checker = problem.checker
         start, goal = problem.start.astype(float), problem.goal.astype(float)
         step = self.steer_step(0)
-        path = self.neural_planner(checker, z, start, goal, self.max_steps, stats, deadline, step)
+        path = self.neural_planner(problem, z, start, goal, self.max_steps, stats, deadline, step)
         if path is None:
             path = [start, goal]  # no coarse path: every segment of [start, goal] is left to replanning
         else:
@@ -70,7 +85,7 @@ class MPNetPlanner:
                 return Result(None, TIMEOUT, stats)
             stats["replans"] += 1
             step = self.steer_step(stats["replans"])
-            path = lazy_states_contraction(checker, self.replan(checker, z, path, stats, deadline, step), step)
+            path = lazy_states_contraction(checker, self.replan(problem, z, path, stats, deadline, step), step)
         if not is_feasible(checker, path) and self.hybrid:
             stats["fallback_used"] = True
             path = self.classical_replan(problem, path, deadline, stats)
@@ -81,17 +96,27 @@ class MPNetPlanner:
         path = [problem.start.tolist(), *[np.asarray(q, float).tolist() for q in path[1:-1]], problem.goal.tolist()]
         return Result(path, EXACT, stats)
 
-    def neural_planner(self, checker, z, start, goal, max_steps: int, stats: dict, deadline: float,
+    def propose(self, problem: Problem, z, x, target) -> np.ndarray:
+        """NeuralPlanner's next state from x toward the other tree's end `target`."""
+        if self.proposal == "pnet":
+            return np.asarray(self.step(z, x, target, self.rng), float)
+        spec = problem.spec
+        if self.proposal == "random":
+            return random_valid_state(spec, problem.checker, self.rng)
+        return straight_step(spec, x, target, self.straight_step)
+
+    def neural_planner(self, problem: Problem, z, start, goal, max_steps: int, stats: dict, deadline: float,
                        step: float | None = None):
         """Algorithm 2: grow a path from each end by Pnet, alternating, until steer_to
         connects their tips; None when max_steps pass first."""
+        checker = problem.checker
         a, b = [start], [goal]
         if steer_to(checker, start.tolist(), goal.tolist(), step):
             return [start, goal]
         for _ in range(max_steps):
             if time.perf_counter() > deadline:
                 return None
-            x_new = np.asarray(self.step(z, a[-1], b[-1], self.rng), float)
+            x_new = self.propose(problem, z, a[-1], b[-1])
             stats["pnet_calls"] += 1
             a.append(x_new)
             if steer_to(checker, a[-1].tolist(), b[-1].tolist(), step):
@@ -99,27 +124,65 @@ class MPNetPlanner:
             a, b = b, a
         return None
 
-    def replan(self, checker, z, path, stats: dict, deadline: float, step: float | None = None) -> list:
+    def replan(self, problem: Problem, z, path, stats: dict, deadline: float, step: float | None = None) -> list:
         """Algorithm 3 (neural): replan each unconnectable pair with a short NeuralPlanner
         run; a pair it cannot connect stays for the next round."""
         def connect(x, y):
-            mini = self.neural_planner(checker, z, x, y, self.replan_steps, stats, deadline, step)
+            mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step)
             return [] if mini is None else mini[1:-1]
 
-        return _repair(checker, path, connect, step)
+        return _repair(problem.checker, path, connect, step)
 
     def classical_replan(self, problem: Problem, path, deadline: float, stats: dict):
         """HR: RRT* on every segment that is still unconnectable, within the budget left;
-        None when one of them fails."""
+        None when one of them fails.
+
+        With fallback_restart_s, each segment's RRT* restarts from scratch after
+        fallback_restart_s, then twice that, and so on: in narrow passages RRT*'s time to a
+        first solution is heavy-tailed (on one rigid query: 0.5 s, 2.6 s, > 10 s in three
+        runs), and restarts cut the tail."""
         def connect(x, y):
-            left = deadline - time.perf_counter()
-            if left <= 0:
-                return None
-            res = self.fallback.solve(Problem(problem.spec, problem.workspace, problem.checker, x, y), left)
-            stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
-            return [np.asarray(q, float) for q in res.path[1:-1]] if res.solved else None
+            slice_s = self.fallback_restart_s
+            while (left := deadline - time.perf_counter()) > 0:
+                res = self.fallback.solve(Problem(problem.spec, problem.workspace, problem.checker, x, y),
+                                          left if slice_s is None else min(left, slice_s))
+                stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
+                if res.solved:
+                    return [np.asarray(q, float) for q in res.path[1:-1]]
+                if slice_s is None or res.status != TIMEOUT:
+                    return None
+                slice_s *= 2
+            return None
 
         return _repair(problem.checker, path, connect)
+
+
+PROPOSALS = ("pnet", "random", "straight")
+
+
+def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = 1000) -> np.ndarray:
+    """A uniformly random valid state (rejection sampling in the state bounds); after
+    `tries` invalid draws the last one, which replanning then drops."""
+    lo, hi = spec.lower, spec.upper
+    for _ in range(tries):
+        q = rng.uniform(lo, hi)
+        if checker.is_valid(q.tolist()):
+            break
+    return q
+
+
+def straight_step(spec, x, target, length: float) -> np.ndarray:
+    """x moved toward target by `length` in normalised coordinates (state / the bounds'
+    half-widths; rigid: theta by the shorter arc), or to target when closer."""
+    half = (spec.upper - spec.lower) / 2.0
+    d = np.asarray(target, float) - np.asarray(x, float)
+    if spec.is_se2:
+        d[2] = wrap_angle(d[2])
+    norm = float(np.linalg.norm(d / half))
+    nxt = np.asarray(x, float) + (d if norm <= length else d * (length / norm))
+    if spec.is_se2:
+        nxt[2] = wrap_angle(nxt[2])
+    return nxt
 
 
 def _repair(checker, path, connect, step: float | None = None):

@@ -1,0 +1,159 @@
+"""Reference path costs: the yardstick of path quality, one per test query.
+
+Point robots in 2D (s2d, c2d) get the exact shortest path: it runs through box corners
+(the reflex vertices of the free space), so Dijkstra on the visibility graph of start,
+goal and the corners inside the bounds finds it. It is an infimum: it may touch obstacles,
+which no collision-free path does, so every planner's cost is >= it. Boxes that touch
+along an edge leave a zero-width crack the graph may use; generated layouts (random
+centres) have none.
+
+Other envs (c3d, rigid) get the best of two planned paths, each shortened by lazy states
+contraction and kept only if it passes the fine re-check: the expert's (RRT* for a fixed
+number of iterations, as the training data) and BIT* run for a fixed time.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mpnet.envs.workspace import EnvSpec, Query, Workspace
+
+EPS = 1e-9
+
+
+def is_exact(spec: EnvSpec) -> bool:
+    """Whether the env's reference is the exact shortest path (2D point robots)."""
+    return not spec.is_se2 and spec.state_dim == 2
+
+
+def describe(spec: EnvSpec) -> str:
+    """How the env's reference cost is computed, in words (for the report)."""
+    if is_exact(spec):
+        return "exact shortest path (visibility graph over the box corners)"
+    return "best of the expert path (RRT*, fixed iterations) and a budgeted BIT* run, both contracted"
+
+
+def visible(p: np.ndarray, q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(m, m) bool: segment p_i -> q_j enters no box's open interior.
+
+    Liang-Barsky clipping against each closed box; a clipped piece of positive length
+    whose midpoint lies strictly inside the box crosses it (a chord of a convex set lies
+    on its boundary or has its relative interior inside). p, q: (m, 2); lo, hi: (n, 2).
+    Hand-written: ten lines of numpy, where a polygon library would loop over pairs.
+    """
+    if len(lo) == 0:
+        return np.ones((len(p), len(q)), bool)
+    a = p[:, None, None, :]                    # (m, 1, 1, 2)
+    d = q[None, :, None, :] - a                # (m, m, 1, 2)
+    flat = d == 0
+    inside = (a >= lo[None, None]) & (a <= hi[None, None])
+    with np.errstate(divide="ignore", invalid="ignore"):  # flat axes and empty clips: masked below
+        t_lo = (lo[None, None] - a) / d        # (m, m, n, 2)
+        t_hi = (hi[None, None] - a) / d
+        enter = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t_lo, t_hi))
+        leave = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t_lo, t_hi))
+        t0 = np.maximum(enter.max(-1), 0.0)
+        t1 = np.minimum(leave.min(-1), 1.0)
+        mid = a + d * ((t0 + t1) / 2)[..., None]
+    strictly_in = ((mid > lo[None, None] + EPS) & (mid < hi[None, None] - EPS)).all(-1)
+    crosses = (t1 - t0 > EPS) & strictly_in
+    return ~crosses.any(-1)
+
+
+def shortest_path_cost_2d(spec: EnvSpec, ws: Workspace, start, goal) -> float:
+    """The exact shortest collision-free path length of a point robot among boxes in 2D."""
+    from scipy.sparse.csgraph import dijkstra
+
+    if np.allclose(start, goal):
+        return 0.0
+    lo, hi = ws.lo, ws.hi
+    corners = np.concatenate([np.stack([lo[:, 0], lo[:, 1]], 1), np.stack([lo[:, 0], hi[:, 1]], 1),
+                              np.stack([hi[:, 0], lo[:, 1]], 1), np.stack([hi[:, 0], hi[:, 1]], 1)])
+    inb = np.all((corners >= spec.lower[:2]) & (corners <= spec.upper[:2]), axis=1)
+    in_box = ((corners[:, None] > lo[None] + EPS) & (corners[:, None] < hi[None] - EPS)).all(-1).any(-1) \
+        if len(lo) else np.zeros(len(corners), bool)
+    nodes = np.concatenate([np.asarray([start, goal], float), corners[inb & ~in_box]])
+    seen = visible(nodes, nodes, lo, hi)
+    weights = np.linalg.norm(nodes[:, None] - nodes[None], axis=-1)
+    graph = np.where(seen & (weights > 0), weights, 0.0)  # dense input: 0 is "no edge"
+    return float(dijkstra(graph, directed=False, indices=0)[1])
+
+
+def planned_cost(spec: EnvSpec, ws: Workspace, checker, start, goal, iterations: int, expert_s: float,
+                 bit_star_s: float) -> float:
+    """The best verified, contracted cost of the expert's RRT* path and a BIT* run of
+    bit_star_s seconds; inf when neither finds a path."""
+    from ompl import base as ob
+    from ompl import geometric as og
+
+    from mpnet.data.expert import rrt_star_path
+    from mpnet.envs.ompl_space import make_problem
+    from mpnet.motion import lazy_states_contraction, path_cost, verify_path
+
+    candidates = [rrt_star_path(spec, checker, start, goal, iterations, expert_s)]
+    si, pdef, to_tuple, keep = make_problem(spec, checker, start, goal)
+    planner = og.BITstar(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    planner.solve(ob.timedPlannerTerminationCondition(float(bit_star_s)))
+    if pdef.hasExactSolution():
+        path = [list(to_tuple(x)) for x in pdef.getSolutionPath().getStates()]
+        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
+        candidates.append(path)
+    del planner, pdef, si, keep
+    best = math.inf
+    for path in candidates:
+        if path is None:
+            continue
+        path = lazy_states_contraction(checker, path)
+        if verify_path(spec, ws, path, start, goal, spec.validation_step) is None:
+            best = min(best, path_cost(spec, path))
+    return best
+
+
+def workspace_references(spec: EnvSpec, ws: Workspace, queries: list[Query], iterations: int, expert_s: float,
+                         bit_star_s: float) -> list[float]:
+    """The reference cost of each query of one workspace."""
+    if is_exact(spec):
+        return [shortest_path_cost_2d(spec, ws, q.start, q.goal) for q in queries]
+    from mpnet.envs.collision import make_checker
+
+    checker = make_checker(spec, ws)
+    return [planned_cost(spec, ws, checker, q.start, q.goal, iterations, expert_s, bit_star_s) for q in queries]
+
+
+def _worker(args: tuple) -> list[float]:
+    spec, ws, queries, iterations, expert_s, bit_star_s, seed, chunk = args
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_WARN)
+    ou.RNG.setSeed(int(np.random.default_rng([seed, 13, chunk]).integers(1, 2**31 - 1)))
+    return workspace_references(spec, ws, queries, iterations, expert_s, bit_star_s)
+
+
+def reference_costs(spec: EnvSpec, workspaces: list[Workspace], queries: list[Query], *, iterations: int,
+                    expert_s: float, bit_star_s: float, seed: int = 0, jobs: int = 2, progress=None) -> None:
+    """Set every query's reference_cost (None where no path was found; planned ones in fresh processes, one workspace
+    each, OMPL seeded per workspace so any `jobs` gives the same costs). progress(1) after
+    each workspace."""
+    by_ws = [(ws, [q for q in queries if q.workspace_id == ws.id and q.split == ws.split]) for ws in workspaces]
+    if is_exact(spec):
+        for ws, qs in by_ws:
+            for q, c in zip(qs, workspace_references(spec, ws, qs, iterations, expert_s, bit_star_s)):
+                q.reference_cost = c if math.isfinite(c) and c > 0 else None
+            if progress is not None:
+                progress(1)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    tasks = [(spec, ws, qs, iterations, expert_s, bit_star_s, seed, k) for k, (ws, qs) in enumerate(by_ws)]
+    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"),
+                             max_tasks_per_child=1) as pool:
+        futures = {pool.submit(_worker, t): k for k, t in enumerate(tasks)}
+        for fut in as_completed(futures):
+            for q, c in zip(by_ws[futures[fut]][1], fut.result()):
+                q.reference_cost = c if math.isfinite(c) and c > 0 else None
+            if progress is not None:
+                progress(1)
