@@ -1660,6 +1660,11 @@ How the numbers are computed:
   that is not significant is marked {APPROX} in the tables (Table I's times are means; their
   mark is the median-time test; BIT*/MPNet (NR) is marked when BIT*'s median-time interval
   against MPNet (NR) contains 1).
+- What the intervals assume: every logged query (a query of one seed) is an independent
+  trial. The seeds of one scale plan the same test queries, so with several seeds the
+  intervals say how precisely these queries were measured, and understate how much the
+  numbers would move on other queries; `scale=stats` (1000 distinct queries per split, one
+  seed) is the setting where they mean the latter.
 - Path quality (`quality_median`, `quality_p90` with linear interpolation, `quality_n`): path
   cost / the query's `reference_cost` over the successful queries that logged one (blank when
   none). `cost_over_bit_star_median` (`_n` pairs): the median, over the queries solved by both
