@@ -116,6 +116,9 @@ def test_cached_testset_is_the_generated_one(tmp_path):
                                                                        for q in want.queries]
     assert all(np.array_equal(a.start, b.start) and np.array_equal(a.goal, b.goal)
                for a, b in zip(got.queries, want.queries))
+    # every query carries its planned reference cost, at least the straight-line distance
+    assert all(q.reference_cost is not None and q.reference_cost >= np.linalg.norm(q.goal - q.start) - 1e-9
+               for q in got.queries)
     (folder,) = (tmp_path / "testset").glob("*/")
     assert read_manifest(folder, folder.name)["queries"] == {"seen": 4, "unseen": 4}
     stamp = (folder / "seen.json").stat().st_mtime_ns

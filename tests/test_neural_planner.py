@@ -145,3 +145,41 @@ def test_random_proposals_are_valid_states():
 def test_unknown_proposal_names_its_key():
     with pytest.raises(ValueError, match="planner.proposal"):
         MPNetPlanner("x", encode=None, step=None, cloud=None, proposal="bogus")
+
+
+class FlakyFallback:
+    """A fallback that times out on its first `misses` calls (using its whole slice), then
+    hands the real RRT*'s path back; records the budget of every call."""
+
+    def __init__(self, misses: int):
+        self.misses, self.budgets = misses, []
+        self.real = OmplPlanner("rrt_star", "rrt_star")
+
+    def solve(self, problem, budget_s):
+        import time
+
+        from mpnet.planners import Result
+        self.budgets.append(budget_s)
+        if len(self.budgets) <= self.misses:
+            time.sleep(budget_s)
+            return Result(None, "timeout", {})
+        return self.real.solve(problem, budget_s)
+
+
+def test_hybrid_restarts_a_timed_out_fallback_with_doubling_slices():
+    """HR's RRT* is restarted after 0.05 s, then 0.1 s, 0.2 s: the third run solves."""
+    ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+    p = Problem(S2D, ws, make_checker(S2D, ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
+    stuck = lambda z, x, goal, rng: x  # noqa: E731
+    fallback = FlakyFallback(misses=2)
+    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=workspace_cloud(1400, 0),
+                           hybrid=True, fallback=fallback, fallback_restart_s=0.05)
+    res = planner.solve(p, 5.0)
+    assert res.solved and verify_path(S2D, ws, res.path, p.start, p.goal) is None
+    assert fallback.budgets == pytest.approx([0.05, 0.1, 0.2])
+    assert res.stats["fallback_calls"] == 3
+    once = FlakyFallback(misses=1)
+    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=workspace_cloud(1400, 0),
+                           hybrid=True, fallback=once, fallback_restart_s=None)
+    res = planner.solve(p, 0.5)  # one run with the whole budget left: it times out, nothing is left
+    assert not res.solved and len(once.budgets) == 1 and once.budgets[0] > 0.4
