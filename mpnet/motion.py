@@ -71,7 +71,10 @@ def interpolate(spec: EnvSpec, a, b, step: float) -> np.ndarray:
     else:
         length = float(np.linalg.norm(d))
     n = int(math.ceil(length / step)) + 1
-    return a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
+    out = a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
+    k = 2 if spec.is_se2 else len(b)
+    out[-1, :k] = b[:k]  # a + 1.0 * d can round past b: a state on the bound must stay on it
+    return out
 
 
 def interpolate_path(spec: EnvSpec, path: np.ndarray, step: float) -> np.ndarray:
@@ -87,7 +90,11 @@ def interpolate_path(spec: EnvSpec, path: np.ndarray, step: float) -> np.ndarray
     seg = np.repeat(np.arange(len(d)), n)
     first = np.cumsum(n) - n
     t = (np.arange(n.sum()) - np.repeat(first, n)) / np.repeat(n - 1, n)
-    return a[seg] + t[:, None] * d[seg]
+    out = a[seg] + t[:, None] * d[seg]
+    last = np.cumsum(n) - 1
+    k = 2 if spec.is_se2 else path.shape[1]
+    out[last, :k] = path[1:, :k]  # as in interpolate: each segment ends exactly at its state
+    return out
 
 
 def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | None = None) -> str | None:

@@ -5,7 +5,7 @@ import math
 import fcl
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs import Workspace, get_spec
@@ -48,6 +48,7 @@ def test_corner_cut_is_caught():
 
 @settings(max_examples=300, deadline=None)
 @given(st.tuples(coord, coord), st.tuples(coord, coord), st.integers(0, 109))
+@example((-12.988639045026328, 9.0), (20.0, 6.0), 0)  # the last sample rounded past the bound
 def test_point_motion_matches_dense_sampling(a, b, wsi):
     ws = make_workspace(S2D, wsi, "seen")
     ch = PointChecker(S2D, ws, margin=0.0)

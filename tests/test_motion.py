@@ -96,3 +96,17 @@ def test_interpolate_path_is_interpolate_per_segment(path, step):
         p = np.array(path)[:, :spec.state_dim]
         want = np.concatenate([interpolate(spec, a, b, step) for a, b in zip(p[:-1], p[1:])])
         assert np.allclose(interpolate_path(spec, p, step), want)
+
+
+def test_a_state_on_the_bound_stays_in_bounds():
+    """a + 1.0 * (b - a) rounds to 20.000000000000004 here: the fine re-check sampled the
+    goal (20, 6) out of bounds (found by hypothesis in CI)."""
+    from mpnet.envs import Workspace, get_spec
+    from mpnet.motion import interpolate, interpolate_path, verify_path
+
+    spec = get_spec("s2d")
+    a, b = (-12.988639045026328, 9.0), (20.0, 6.0)
+    assert interpolate(spec, a, b, 0.005)[-1].tolist() == [20.0, 6.0]
+    assert interpolate_path(spec, np.array([a, b, a]), 0.005).max(axis=0)[0] == 20.0
+    empty = Workspace("e", "file", np.zeros((0, 2)), np.zeros((0, 2)))
+    assert verify_path(spec, empty, [list(a), list(b)], a, b, 0.005) is None
