@@ -84,24 +84,15 @@ def planned_cost(spec: EnvSpec, ws: Workspace, checker, start, goal, iterations:
                  bit_star_s: float) -> float:
     """The best verified, contracted cost of the expert's RRT* path and a BIT* run of
     bit_star_s seconds; inf when neither finds a path."""
-    from ompl import base as ob
-    from ompl import geometric as og
-
     from mpnet.data.expert import rrt_star_path
-    from mpnet.envs.ompl_space import make_problem
     from mpnet.motion import lazy_states_contraction, path_cost, verify_path
+    from mpnet.planners.base import Problem
+    from mpnet.planners.classical import OmplPlanner
 
-    candidates = [rrt_star_path(spec, checker, start, goal, iterations, expert_s)]
-    si, pdef, to_tuple, keep = make_problem(spec, checker, start, goal)
-    planner = og.BITstar(si)
-    planner.setProblemDefinition(pdef)
-    planner.setup()
-    planner.solve(ob.timedPlannerTerminationCondition(float(bit_star_s)))
-    if pdef.hasExactSolution():
-        path = [list(to_tuple(x)) for x in pdef.getSolutionPath().getStates()]
-        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
-        candidates.append(path)
-    del planner, pdef, si, keep
+    expert = rrt_star_path(spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
+    bit_star = OmplPlanner("bit_star", "bit_star", stop="time").solve(
+        Problem(spec, ws, checker, np.asarray(start, float), np.asarray(goal, float)), float(bit_star_s))
+    candidates = [expert, bit_star.path]
     best = math.inf
     for path in candidates:
         if path is None:

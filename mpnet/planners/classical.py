@@ -27,7 +27,8 @@ class OmplPlanner:
     exact-solution condition does not stop optimizing planners, so a condition on the
     planner's best cost does. stop="cost": run until the path cost reaches
     cost_factor x the problem's reference cost; a path that never gets there is no
-    solution (timeout). `range` is the planner's maximum edge length
+    solution (timeout). stop="time": run the whole budget and return the best path (a
+    budgeted reference run). `range` is the planner's maximum edge length
     (None: OMPL's default); `params` are OMPL planner parameters by
     snake_case name (rewire_factor -> setRewireFactor).
     """
@@ -37,8 +38,8 @@ class OmplPlanner:
         if algorithm not in ALGORITHMS:
             raise ValueError(f"config key planner.algorithm: unknown OMPL algorithm {algorithm!r}; "
                              f"choices: {', '.join(ALGORITHMS)}")
-        if stop not in ("first", "cost"):
-            raise ValueError(f"config key planner.stop must be 'first' or 'cost', not {stop!r}")
+        if stop not in ("first", "cost", "time"):
+            raise ValueError(f"config key planner.stop must be 'first', 'cost' or 'time', not {stop!r}")
         self.name = name
         self.algorithm = algorithm
         self.stop = stop
@@ -93,7 +94,7 @@ class OmplPlanner:
 
     def _termination(self, planner, target: float | None, seconds: float):
         timed = ob.timedPlannerTerminationCondition(seconds)
-        if self.algorithm not in OPTIMIZING:
+        if self.algorithm not in OPTIMIZING or self.stop == "time":
             return timed
         if self.stop == "cost":
             done = ob.PlannerTerminationCondition(lambda: planner.bestCost().value() <= target)

@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from mpnet.data.queries import sample_state
 from mpnet.envs.workspace import wrap_angle
 from mpnet.motion import is_feasible, lazy_states_contraction, steer_to
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
@@ -163,9 +164,8 @@ PROPOSALS = ("pnet", "random", "straight")
 def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = 1000) -> np.ndarray:
     """A uniformly random valid state (rejection sampling in the state bounds); after
     `tries` invalid draws the last one, which replanning then drops."""
-    lo, hi = spec.lower, spec.upper
     for _ in range(tries):
-        q = rng.uniform(lo, hi)
+        q = sample_state(spec, rng)
         if checker.is_valid(q.tolist()):
             break
     return q
