@@ -6,31 +6,21 @@ import time
 from pathlib import Path
 
 from omegaconf import DictConfig
+from tqdm import tqdm
 
-from harness.bench import env_spec, git_rev, versions
-from mpnet.data.dataset import DataParams, build_dataset, load_dataset
+from harness.config import data_params, env_spec, lightning_params, model_params, reference_params
+from harness.provenance import artifact_provenance
+from mpnet.data.dataset import build_dataset, load_dataset
+from mpnet.data.queries import make_testset
 from mpnet.data.store import ensure
-
-
-def data_params(cfg: DictConfig) -> DataParams:
-    return DataParams(
-        env=str(cfg.env.name), data_seed=int(cfg.env.data_seed), points_per_block=int(cfg.env.points_per_block),
-        train_workspaces=int(cfg.scale.train.workspaces), paths_per_workspace=int(cfg.scale.train.paths),
-        ae_workspaces=int(cfg.scale.train.ae_workspaces), expert_iterations=int(cfg.env.expert.iterations),
-        expert_max_seconds=float(cfg.env.expert.max_seconds),
-        expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)))
-
-
-def provenance() -> dict:
-    """Manifest fields of an artifact built now (git runs only when something is built)."""
-    return {"git_rev": git_rev(), "versions": versions()}
+from mpnet.envs.spec import TestSet
+from mpnet.planners.reference import describe, reference_costs
+from mpnet.problems import dump_problems, load_problems
 
 
 def ensure_dataset(cfg: DictConfig, progress: bool = True):
     """The env's training dataset at this scale, from the cache or built now: (folder,
     manifest, built); `load_dataset(folder, manifest)` reads it."""
-    from tqdm import tqdm
-
     spec = env_spec(cfg.env)
     params = data_params(cfg)
 
@@ -42,32 +32,15 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
         finally:
             bar.close()
 
-    return ensure(cfg.cache_dir, "data", params.key_config(), build, provenance)
+    return ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance)
 
 
 TESTSET_FORMAT = "mpnet-bench/testset@2"  # @2: reference costs
 
 
-def reference_params(cfg: DictConfig, spec) -> dict:
-    """What decides the test set's reference costs (none for the exact 2D ones)."""
-    from mpnet.data.reference import is_exact
-
-    if is_exact(spec):
-        return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
-    return {"iterations": int(cfg.env.expert.iterations), "expert_s": float(cfg.env.expert.max_seconds),
-            "bit_star_s": float(cfg.env.reference.bit_star_s)}
-
-
 def ensure_testset(cfg: DictConfig, progress: bool = True):
     """The scale's generated test set, both splits, as problem files in the cache (built
     now when missing); returns the splits cfg.splits asks for as one TestSet."""
-    from tqdm import tqdm
-
-    from mpnet.data.queries import make_testset
-    from mpnet.data.reference import describe, reference_costs
-    from mpnet.envs.workspace import TestSet
-    from mpnet.problems import dump_problems, load_problems
-
     spec = env_spec(cfg.env)
     sizes = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in ("seen", "unseen")}
     key_config = {"format": TESTSET_FORMAT, "env": spec.name, "data_seed": int(cfg.env.data_seed),
@@ -93,7 +66,7 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
                 "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes},
                 "reference": {"method": describe(spec), "seconds": ref_s}}
 
-    folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, provenance)
+    folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance)
     workspaces, queries = [], []
     for split in cfg.splits:
         part = load_problems(folder / f"{split}.json", spec)
@@ -104,30 +77,13 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
     return TestSet(spec, workspaces, queries)
 
 
-def model_params(cfg: DictConfig) -> dict:
-    """Everything that decides the trained networks (and so their cache key)."""
-    m, f, t = cfg.scale.model, cfg.scale.fit, cfg.train
-    params = {
-        "format": "mpnet-bench/models@1",
-        "enet_hidden": [int(x) for x in m.enet_hidden], "latent": int(m.latent),
-        "pnet_hidden": [int(x) for x in m.pnet_hidden], "dropout": float(m.dropout),
-        "ae_epochs": int(f.ae_epochs), "pnet_epochs": int(f.pnet_epochs), "batch_size": int(f.batch_size),
-        "seed": int(t.seed), "lr": float(t.lr), "optimizer": str(t.optimizer), "lam": float(t.lam),
-        "val_fraction": float(t.val_fraction), "patience": int(t.patience),
-    }
-    if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
-        params["limit_batches"] = int(f.limit_batches)
-    return params
-
-
 def ensure_models(cfg: DictConfig, progress: bool = True):
     """The env's trained Enet and Pnet at this scale: from the cache, or trained now
     (building the dataset first if it is missing)."""
     spec = env_spec(cfg.env)
     data_folder, data_manifest, _ = ensure_dataset(cfg, progress)
     params = model_params(cfg)
-    lightning = {"accelerator": str(cfg.train.accelerator), "devices": cfg.train.devices,
-                 "strategy": str(cfg.train.strategy)}
+    lightning = lightning_params(cfg)
 
     def build(folder: Path) -> dict:
         from harness.fit import fit_models
@@ -137,4 +93,4 @@ def ensure_models(cfg: DictConfig, progress: bool = True):
 
     key_config = {"data": data_manifest["key"], **params}
     return ensure(cfg.cache_dir, "models", key_config, build,
-                  lambda: {**provenance(), "data_folder": str(data_folder)})
+                  lambda: {**artifact_provenance(), "data_folder": str(data_folder)})

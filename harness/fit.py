@@ -2,7 +2,6 @@
 harness.artifacts.ensure_models; Lightning is imported only here)."""
 from __future__ import annotations
 
-import math
 import time
 import warnings
 from pathlib import Path
@@ -10,28 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from mpnet.data.dataset import Dataset
-from mpnet.envs.workspace import EnvSpec, wrap_angle
+from mpnet.envs.spec import EnvSpec
 
 ENET_FILE, PNET_FILE = "enet.ckpt", "pnet.ckpt"
-
-
-def state_scale(spec: EnvSpec) -> list[float]:
-    """Per-dimension scale of the states: the workspace half-extent; rigid theta by pi."""
-    return [20.0, 20.0, math.pi] if spec.is_se2 else [20.0] * spec.state_dim
-
-
-def unwrapped(spec: EnvSpec, paths: list[np.ndarray]) -> list[np.ndarray]:
-    """Rigid paths with theta made continuous (each step along the shorter arc), so that
-    Pnet's targets never jump by 2 pi."""
-    if not spec.is_se2:
-        return paths
-    out = []
-    for p in paths:
-        p = p.copy()
-        for k in range(1, len(p)):
-            p[k, 2] = p[k - 1, 2] + wrap_angle(p[k, 2] - p[k - 1, 2])
-        out.append(p)
-    return out
 
 
 def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dict, progress: bool,
@@ -82,7 +62,7 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     t0 = time.perf_counter()
     enet = Enet(in_dim, params["enet_hidden"], params["latent"])
     ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
-    ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"])
+    ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"], cloud_scale=spec.workspace_scale())
     trainer, ckpt = _trainer(folder, "enet", params["ae_epochs"], params["patience"], lightning, progress,
                              params.get("limit_batches"))
     trainer.fit(ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"],
@@ -91,11 +71,11 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     ae_seconds, ae_epochs = time.perf_counter() - t0, trainer.current_epoch
 
     t1 = time.perf_counter()
-    paths = unwrapped(spec, data.paths.paths())
+    paths = [spec.space.continuous(p) for p in data.paths.paths()]  # targets never jump by 2 pi
     pairs = waypoint_pairs(paths, data.paths.workspace)
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
     module = PnetModule(pnet, ae_best.encoder, lr=params["lr"], optimizer=params["optimizer"],
-                        freeze_encoder=True, state_scale=state_scale(spec))
+                        freeze_encoder=True, state_scale=spec.space.scale(), cloud_scale=spec.workspace_scale())
     import torch
 
     with torch.no_grad():  # the encoder is frozen: each workspace's code once, not once per batch

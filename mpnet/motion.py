@@ -1,13 +1,13 @@
 """Motion primitives shared by every planner, and the fine re-check that decides success."""
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from mpnet.envs.collision import CollisionChecker, make_checker
-from mpnet.envs.workspace import EnvSpec, Workspace, wrap_angle
+from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.workspace import Workspace
 
 
 def steer_to(checker: CollisionChecker, a, b, step: float | None = None) -> bool:
@@ -19,7 +19,7 @@ def steer_to(checker: CollisionChecker, a, b, step: float | None = None) -> bool
     """
     if step is None:
         return checker.motion_valid(a, b)
-    return bool(checker.valid_states(interpolate(checker.spec, a, b, step)).all())
+    return bool(checker.states_valid(interpolate(checker.spec, a, b, step)).all())
 
 
 def is_feasible(checker: CollisionChecker, path: Sequence) -> bool:
@@ -29,7 +29,7 @@ def is_feasible(checker: CollisionChecker, path: Sequence) -> bool:
     if len(path) == 1:
         return bool(checker.is_valid(path[0]))
     p = np.asarray(path, float)
-    return bool(checker.valid_motions(p[:-1], p[1:]).all())
+    return bool(checker.motions_valid(p[:-1], p[1:]).all())
 
 
 def lazy_states_contraction(checker: CollisionChecker, path: Sequence, step: float | None = None) -> list:
@@ -56,45 +56,14 @@ def path_cost(spec: EnvSpec, path: Sequence) -> float:
 
 
 def interpolate(spec: EnvSpec, a, b, step: float) -> np.ndarray:
-    """States along a -> b no farther apart than `step` in workspace units.
-
-    For the rigid body the step bounds the motion of any point of the body: position
-    change, or angle change times the half-diagonal, whichever is larger.
-    """
-    a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    d = b - a
-    if spec.is_se2:
-        d[2] = wrap_angle(d[2])
-        radius = math.hypot(*(s / 2 for s in spec.robot_size))
-        length = max(math.hypot(d[0], d[1]), abs(d[2]) * radius)
-    else:
-        length = float(np.linalg.norm(d))
-    n = int(math.ceil(length / step)) + 1
-    out = a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
-    k = 2 if spec.is_se2 else len(b)
-    out[-1, :k] = b[:k]  # a + 1.0 * d can round past b: a state on the bound must stay on it
-    return out
+    """States along a -> b no farther apart than `step` in workspace units (the space's
+    motion length: for the rigid body, how far any point of the body moves)."""
+    return spec.space.interpolate(a, b, step)
 
 
 def interpolate_path(spec: EnvSpec, path: np.ndarray, step: float) -> np.ndarray:
     """Every segment of the path sampled as `interpolate` does, in one vectorised pass."""
-    a, d = path[:-1], np.diff(path, axis=0)
-    if spec.is_se2:
-        d[:, 2] = wrap_angle(d[:, 2])
-        radius = math.hypot(*(s / 2 for s in spec.robot_size))
-        length = np.maximum(np.hypot(d[:, 0], d[:, 1]), np.abs(d[:, 2]) * radius)
-    else:
-        length = np.linalg.norm(d, axis=1)
-    n = np.ceil(length / step).astype(int) + 2  # samples per segment, both ends included
-    seg = np.repeat(np.arange(len(d)), n)
-    first = np.cumsum(n) - n
-    t = (np.arange(n.sum()) - np.repeat(first, n)) / np.repeat(n - 1, n)
-    out = a[seg] + t[:, None] * d[seg]
-    last = np.cumsum(n) - 1
-    k = 2 if spec.is_se2 else path.shape[1]
-    out[last, :k] = path[1:, :k]  # as in interpolate: each segment ends exactly at its state
-    return out
+    return spec.space.interpolate_path(path, step)
 
 
 def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | None = None) -> str | None:
@@ -113,7 +82,7 @@ def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | N
     if not ends.max() <= 1e-6:
         return "wrong_endpoints"
     samples = interpolate_path(spec, p, step)
-    ok = make_checker(spec, ws, margin=0.0)._states_free(samples)
+    ok = spec.make_checker(ws, margin=0.0).states_valid(samples)
     if ok.all():
         return None
     bad = samples[~ok][0]

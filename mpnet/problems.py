@@ -31,7 +31,8 @@ from typing import Any
 import numpy as np
 
 from mpnet.envs.specs import SPECS
-from mpnet.envs.workspace import EnvSpec, Query, TestSet, Workspace
+from mpnet.envs.spec import EnvSpec, TestSet
+from mpnet.envs.workspace import Query, Workspace
 
 FORMAT = "mpnet-bench/problems@1"
 SPLIT = "file"

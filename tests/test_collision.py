@@ -9,7 +9,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.collision import PointChecker, RigidChecker, make_checker
+from mpnet.envs.collision import PointChecker
+from mpnet.envs.rigid import RigidChecker
 from mpnet.envs.generators import make_workspace
 from mpnet.motion import interpolate
 
@@ -40,9 +41,9 @@ def test_corner_cut_is_caught():
     """A diagonal that clips a corner by a hair: sampled checking at 0.2 misses it, we don't."""
     ch = PointChecker(S2D, ONE_BOX, margin=0.0)
     a, b = (-6.0, -4.05), (4.05, 6.0)  # y = x + 1.95: a 0.07-long chord across the corner (-1, 1)
-    dense = ch._states_free(interpolate(S2D, a, b, 1e-4))
+    dense = ch.states_valid(interpolate(S2D, a, b, 1e-4))
     assert not dense.all()
-    assert ch._states_free(interpolate(S2D, a, b, 0.2)).all()
+    assert ch.states_valid(interpolate(S2D, a, b, 0.2)).all()
     assert not ch.motion_valid(a, b)
 
 
@@ -53,20 +54,20 @@ def test_point_motion_matches_dense_sampling(a, b, wsi):
     ws = make_workspace(S2D, wsi, "seen")
     ch = PointChecker(S2D, ws, margin=0.0)
     free = ch.motion_valid(a, b)
-    samples_free = ch._states_free(interpolate(S2D, a, b, 0.005)).all()
+    samples_free = ch.states_valid(interpolate(S2D, a, b, 0.005)).all()
     if free:
         assert samples_free
-    assert ch.valid_motions(np.array([a]), np.array([b]))[0] == free
+    assert ch.motions_valid(np.array([a]), np.array([b]))[0] == free
 
 
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.tuples(coord, coord, coord), min_size=2, max_size=2))
 def test_c3d_batch_equals_single(pts):
     ws = make_workspace(C3D, 3, "seen")
-    ch = make_checker(C3D, ws)
+    ch = C3D.make_checker(ws)
     a, b = pts
-    assert ch.valid_states(np.array([a]))[0] == ch.is_valid(a)
-    assert ch.valid_motions(np.array([a]), np.array([b]))[0] == ch.motion_valid(a, b)
+    assert ch.states_valid(np.array([a]))[0] == ch.is_valid(a)
+    assert ch.motions_valid(np.array([a]), np.array([b]))[0] == ch.motion_valid(a, b)
 
 
 def _fcl_rect_collides(q, ws):
@@ -90,7 +91,7 @@ def test_rigid_state_matches_fcl(x, y, th, wsi):
     if abs(gap) < 1e-6:
         return  # touching: closed-box tie, either answer is fine
     assert ch.is_valid((x, y, th)) == (not _fcl_rect_collides((x, y, th), ws))
-    assert ch.valid_states(np.array([[x, y, th]]))[0] == ch.is_valid((x, y, th))
+    assert ch.states_valid(np.array([[x, y, th]]))[0] == ch.is_valid((x, y, th))
 
 
 @settings(max_examples=200, deadline=None)
@@ -101,7 +102,7 @@ def test_rigid_motion_never_lies(x, y, th, dx, dy, th2, wsi):
     ch = RigidChecker(RIGID, ws, margin=0.0)
     a, b = (x, y, th), (x + dx, y + dy, th2)
     if ch.motion_valid(a, b):
-        assert ch._states_free(interpolate(RIGID, a, b, 0.002)).all()
+        assert ch.states_valid(interpolate(RIGID, a, b, 0.002)).all()
 
 
 def test_rigid_rotation_in_place_hits():
@@ -111,7 +112,7 @@ def test_rigid_rotation_in_place_hits():
     assert ch.is_valid((0.0, 0.0, 0.0)) and ch.is_valid((0.0, 0.0, math.pi))
     assert not ch.motion_valid((0.0, 0.0, 0.0), (0.0, 0.0, 3.0))
     # the shorter arc from 3.0 to -3.0 crosses pi, not 0
-    assert ch.motion_valid((0.0, 0.0, 3.0), (0.0, 0.0, -3.0)) == ch._states_free(
+    assert ch.motion_valid((0.0, 0.0, 3.0), (0.0, 0.0, -3.0)) == ch.states_valid(
         interpolate(RIGID, (0.0, 0.0, 3.0), (0.0, 0.0, -3.0), 0.001)).all()
 
 
@@ -130,7 +131,7 @@ def test_dimension_mismatch_is_an_error():
 @given(coord, coord, angle, st.floats(-6, 6), st.floats(-6, 6), angle, st.integers(0, 109))
 def test_fcl_backend_agrees(x, y, th, dx, dy, th2, wsi):
     ws = make_workspace(RIGID, wsi, "seen")
-    native, viafcl = make_checker(RIGID, ws), make_checker(RIGID, ws, backend="fcl")
+    native, viafcl = RIGID.make_checker(ws), RIGID.make_checker(ws, backend="fcl")
     a, b = (x, y, th), (x + dx, y + dy, th2)
     if abs(native._gap(x, y, th, native._boxes)) > 1e-4:
         assert native.is_valid(a) == viafcl.is_valid(a)
@@ -141,12 +142,12 @@ def test_fcl_backend_agrees(x, y, th, dx, dy, th2, wsi):
 
 def test_unknown_backend():
     with pytest.raises(ValueError, match="backend"):
-        make_checker(RIGID, ONE_BOX, backend="bullet")
+        RIGID.make_checker(ONE_BOX, backend="bullet")
 
 
 @pytest.mark.parametrize("env,blocks", [("s2d", 7), ("c2d", 7), ("c3d", 10), ("rigid", 7)])
 def test_point_cloud_inside_obstacles(env, blocks):
-    from mpnet.envs.generators import point_cloud
+    from mpnet.envs.clouds import point_cloud
 
     spec = get_spec(env)
     ws = make_workspace(spec, 5, "seen")
@@ -186,7 +187,7 @@ def test_generated_queries_are_valid_blocked_and_seed_independent():
         assert [q.start.tolist() for q in a.queries] == [q.start.tolist() for q in b.queries]
         assert len(a.queries) == 9 and len({q.id for q in a.queries}) == 9
         for q in a.queries:
-            ch = make_checker(spec, a.workspace(q.workspace_id, q.split), margin=0.0)
+            ch = spec.make_checker(a.workspace(q.workspace_id, q.split), margin=0.0)
             assert ch.is_valid(q.start.tolist()) and ch.is_valid(q.goal.tolist())
             assert not ch.motion_valid(q.start.tolist(), q.goal.tolist())
 

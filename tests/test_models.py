@@ -15,6 +15,8 @@ from mpnet.models import (PNET_HIDDEN, CloudDataModule, ContractiveAE, Decoder, 
                           load_enet_checkpoint, load_pnet_checkpoint, paper_s2d, pnet_numpy,
                           split_indices, waypoint_pairs)
 
+SCALES_2D = {"state_scale": [20.0, 20.0], "cloud_scale": 20.0}  # the s2d bounds: [-20, 20]^2
+
 
 def _linear_sizes(pnet: Pnet) -> list[int]:
     return [pnet.linears[0].in_features] + [lin.out_features for lin in pnet.linears]
@@ -328,7 +330,8 @@ def test_train_enet_then_pnet_and_reload(tmp_path):
     rng = np.random.default_rng(0)
     ae_clouds = (rng.normal(size=(512, 3)) @ rng.normal(size=(3, 120)) * 4).astype(np.float32)
     enet = Enet(120, (32, 16), 6)
-    emod = EnetModule(ContractiveAE(enet, Decoder.mirror(enet)), lr=1e-2, lam=1e-4, optimizer="adam")
+    emod = EnetModule(ContractiveAE(enet, Decoder.mirror(enet)), lr=1e-2, lam=1e-4, optimizer="adam",
+                      cloud_scale=20.0)
     before = _ae_loss(emod, ae_clouds)
     trainer = _trainer(tmp_path / "enet")
     trainer.fit(emod, CloudDataModule(ae_clouds, batch_size=16, val_fraction=0.25, seed=0))
@@ -346,7 +349,7 @@ def test_train_enet_then_pnet_and_reload(tmp_path):
 
     # Pnet on the trained (frozen) encoder
     enc_before = {k: v.clone() for k, v in emod.encoder.state_dict().items()}
-    pmod = PnetModule(Pnet(6 + 4, 2, (64, 32, 16)), emod.encoder, lr=3e-3, optimizer="adam")
+    pmod = PnetModule(Pnet(6 + 4, 2, (64, 32, 16)), emod.encoder, lr=3e-3, optimizer="adam", **SCALES_2D)
     before = _pnet_loss(pmod, data)
     trainer = _trainer(tmp_path / "pnet")
     trainer.fit(pmod, MPNetDataModule(*data, batch_size=50, val_fraction=0.1, seed=0))
@@ -377,7 +380,7 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
     """Training on a frozen encoder's codes, computed once, is training on the clouds."""
     torch.manual_seed(0)
     clouds, ws, x_t, x_goal, x_next = _pair_data(n=50)
-    mod = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4))
+    mod = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), **SCALES_2D)
     with torch.no_grad():
         codes = mod.encode(torch.from_numpy(clouds).float()).numpy()
     by_cloud = MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0)
@@ -390,7 +393,7 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
     with torch.no_grad():
         la, lb = mod._loss(a, stochastic=False)[0], mod._loss(b, stochastic=False)[0]
     assert torch.allclose(la, lb, rtol=1e-5, atol=1e-7)
-    end_to_end = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), freeze_encoder=False)
+    end_to_end = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), freeze_encoder=False, **SCALES_2D)
     with pytest.raises(ValueError, match="frozen"):
         end_to_end._loss(b, stochastic=False)
     with pytest.raises(ValueError):
@@ -401,7 +404,7 @@ def test_pnet_module_end_to_end_and_checks():
     torch.manual_seed(0)
     enet = Enet(120, (16,), 4)
     mod = PnetModule(Pnet(4 + 6, 3, (16, 8)), enet, freeze_encoder=False,
-                     state_scale=[20.0, 20.0, math.pi])
+                     state_scale=[20.0, 20.0, math.pi], cloud_scale=20.0)
     opt = mod.configure_optimizers()
     n_opt = sum(p.numel() for grp in opt.param_groups for p in grp["params"])
     assert n_opt == sum(p.numel() for p in mod.parameters())
@@ -409,13 +412,14 @@ def test_pnet_module_end_to_end_and_checks():
     batch = (torch.randn(5, 120), torch.randn(5, 3), torch.randn(5, 3), torch.randn(5, 3))
     mod._loss(batch, stochastic=True)[0].backward()
     assert all(p.grad is not None for p in enet.parameters())
-    frozen = PnetModule(Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi])
+    frozen = PnetModule(Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi],
+                        cloud_scale=20.0)
     n_opt = sum(p.numel() for grp in frozen.configure_optimizers().param_groups for p in grp["params"])
     assert n_opt == sum(p.numel() for p in frozen.pnet.parameters())
     with pytest.raises(ValueError):
-        PnetModule(Pnet(11, 3, (16,)), Enet(120, (16,), 4))
+        PnetModule(Pnet(11, 3, (16,)), Enet(120, (16,), 4), **SCALES_2D)
     with pytest.raises(ValueError):
-        PnetModule(Pnet(10, 3, (16,)), Enet(120, (16,), 4), optimizer="sgd")
+        PnetModule(Pnet(10, 3, (16,)), Enet(120, (16,), 4), optimizer="sgd", **SCALES_2D)
 
 
 def test_importing_the_package_does_not_import_lightning():

@@ -6,7 +6,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.collision import make_checker
 from mpnet.motion import interpolate, is_feasible, lazy_states_contraction, path_cost, steer_to, verify_path
 
 S2D, RIGID = get_spec("s2d"), get_spec("rigid")
@@ -14,7 +13,7 @@ WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
 
 
 def test_lsc_removes_lazy_states():
-    ch = make_checker(S2D, WALL)
+    ch = S2D.make_checker(WALL)
     path = [(-10, 0), (-10, 10), (-10, 16), (-5, 16), (0, 16), (5, 16), (10, 16), (10, 0)]
     out = lazy_states_contraction(ch, path)
     assert out[0] == path[0] and out[-1] == path[-1]
@@ -24,13 +23,13 @@ def test_lsc_removes_lazy_states():
 
 
 def test_lsc_keeps_a_needed_detour():
-    ch = make_checker(S2D, WALL)
+    ch = S2D.make_checker(WALL)
     path = [(-10, 0), (-2.5, 16), (2.5, 16), (10, 0)]
     assert lazy_states_contraction(ch, path) == path
 
 
 def test_steer_and_feasible():
-    ch = make_checker(S2D, WALL)
+    ch = S2D.make_checker(WALL)
     assert not steer_to(ch, (-10, 0), (10, 0))
     assert steer_to(ch, (-10, 0), (-10, 10))
     assert not is_feasible(ch, [(-10, 0), (10, 0)])
@@ -42,7 +41,7 @@ def test_coarse_steer_step_can_jump_a_thin_wall_the_continuous_check_cannot():
     """The T-RO code's discretised steerTo at step 2.0 samples x = -0.5, 1.17 around a
     0.4-wide wall: it passes; step 0.1 and the continuous check see the wall."""
     thin = Workspace("thin", "file", [[0.0, 0.0]], [[0.4, 30.0]])
-    ch = make_checker(S2D, thin)
+    ch = S2D.make_checker(thin)
     a, b = (-5.5, 0.0), (4.5, 0.0)
     assert steer_to(ch, a, b, step=2.0)
     assert not steer_to(ch, a, b, step=0.1)
@@ -71,7 +70,7 @@ def test_verify_catches_a_grazing_corner_that_planning_would_refuse():
     """The planner's boxes carry a margin; the re-check's are exact and closed."""
     start, goal = np.array([-10.0, 15.0]), np.array([10.0, 15.0])  # along the wall's top face
     assert verify_path(S2D, WALL, [start.tolist(), goal.tolist()], start, goal) == "collision"
-    assert not steer_to(make_checker(S2D, WALL), start, goal)
+    assert not steer_to(S2D.make_checker(WALL), start, goal)
 
 
 @settings(max_examples=100, deadline=None)

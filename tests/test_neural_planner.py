@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.collision import make_checker
 from mpnet.envs.generators import make_workspace
 from mpnet.data.queries import make_queries
 from mpnet.motion import verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, Problem
 from mpnet.planners.classical import OmplPlanner
-from mpnet.planners.neural import MPNetPlanner, workspace_cloud
+from mpnet.planners.neural import MPNetPlanner
 
 S2D = get_spec("s2d")
+CLOUD = lambda ws: S2D.cloud(ws, 200, 0)  # noqa: E731
 
 
 def straight(step_len=3.0):
@@ -24,19 +24,19 @@ def straight(step_len=3.0):
 
 
 def random_free(spec, ws):
-    checker = make_checker(spec, ws)
+    checker = spec.make_checker(ws)
 
     def step(z, x, goal, rng):
         while True:
             q = rng.uniform(spec.lower, spec.upper)
-            if checker._state_free(q.tolist()):
+            if checker.is_valid(q.tolist()):
                 return q
     return step
 
 
 def make(step, hybrid, seed=0, steer_steps=None):
     return MPNetPlanner("mpnet_hr" if hybrid else "mpnet_nr", encode=lambda cloud: np.zeros(4), step=step,
-                        cloud=workspace_cloud(1400, 0), hybrid=hybrid, seed=seed,
+                        cloud=CLOUD, hybrid=hybrid, seed=seed,
                         fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None, steer_steps=steer_steps)
 
 
@@ -46,7 +46,7 @@ def test_plans_verified_paths(hybrid):
     queries = make_queries(S2D, ws, 15, seed=1, split="seen")
     ok = 0
     for q in queries:
-        p = Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal)
+        p = Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal)
         res = make(random_free(S2D, ws), hybrid).solve(p, 5.0)
         if res.status == EXACT:
             assert verify_path(S2D, ws, res.path, q.start, q.goal) is None
@@ -59,7 +59,7 @@ def test_plans_verified_paths(hybrid):
 def test_hybrid_falls_back_when_proposals_are_useless():
     """Proposals stuck at the start: NR fails, HR's RRT* still solves it."""
     ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
-    p = Problem(S2D, ws, make_checker(S2D, ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
+    p = Problem(S2D, ws, S2D.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
     stuck = lambda z, x, goal, rng: x  # noqa: E731
     nr = make(stuck, False).solve(p, 2.0)
     assert not nr.solved and nr.stats["replans"] == 10
@@ -69,14 +69,14 @@ def test_hybrid_falls_back_when_proposals_are_useless():
 
 def test_invalid_query_fails_fast():
     ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
-    p = Problem(S2D, ws, make_checker(S2D, ws), np.array([0.0, 0.0]), np.array([10.0, 0.0]))
+    p = Problem(S2D, ws, S2D.make_checker(ws), np.array([0.0, 0.0]), np.array([10.0, 0.0]))
     assert make(straight(), True).solve(p, 5.0).status == INVALID_QUERY
 
 
 def test_same_seed_same_path():
     ws = make_workspace(S2D, 4, "seen")
     q = make_queries(S2D, ws, 1, seed=2, split="seen")[0]
-    paths = [make(straight(), False, seed=7).solve(Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal), 5.0).path
+    paths = [make(straight(), False, seed=7).solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal), 5.0).path
              for _ in range(2)]
     assert paths[0] == paths[1]
 
@@ -86,7 +86,7 @@ def test_coarse_to_fine_steer_steps():
     between start and goal; the continuous feasibility check refuses [start, goal] each
     round, and the 0.1 round sees the wall and replans over it."""
     thin = Workspace("thin", "file", [[0.0, 0.0]], [[0.4, 30.0]])
-    p = Problem(S2D, thin, make_checker(S2D, thin), np.array([-5.5, 0.0]), np.array([4.5, 0.0]))
+    p = Problem(S2D, thin, S2D.make_checker(thin), np.array([-5.5, 0.0]), np.array([4.5, 0.0]))
     over = lambda z, x, goal, rng: np.array([x[0] / 2, 17.5])  # noqa: E731  (a waypoint above the wall)
     planner = make(over, False, steer_steps=[2.0, 2.0, 2.0, 1.2, 0.5, 0.1, None])
     assert [planner.steer_step(i) for i in (0, 3, 5, 6, 50)] == [2.0, 1.2, 0.1, None, None]
@@ -119,12 +119,12 @@ def test_ablated_proposals_never_call_pnet(proposal):
     ws = make_workspace(S2D, 4, "seen")
     queries = make_queries(S2D, ws, 8, seed=3, split="seen")
     for hybrid in (False, True):
-        planner = MPNetPlanner("x", encode=lambda cloud: np.zeros(4), step=never, cloud=workspace_cloud(1400, 0),
+        planner = MPNetPlanner("x", encode=lambda cloud: np.zeros(4), step=never, cloud=CLOUD,
                                hybrid=hybrid, fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
                                proposal=proposal)
         solved = 0
         for q in queries:
-            res = planner.solve(Problem(S2D, ws, make_checker(S2D, ws), q.start, q.goal), 5.0)
+            res = planner.solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal), 5.0)
             if res.solved:
                 assert verify_path(S2D, ws, res.path, q.start, q.goal) is None
                 solved += 1
@@ -135,7 +135,7 @@ def test_random_proposals_are_valid_states():
     from mpnet.planners.neural import random_valid_state
 
     ws = make_workspace(S2D, 1, "seen")
-    checker = make_checker(S2D, ws)
+    checker = S2D.make_checker(ws)
     rng = np.random.default_rng(0)
     states = [random_valid_state(S2D, checker, rng) for _ in range(50)]
     assert all(checker.is_valid(q.tolist()) for q in states)
@@ -169,17 +169,17 @@ class FlakyFallback:
 def test_hybrid_restarts_a_timed_out_fallback_with_doubling_slices():
     """HR's RRT* is restarted after 0.05 s, then 0.1 s, 0.2 s: the third run solves."""
     ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
-    p = Problem(S2D, ws, make_checker(S2D, ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
+    p = Problem(S2D, ws, S2D.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
     stuck = lambda z, x, goal, rng: x  # noqa: E731
     fallback = FlakyFallback(misses=2)
-    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=workspace_cloud(1400, 0),
+    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=CLOUD,
                            hybrid=True, fallback=fallback, fallback_restart_s=0.05)
     res = planner.solve(p, 5.0)
     assert res.solved and verify_path(S2D, ws, res.path, p.start, p.goal) is None
     assert fallback.budgets == pytest.approx([0.05, 0.1, 0.2])
     assert res.stats["fallback_calls"] == 3
     once = FlakyFallback(misses=1)
-    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=workspace_cloud(1400, 0),
+    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=CLOUD,
                            hybrid=True, fallback=once, fallback_restart_s=None)
     res = planner.solve(p, 0.5)  # one run with the whole budget left: it times out, nothing is left
     assert not res.solved and len(once.budgets) == 1 and once.budgets[0] > 0.4

@@ -8,7 +8,6 @@ import pytest
 from ompl import util as ou
 
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.collision import make_checker
 from mpnet.envs.generators import make_workspace
 from mpnet.motion import path_cost, verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, TIMEOUT, Planner, Problem
@@ -19,7 +18,7 @@ ou.setLogLevel(ou.LOG_WARN)
 
 def problem(env, ws, start, goal, reference_cost=None):
     spec = get_spec(env)
-    return Problem(spec, ws, make_checker(spec, ws), np.array(start, float), np.array(goal, float), reference_cost)
+    return Problem(spec, ws, spec.make_checker(ws), np.array(start, float), np.array(goal, float), reference_cost)
 
 
 WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])

@@ -13,8 +13,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs.specs import SPECS
-from mpnet.envs.workspace import EnvSpec, Query, Workspace
-from mpnet.envs.workspace import TestSet as TSet  # not "Test*": pytest would try to collect it
+from mpnet.envs.robots import PointRobot
+from mpnet.envs.spaces import EuclideanSpace
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.workspace import Query, Workspace
+from mpnet.envs.spec import TestSet as TSet  # not "Test*": pytest would try to collect it
 from mpnet.problems import FORMAT, ProblemFileError, dump_problems, load_problems
 
 DATA = Path(__file__).parent / "data" / "problems"
@@ -226,7 +229,7 @@ def test_valid_file_loads(env):
 def test_valid_files_are_good_benchmarks(env):
     """Starts and goals are clearly free and in bounds; the straight line hits a box."""
     spec = SPECS[env]
-    margin = 3.0 if spec.is_se2 else 0.5  # 3 > half-diagonal of the 2x5 robot
+    margin = 3.0 if spec.robot.kind == "rectangle" else 0.5  # 3 > half-diagonal of the 2x5 robot
     ts = load_problems(DATA / VALID[env], spec)
     n = spec.workspace_dim
     for q in ts.queries:
@@ -278,7 +281,7 @@ def test_workspace_without_queries_is_fine_when_others_have_some(tmp_path):
 
 
 def test_custom_spec_not_in_specs_loads_when_names_match(tmp_path):
-    spec = EnvSpec("arm7", 7, 3, ((-3.0, 3.0),) * 7)
+    spec = EnvSpec("arm7", EuclideanSpace(((-3.0, 3.0),) * 7), PointRobot(), 3, generator=None)
     doc = {"format": FORMAT, "env": "arm7", "workspaces": [{
         "id": "table", "obstacles": [{"center": [0.5, 0, 0.2], "size": [1, 1, 0.4]}],
         "queries": [{"start": [0.0] * 7, "goal": [0.5] * 7}]}]}

@@ -8,9 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mpnet.data.queries import make_queries
-from mpnet.data.reference import planned_cost, reference_costs, shortest_path_cost_2d, visible
+from mpnet.planners.reference import planned_cost, reference_costs, shortest_path_cost_2d, visible
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.collision import make_checker
 from mpnet.envs.generators import make_workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
 from mpnet.planners import Problem
@@ -63,7 +62,7 @@ def test_exact_reference_never_exceeds_a_planned_path(ws_index, seed):
         ws = make_workspace(spec, ws_index, "seen")
         (q,) = make_queries(spec, ws, 1, seed=seed, split="seen")
         ref = shortest_path_cost_2d(spec, ws, q.start, q.goal)
-        checker = make_checker(spec, ws)
+        checker = spec.make_checker(ws)
         res = OmplPlanner("bit_star", "bit_star", stop="first").solve(Problem(spec, ws, checker, q.start, q.goal),
                                                                       2.0)
         assert res.solved
@@ -76,7 +75,7 @@ def test_reference_is_reached_by_a_long_bit_star_run():
     """BIT* given seconds on an s2d query gets within a few percent of the exact cost."""
     ws = make_workspace(S2D, 5, "seen")
     qs = make_queries(S2D, ws, 3, seed=2, split="seen")
-    checker = make_checker(S2D, ws)
+    checker = S2D.make_checker(ws)
     for q in qs:
         ref = shortest_path_cost_2d(S2D, ws, q.start, q.goal)
         got = planned_cost(S2D, ws, checker, q.start, q.goal, iterations=200, expert_s=1.0, bit_star_s=1.0)

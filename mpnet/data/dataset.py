@@ -16,8 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from mpnet.data.expert import ExpertPaths, expert_paths, summary
-from mpnet.envs.generators import extra_ids, make_workspaces, point_cloud, split_ids
-from mpnet.envs.workspace import EnvSpec, Workspace
+from mpnet.envs.clouds import clouds
+from mpnet.envs.generators import extra_ids, make_workspaces, split_ids
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.workspace import Workspace
 
 DATA_FILE = "data.npz"
 FORMAT = "mpnet-bench/data@2"  # @2: clouds of a fixed total size per env
@@ -50,28 +52,19 @@ class Dataset:
     manifest: dict
 
 
-def cloud_rng(seed: int, ws_id: int) -> np.random.Generator:
-    """The point cloud of a workspace depends on the data seed and its id only."""
-    return np.random.default_rng([seed, 5, ws_id])
-
-
-def clouds(workspaces: list[Workspace], total: int, seed: int) -> np.ndarray:
-    return np.stack([point_cloud(ws, total, cloud_rng(seed, int(ws.id))) for ws in workspaces]).astype(np.float32)
-
-
 def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, progress=None) -> dict:
     """Write data.npz into folder; returns the manifest fields."""
     train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
-    total = p.points_per_block * spec.blocks
+    total = spec.cloud_size(p.points_per_block)
     paths = expert_paths(spec, list(enumerate(train)), p.paths_per_workspace, p.data_seed, p.expert_iterations,
                          p.expert_max_seconds, jobs=jobs, progress=progress, blocked_only=p.expert_blocked_only)
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),
         "train_centers": np.stack([w.centers for w in train]),
         "train_sizes": np.stack([w.sizes for w in train]),
-        "train_clouds": clouds(train, total, p.data_seed),
-        "ae_clouds": clouds(extra, total, p.data_seed) if extra
+        "train_clouds": clouds(train, total, p.data_seed, spec.sample_cloud),
+        "ae_clouds": clouds(extra, total, p.data_seed, spec.sample_cloud) if extra
         else np.zeros((0, total, spec.workspace_dim), np.float32),
         "path_states": paths.states, "path_offsets": paths.offsets, "path_workspace": paths.workspace,
         "path_cost": paths.cost, "path_raw_cost": paths.raw_cost,

@@ -12,9 +12,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-
-from mpnet.envs.collision import make_checker
-from mpnet.envs.workspace import EnvSpec, Workspace
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.workspace import Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
 
 
@@ -84,12 +83,12 @@ def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, see
     is: a free pair only teaches Pnet to step onto the goal."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
-    checker = make_checker(spec, ws)
+    checker = spec.make_checker(ws)
     states, lengths, costs, raws = [], [], [], []
     for _ in range(count * max_tries):
         if len(lengths) == count:
             break
-        s, g = rng.uniform(spec.lower, spec.upper), rng.uniform(spec.lower, spec.upper)
+        s, g = spec.space.sample(rng), spec.space.sample(rng)
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
             continue
         if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):

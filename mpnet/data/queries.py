@@ -7,29 +7,24 @@ The test set depends on the data config only, never on the run's `seed`.
 from __future__ import annotations
 
 import numpy as np
-
-from mpnet.envs.collision import make_checker
 from mpnet.envs.generators import make_workspace, split_ids
 from mpnet.envs.ompl_space import is_solvable
-from mpnet.envs.workspace import EnvSpec, Query, TestSet, Workspace
+from mpnet.envs.spec import EnvSpec, TestSet
+from mpnet.envs.workspace import Query, Workspace
 
 SPLIT_CODES = {"seen": 1, "unseen": 2}
-
-
-def sample_state(spec: EnvSpec, rng: np.random.Generator) -> np.ndarray:
-    return rng.uniform(spec.lower, spec.upper)
 
 
 def make_queries(spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str,
                  solvable_s: float = 2.0, max_tries: int = 100000) -> list[Query]:
     """`count` queries in `ws`, drawn by a generator seeded by (seed, split, workspace)."""
     rng = np.random.default_rng([seed, SPLIT_CODES.get(split, 0), int(ws.id) if ws.id.isdigit() else 0])
-    checker = make_checker(spec, ws)
+    checker = spec.make_checker(ws)
     out: list[Query] = []
     for _ in range(max_tries):
         if len(out) == count:
             return out
-        s, g = sample_state(spec, rng), sample_state(spec, rng)
+        s, g = spec.space.sample(rng), spec.space.sample(rng)
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
             continue
         if checker.motion_valid(s.tolist(), g.tolist()):

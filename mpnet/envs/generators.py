@@ -1,17 +1,22 @@
-"""Seeded workspace generators and obstacle point clouds (DESIGN §4).
+"""Seeded workspace generators (DESIGN §4); each env names its generator in the registry.
 
 Workspace ids follow the original MPNet split: ids 0-99 are the training workspaces
 (the "seen" test split draws from them), ids 100-109 the "unseen" ones. s2d, c2d and
 rigid use the original layout file: workspace i holds blocks at the centres of row i.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 from importlib import resources
 
 import numpy as np
 
-from mpnet.envs.workspace import EnvSpec, Workspace
+from mpnet.envs.workspace import Workspace
+
+if TYPE_CHECKING:
+    from mpnet.envs.spec import EnvSpec
 
 N_TRAIN = 100
 N_UNSEEN = 10
@@ -58,43 +63,47 @@ def split_ids(split: str, count: int) -> list[int]:
     raise ValueError(f"unknown split {split!r}; choices: seen, unseen")
 
 
+class OriginalLayouts:
+    """The original MPNet layout file: workspace i holds blocks at the centres of row i,
+    of the given sizes (s2d, rigid: 5 x 5 squares; c2d: its boxes)."""
+
+    def __init__(self, sizes=None):
+        self.sizes = None if sizes is None else np.array(sizes, float)
+
+    def make(self, index: int, split: str, seed: int = 0) -> Workspace:
+        centres, perm = s2d_layouts()
+        c = centres[perm[index]]
+        sizes = np.full((len(c), 2), 5.0) if self.sizes is None else self.sizes
+        return Workspace(str(index), split, c, sizes)
+
+    def make_many(self, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
+        return [self.make(i, split, seed) for i in indices]
+
+
+class C3DLayouts:
+    """c3d: 10 boxes of the paper's sizes at 10 of 20 seeded centres."""
+
+    def make(self, index: int, split: str, seed: int = 0) -> Workspace:
+        return self.make_many([index], split, seed)[0]
+
+    def make_many(self, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
+        if not indices:
+            return []
+        centres, perm = c3d_layouts(seed, max(N_TRAIN + N_UNSEEN, max(indices) + 1))
+        return [Workspace(str(i), split, centres[perm[i]], np.array(C3D_SIZES, float)) for i in indices]
+
+
 def make_workspace(spec: EnvSpec, index: int, split: str, seed: int = 0) -> Workspace:
     """Workspace `index` of an env: 0-99 training, 100-109 unseen, beyond: extra layouts
     (point clouds for the autoencoder)."""
-    if spec.name == "c3d":
-        centres, perm = c3d_layouts(seed, max(N_TRAIN + N_UNSEEN, index + 1))
-        return Workspace(str(index), split, centres[perm[index]], np.array(C3D_SIZES, float))
-    centres, perm = s2d_layouts()
-    c = centres[perm[index]]
-    if spec.name == "c2d":
-        sizes = np.array(C2D_SIZES, float)
-    else:
-        sizes = np.full((len(c), 2), 5.0)
-    return Workspace(str(index), split, c, sizes)
+    return spec.generator.make(index, split, seed)
 
 
 def make_workspaces(spec: EnvSpec, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
     """Several workspaces at once (c3d draws its layouts once for the largest index)."""
-    if spec.name == "c3d" and indices:
-        centres, perm = c3d_layouts(seed, max(N_TRAIN + N_UNSEEN, max(indices) + 1))
-        return [Workspace(str(i), split, centres[perm[i]], np.array(C3D_SIZES, float)) for i in indices]
-    return [make_workspace(spec, i, split, seed) for i in indices]
+    return spec.generator.make_many(indices, split, seed)
 
 
 def extra_ids(count: int) -> list[int]:
     """Ids of layouts beyond the test splits (never seen or unseen test workspaces)."""
     return list(range(N_TRAIN + N_UNSEEN, N_TRAIN + N_UNSEEN + count))
-
-
-def point_cloud(ws: Workspace, total: int, rng: np.random.Generator) -> np.ndarray:
-    """`total` points drawn uniformly inside the obstacles, (total, dim): an equal share
-    per block (the first blocks take the remainder), so every workspace of an env gives
-    Enet an input of the same size. No obstacles: all points at the origin."""
-    n = len(ws.centers)
-    if n == 0:
-        return np.zeros((total, ws.dim))
-    counts = np.full(n, total // n)
-    counts[: total % n] += 1
-    idx = np.repeat(np.arange(n), counts)
-    u = rng.uniform(size=(total, ws.dim))
-    return ws.lo[idx] + u * (ws.hi - ws.lo)[idx]

@@ -6,7 +6,7 @@ from __future__ import annotations
 from ompl import base as ob
 
 from mpnet.envs.collision import CollisionChecker
-from mpnet.envs.workspace import EnvSpec, wrap_angle
+from mpnet.envs.spec import EnvSpec
 
 
 class ExactMotionValidator(ob.MotionValidator):
@@ -21,55 +21,15 @@ class ExactMotionValidator(ob.MotionValidator):
         return self._checker.motion_valid(self._to_tuple(s1), self._to_tuple(s2))
 
 
-def make_space(spec: EnvSpec):
-    if spec.is_se2:
-        space = ob.SE2StateSpace()
-        b = ob.RealVectorBounds(2)
-        for d in range(2):
-            b.setLow(d, spec.bounds[d][0])
-            b.setHigh(d, spec.bounds[d][1])
-        space.setBounds(b)
-    else:
-        space = ob.RealVectorStateSpace(spec.state_dim)
-        b = ob.RealVectorBounds(spec.state_dim)
-        for d, (lo, hi) in enumerate(spec.bounds):
-            b.setLow(d, lo)
-            b.setHigh(d, hi)
-        space.setBounds(b)
-    return space
-
-
-def state_codec(spec: EnvSpec):
-    """(to_tuple, set_state) for the env's OMPL state type."""
-    if spec.is_se2:
-        def to_tuple(s):
-            return (s.getX(), s.getY(), s.getYaw())
-
-        def set_state(s, q):
-            s.setX(float(q[0]))
-            s.setY(float(q[1]))
-            s.setYaw(wrap_angle(float(q[2])))  # OMPL's SO2 expects [-pi, pi)
-    else:
-        n = spec.state_dim
-
-        def to_tuple(s):
-            return tuple(s[i] for i in range(n))
-
-        def set_state(s, q):
-            for i in range(n):
-                s[i] = float(q[i])
-    return to_tuple, set_state
-
-
 def make_space_information(spec: EnvSpec, checker: CollisionChecker):
     """SpaceInformation whose validity and motion checks go through `checker`.
 
     Returns (si, to_tuple, set_state, keep): keep holds Python objects OMPL only
     references, so they live as long as the setup.
     """
-    space = make_space(spec)
+    space = spec.space.ompl_space()
     si = ob.SpaceInformation(space)
-    to_tuple, set_state = state_codec(spec)
+    to_tuple, set_state = spec.space.ompl_codec()
     is_valid = checker.is_valid
     si.setStateValidityChecker(lambda s: is_valid(to_tuple(s)))
     mv = ExactMotionValidator(si, checker, to_tuple)

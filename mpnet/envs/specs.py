@@ -1,18 +1,22 @@
-"""The fixed geometry of each environment (DESIGN §4)."""
+"""The env registry: each env's space, robot, generator and cloud (DESIGN §4). A new
+kind of robot adds its space, robot and checker classes and an entry here."""
+
 from __future__ import annotations
 
-import math
+from mpnet.envs.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
+from mpnet.envs.robots import PointRobot, RectangleRobot
+from mpnet.envs.spaces import EuclideanSpace, SE2Space
+from mpnet.envs.spec import EnvSpec
 
-from mpnet.envs.workspace import ROBOT_RECTANGLE, EnvSpec
+_BOX = ((-20.0, 20.0),)
+_RIGID = RectangleRobot((2.0, 5.0))
 
 SPECS: dict[str, EnvSpec] = {
-    "s2d": EnvSpec("s2d", 2, 2, ((-20.0, 20.0),) * 2),
-    "c2d": EnvSpec("c2d", 2, 2, ((-20.0, 20.0),) * 2),
-    "c3d": EnvSpec("c3d", 3, 3, ((-20.0, 20.0),) * 3, blocks=10),
-    "rigid": EnvSpec(
-        "rigid", 3, 2, ((-20.0, 20.0), (-20.0, 20.0), (-math.pi, math.pi)),
-        robot=ROBOT_RECTANGLE, robot_size=(2.0, 5.0),
-    ),
+    "s2d": EnvSpec("s2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(), exact_reference=True),
+    "c2d": EnvSpec("c2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(C2D_SIZES),
+                   exact_reference=True),
+    "c3d": EnvSpec("c3d", EuclideanSpace(_BOX * 3), PointRobot(), 3, C3DLayouts(), blocks=10),
+    "rigid": EnvSpec("rigid", SE2Space(_BOX * 2, radius=_RIGID.radius), _RIGID, 2, OriginalLayouts()),
 }
 
 

@@ -40,8 +40,8 @@ class EnetModule(L.LightningModule):
     Adagrad (lr 0.01, its default)."""
 
     def __init__(self, ae: ContractiveAE | dict[str, Any], lr: float = 1e-2,
-                 lam: float | None = None, optimizer: str = "adagrad",
-                 cloud_scale: Sequence[float] | float = 20.0):
+                 lam: float | None = None, optimizer: str = "adagrad", *,
+                 cloud_scale: Sequence[float] | float):
         super().__init__()
         ae = ae if isinstance(ae, ContractiveAE) else ContractiveAE.from_config(ae)
         if lam is not None:
@@ -91,8 +91,9 @@ class PnetModule(L.LightningModule):
     ``pnet`` / ``encoder`` are the networks or their ``config()`` dicts. ``Z`` comes from the
     encoder applied to the workspace's cloud; with ``freeze_encoder`` (the paper's choice for
     point-mass and rigid bodies) it gets no gradient and is not optimised; without it Enet
-    and Pnet train end to end (the arm). ``state_scale`` defaults to 20 per state dimension
-    (rigid: pass ``[20, 20, pi]``). Training runs Pnet with dropout on; validation with
+    and Pnet train end to end (the arm). ``state_scale`` and ``cloud_scale`` come from the
+    env's bounds (``StateSpace.scale``, ``EnvSpec.workspace_scale``: rigid ``[20, 20, pi]``
+    and ``[20, 20]``), never a default that would mis-scale another robot. Training runs Pnet with dropout on; validation with
     dropout off unless ``val_stochastic``.
 
     Batches are dicts ``{"clouds": (k, D), "ws": (B,) index into clouds, "x_t", "x_goal",
@@ -103,9 +104,9 @@ class PnetModule(L.LightningModule):
     """
 
     def __init__(self, pnet: Pnet | dict[str, Any], encoder: Enet | dict[str, Any],
-                 lr: float = 1e-2, optimizer: str = "adagrad", freeze_encoder: bool = True,
-                 state_scale: Sequence[float] | float | None = None,
-                 cloud_scale: Sequence[float] | float = 20.0, val_stochastic: bool = False):
+                 lr: float = 1e-2, optimizer: str = "adagrad", freeze_encoder: bool = True, *,
+                 state_scale: Sequence[float] | float, cloud_scale: Sequence[float] | float,
+                 val_stochastic: bool = False):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
         encoder = encoder if isinstance(encoder, Enet) else Enet(**encoder)
@@ -117,7 +118,7 @@ class PnetModule(L.LightningModule):
             raise ValueError(f"unknown optimizer {optimizer!r}; choices: {', '.join(OPTIMIZERS)}")
         self.pnet = pnet
         self.encoder = encoder
-        self.state_norm = Normalizer([20.0] * state_dim if state_scale is None else state_scale)
+        self.state_norm = Normalizer(state_scale)
         if self.state_norm.scale.size not in (1, state_dim):
             raise ValueError(f"state_scale has {self.state_norm.scale.size} entries, state_dim is {state_dim}")
         self.cloud_norm = Normalizer(cloud_scale)

@@ -8,7 +8,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from mpnet.envs.collision import CollisionChecker
-from mpnet.envs.workspace import EnvSpec, Workspace
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.workspace import Workspace
 
 # Result.status values: why a planner stopped. Only "exact" claims a solution.
 EXACT = "exact"

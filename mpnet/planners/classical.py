@@ -57,7 +57,7 @@ class OmplPlanner:
             if problem.reference_cost is None:
                 raise ValueError("planner.stop=cost needs a reference cost for the query")
             target = self.cost_factor * problem.reference_cost
-        si, pdef, _, keep = make_problem(problem.spec, problem.checker, problem.start, problem.goal)
+        si, pdef, to_tuple, keep = make_problem(problem.spec, problem.checker, problem.start, problem.goal)
         if self.stop == "cost":
             pdef.getOptimizationObjective().setCostThreshold(ob.Cost(target))
         planner = ALGORITHMS[self.algorithm](si)
@@ -77,8 +77,7 @@ class OmplPlanner:
         exact = pdef.hasExactSolution()
         path = None
         if exact:
-            to_list = _to_list(problem.spec)
-            path = [to_list(s) for s in pdef.getSolutionPath().getStates()]
+            path = [list(to_tuple(s)) for s in pdef.getSolutionPath().getStates()]
             path = snap_endpoints(path, problem)
         stats = {"planner_status": status.asString() if hasattr(status, "asString") else str(status)}
         if self.algorithm in OPTIMIZING:
@@ -111,9 +110,3 @@ def snap_endpoints(path: list, problem: Problem) -> list:
         path = [path[0], path[0]]
     return [problem.start.tolist(), *path[1:-1], problem.goal.tolist()]
 
-
-def _to_list(spec):
-    if spec.is_se2:
-        return lambda s: [s.getX(), s.getY(), s.getYaw()]
-    n = spec.state_dim
-    return lambda s: [s[i] for i in range(n)]

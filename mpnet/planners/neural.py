@@ -7,13 +7,12 @@ dropout kept on, drawn from `rng`), both in the env's state coordinates.
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
 import numpy as np
 
-from mpnet.data.queries import sample_state
-from mpnet.envs.workspace import wrap_angle
 from mpnet.motion import is_feasible, lazy_states_contraction, steer_to
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
 
@@ -35,17 +34,18 @@ class MPNetPlanner:
     proposal: where NeuralPlanner's next state comes from: "pnet" (the network), or, to
     ablate it with everything else unchanged, "random" (a uniformly random valid state)
     or "straight" (a step of straight_step toward the other tree's end, measured in the
-    networks' normalised coordinates: state / the bounds' half-widths).
+    networks' normalised coordinates: state / the bounds' half-widths). encoding ("cloud"
+    or "zeros") and dropout record how the networks were wired (mpnet.planners.mpnet); an
+    ablated planner may not carry MPNet's own name, so the logs never mix the two.
     """
 
-    def __init__(self, name: str, encode: Callable, step: Callable, cloud: Callable, *, hybrid: bool = False,
-                 max_steps: int = 80, replan_steps: int = 50, replan_rounds: int = 10, seed: int = 0,
-                 fallback=None, steer_steps=None, proposal: str = "pnet", straight_step: float = 0.1,
-                 fallback_restart_s: float | None = None):
-        if proposal not in PROPOSALS:
-            raise ValueError(f"config key planner.proposal: expected one of {', '.join(PROPOSALS)}, got {proposal!r}")
-        if not straight_step > 0:
-            raise ValueError(f"config key planner.straight_step: expected a positive step, got {straight_step!r}")
+    def __init__(self, name: str, encode: Callable | None, step: Callable | None, cloud: Callable | None, *,
+                 hybrid: bool = False, max_steps: int = 80, replan_steps: int = 50, replan_rounds: int = 10,
+                 seed: int = 0, fallback=None, steer_steps=None, proposal: str = "pnet", straight_step: float = 0.1,
+                 fallback_restart_s: float | None = None, encoding: str = "cloud", dropout: bool = True):
+        check_settings(name, max_steps=max_steps, replan_steps=replan_steps, replan_rounds=replan_rounds,
+                       steer_steps=steer_steps, proposal=proposal, straight_step=straight_step,
+                       fallback_restart_s=fallback_restart_s, encoding=encoding, dropout=dropout)
         self.name = name
         self.encode = encode
         self.step = step
@@ -60,6 +60,8 @@ class MPNetPlanner:
         self.proposal = proposal
         self.fallback_restart_s = None if fallback_restart_s is None else float(fallback_restart_s)
         self.straight_step = float(straight_step)
+        self.encoding = encoding
+        self.dropout = dropout
 
     def steer_step(self, stage: int) -> float | None:
         """steerTo's step at stage 0 (first NeuralPlanner run) or replanning round `stage`."""
@@ -159,13 +161,59 @@ class MPNetPlanner:
 
 
 PROPOSALS = ("pnet", "random", "straight")
+ENCODINGS = ("cloud", "zeros")
+BASE_NAMES = ("mpnet_nr", "mpnet_hr")
+
+
+def ablation_of(proposal: str = "pnet", encoding: str = "cloud", dropout: bool = True) -> str:
+    """'' for MPNet as the paper, else what is ablated (e.g. 'proposal=random')."""
+    changed = [f"proposal={proposal}"] if proposal != "pnet" else []
+    changed += [f"encoding={encoding}"] if encoding != "cloud" else []
+    changed += ["dropout=false"] if not dropout else []
+    return ", ".join(changed)
+
+
+def _count(key: str, value, least: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < least:
+        raise ValueError(f"config key planner.{key}: expected an integer >= {least}, got {value!r}")
+
+
+def _positive(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0
+
+
+def check_settings(name: str, *, max_steps, replan_steps, replan_rounds, steer_steps, proposal, straight_step,
+                   fallback_restart_s, encoding, dropout) -> None:
+    """Every MPNet setting, checked once: ValueError naming the config key."""
+    _count("max_steps", max_steps, 1)
+    _count("replan_steps", replan_steps, 1)
+    _count("replan_rounds", replan_rounds, 0)
+    if steer_steps is not None and (isinstance(steer_steps, (str, bytes)) or not hasattr(steer_steps, "__iter__")
+                                    or not all(x is None or _positive(x) for x in steer_steps)):
+        raise ValueError(f"config key planner.steer_steps: expected null or a list of positive steps "
+                         f"(null entries: continuous), got {steer_steps!r}")
+    if proposal not in PROPOSALS:
+        raise ValueError(f"config key planner.proposal: expected one of {', '.join(PROPOSALS)}, got {proposal!r}")
+    if not _positive(straight_step):
+        raise ValueError(f"config key planner.straight_step: expected a positive step, got {straight_step!r}")
+    if fallback_restart_s is not None and not _positive(fallback_restart_s):
+        raise ValueError(f"config key planner.fallback_restart_s: expected null or a positive number of seconds, "
+                         f"got {fallback_restart_s!r}")
+    if encoding not in ENCODINGS:
+        raise ValueError(f"config key planner.encoding: expected one of {', '.join(ENCODINGS)}, got {encoding!r}")
+    if not isinstance(dropout, bool):
+        raise ValueError(f"config key planner.dropout: expected true or false, got {dropout!r}")
+    ablated = ablation_of(proposal, encoding, dropout)
+    if ablated and name in BASE_NAMES:
+        raise ValueError(f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
+                         f"not {name!r}: use its config (+planner=mpnet_nr_random, ...) or set planner.name")
 
 
 def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = 1000) -> np.ndarray:
     """A uniformly random valid state (rejection sampling in the state bounds); after
     `tries` invalid draws the last one, which replanning then drops."""
     for _ in range(tries):
-        q = sample_state(spec, rng)
+        q = spec.space.sample(rng)
         if checker.is_valid(q.tolist()):
             break
     return q
@@ -173,16 +221,12 @@ def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = 100
 
 def straight_step(spec, x, target, length: float) -> np.ndarray:
     """x moved toward target by `length` in normalised coordinates (state / the bounds'
-    half-widths; rigid: theta by the shorter arc), or to target when closer."""
-    half = (spec.upper - spec.lower) / 2.0
-    d = np.asarray(target, float) - np.asarray(x, float)
-    if spec.is_se2:
-        d[2] = wrap_angle(d[2])
-    norm = float(np.linalg.norm(d / half))
+    half-widths; angles along the shorter arc), or to target when closer."""
+    space = spec.space
+    d = space.difference(x, target)
+    norm = float(np.linalg.norm(d / space.half_widths()))
     nxt = np.asarray(x, float) + (d if norm <= length else d * (length / norm))
-    if spec.is_se2:
-        nxt[2] = wrap_angle(nxt[2])
-    return nxt
+    return space.wrap(nxt)
 
 
 def _repair(checker, path, connect, step: float | None = None):
@@ -199,18 +243,3 @@ def _repair(checker, path, connect, step: float | None = None):
             out.extend(mid)
         out.append(y)
     return out
-
-def workspace_cloud(total_points: int, seed: int) -> Callable:
-    """cloud(workspace): its point cloud of the env's fixed size, drawn from a generator
-    seeded by the data seed and the workspace id, as the training clouds were."""
-    import zlib
-
-    from mpnet.data.dataset import cloud_rng
-    from mpnet.envs.generators import point_cloud
-
-    def cloud(ws) -> np.ndarray:
-        wid = int(ws.id) if str(ws.id).isdigit() else zlib.crc32(str(ws.id).encode())
-        return point_cloud(ws, total_points, cloud_rng(seed, wid)).astype(np.float32)
-
-    return cloud
-

@@ -17,19 +17,19 @@ import math
 
 import numpy as np
 
-from mpnet.envs.workspace import EnvSpec, Query, Workspace
+from mpnet.data.expert import rrt_star_path
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.workspace import Query, Workspace
+from mpnet.motion import lazy_states_contraction, path_cost, verify_path
+from mpnet.planners.base import Problem
+from mpnet.planners.classical import OmplPlanner
 
 EPS = 1e-9
 
 
-def is_exact(spec: EnvSpec) -> bool:
-    """Whether the env's reference is the exact shortest path (2D point robots)."""
-    return not spec.is_se2 and spec.state_dim == 2
-
-
 def describe(spec: EnvSpec) -> str:
     """How the env's reference cost is computed, in words (for the report)."""
-    if is_exact(spec):
+    if spec.exact_reference:
         return "exact shortest path (visibility graph over the box corners)"
     return "best of the expert path (RRT*, fixed iterations) and a budgeted BIT* run, both contracted"
 
@@ -70,7 +70,7 @@ def shortest_path_cost_2d(spec: EnvSpec, ws: Workspace, start, goal) -> float:
     lo, hi = ws.lo, ws.hi
     corners = np.concatenate([np.stack([lo[:, 0], lo[:, 1]], 1), np.stack([lo[:, 0], hi[:, 1]], 1),
                               np.stack([hi[:, 0], lo[:, 1]], 1), np.stack([hi[:, 0], hi[:, 1]], 1)])
-    inb = np.all((corners >= spec.lower[:2]) & (corners <= spec.upper[:2]), axis=1)
+    inb = np.all((corners >= spec.space.lower[:2]) & (corners <= spec.space.upper[:2]), axis=1)
     in_box = ((corners[:, None] > lo[None] + EPS) & (corners[:, None] < hi[None] - EPS)).all(-1).any(-1) \
         if len(lo) else np.zeros(len(corners), bool)
     nodes = np.concatenate([np.asarray([start, goal], float), corners[inb & ~in_box]])
@@ -84,11 +84,6 @@ def planned_cost(spec: EnvSpec, ws: Workspace, checker, start, goal, iterations:
                  bit_star_s: float) -> float:
     """The best verified, contracted cost of the expert's RRT* path and a BIT* run of
     bit_star_s seconds; inf when neither finds a path."""
-    from mpnet.data.expert import rrt_star_path
-    from mpnet.motion import lazy_states_contraction, path_cost, verify_path
-    from mpnet.planners.base import Problem
-    from mpnet.planners.classical import OmplPlanner
-
     expert = rrt_star_path(spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
     bit_star = OmplPlanner("bit_star", "bit_star", stop="time").solve(
         Problem(spec, ws, checker, np.asarray(start, float), np.asarray(goal, float)), float(bit_star_s))
@@ -106,11 +101,10 @@ def planned_cost(spec: EnvSpec, ws: Workspace, checker, start, goal, iterations:
 def workspace_references(spec: EnvSpec, ws: Workspace, queries: list[Query], iterations: int, expert_s: float,
                          bit_star_s: float) -> list[float]:
     """The reference cost of each query of one workspace."""
-    if is_exact(spec):
+    if spec.exact_reference:
         return [shortest_path_cost_2d(spec, ws, q.start, q.goal) for q in queries]
-    from mpnet.envs.collision import make_checker
 
-    checker = make_checker(spec, ws)
+    checker = spec.make_checker(ws)
     return [planned_cost(spec, ws, checker, q.start, q.goal, iterations, expert_s, bit_star_s) for q in queries]
 
 
@@ -129,7 +123,7 @@ def reference_costs(spec: EnvSpec, workspaces: list[Workspace], queries: list[Qu
     each, OMPL seeded per workspace so any `jobs` gives the same costs). progress(1) after
     each workspace."""
     by_ws = [(ws, [q for q in queries if q.workspace_id == ws.id and q.split == ws.split]) for ws in workspaces]
-    if is_exact(spec):
+    if spec.exact_reference:
         for ws, qs in by_ws:
             for q, c in zip(qs, workspace_references(spec, ws, qs, iterations, expert_s, bit_star_s)):
                 q.reference_cost = c if math.isfinite(c) and c > 0 else None

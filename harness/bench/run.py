@@ -1,0 +1,146 @@
+"""A bench job: one env, one planner, one seed; its test set, planner, logs and summary."""
+
+from __future__ import annotations
+
+import inspect
+import sys
+from pathlib import Path
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+
+from harness.artifacts import ensure_models, ensure_testset
+from harness.bench.loop import CostTarget, QueryTiming, run_bench
+from harness.bench.summary import format_summary, summarize
+from harness.cli import UsageError
+from harness.config import check_config, env_spec
+from harness.log import LogProcess
+from harness.provenance import run_info
+from mpnet.planners.base import Planner
+from mpnet.planners.reference import reference_costs
+from mpnet.problems import ProblemFileError, load_problems
+
+_OMPL_SEEDED = False
+
+
+def ompl_seeded() -> bool:
+    return _OMPL_SEEDED
+
+
+def seed_everything(seed: int) -> None:
+    """OMPL's RNG once per process, before any planner exists (its seed must be > 0, so
+    OMPL gets seed + 1)."""
+    global _OMPL_SEEDED
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_WARN)
+    if _OMPL_SEEDED:
+        raise RuntimeError("OMPL's RNG can be seeded once per process")
+    ou.RNG.setSeed(int(seed) + 1)
+    _OMPL_SEEDED = True
+    np.random.seed(int(seed) % 2**32)
+    try:
+        import torch  # MPNet's dropout; absent for classical-only installs
+    except ImportError:
+        return
+    torch.manual_seed(int(seed))
+
+
+def make_planner(planner_cfg, key: str, runtime: dict) -> Planner:
+    """The planner a config names (`_target_` and its constructor arguments), given the
+    run's objects its signature asks for by name (env, seed, models_dir, cloud).
+    A constructor's ValueError names the config key; it becomes one line for the user."""
+    import hydra
+    from hydra.errors import InstantiationException
+
+    args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}  # a bench hook, not an argument
+    try:
+        factory = hydra.utils.instantiate(args, _partial_=True)
+        wanted = inspect.signature(factory.func).parameters
+        return factory(**{k: v for k, v in runtime.items() if k in wanted})
+    except InstantiationException as e:
+        raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
+    except TypeError as e:
+        raise UsageError(f"config key {key}: {e}") from None
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+
+
+def runtime_objects(cfg: DictConfig, spec) -> dict:
+    """What the app hands a planner's constructor besides its config: the env, the run's
+    seed, the trained networks' folder (built on first use) and the workspace cloud."""
+    points, data_seed = int(cfg.env.points_per_block), int(cfg.env.data_seed)
+    return {
+        "env": spec, "seed": int(cfg.seed),
+        "models_dir": lambda: ensure_models(cfg, progress=bool(cfg.progress))[0],
+        "cloud": lambda ws: spec.cloud(ws, points, data_seed),
+    }
+
+
+def build_testset(cfg: DictConfig, spec):
+    """The problem file's test set, or the scale's generated splits (from the cache)."""
+    if cfg.problems:
+        testset = load_problems(str(cfg.problems), spec)
+        if spec.exact_reference:  # exact references cost microseconds: fill the ones the file lacks
+            reference_costs(spec, testset.workspaces, [q for q in testset.queries if q.reference_cost is None],
+                            iterations=0, expert_s=0.0, bit_star_s=0.0)
+        return testset, "file"
+    return ensure_testset(cfg, bool(cfg.progress)), "+".join(cfg.splits)
+
+
+def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> list[dict]:
+    """Run one bench job into run_dir and print its summary."""
+    if "env" not in cfg or "planner" not in cfg:
+        raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
+    check_config(cfg)
+    seed_everything(int(cfg.seed))
+    spec = env_spec(cfg.env)
+    runtime = runtime_objects(cfg, spec)
+    planner = make_planner(cfg.planner, "planner", runtime)
+    target_cfg = cfg.planner.get("cost_target")
+    pre_query = None if target_cfg is None else CostTarget(make_planner(target_cfg, "planner.cost_target", runtime))
+    testset, split = build_testset(cfg, spec)
+    if pre_query is None and cfg.planner.get("stop") == "cost" \
+            and any(q.reference_cost is None for q in testset.queries):
+        raise UsageError("planner.stop=cost needs a reference cost for every query "
+                         "(give `reference_cost` per query in a problem file)")
+    info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
+    with LogProcess(run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun),
+                    resume=bool(cfg.resume)) as log:
+        for ws in testset.workspaces:
+            logged = log.logged_obstacles.get((ws.split, ws.id))
+            if logged is not None and logged != ws.obstacles_json():
+                raise UsageError(f"resume=true: workspace {ws.id!r} ({ws.split}) in {run_dir} was logged with "
+                                 f"other obstacles; resume only the same test set or problem file")
+        if log.done:
+            print(f"resuming: {len(log.done)} queries already logged in {run_dir}", file=sys.stderr)
+        try:
+            run_bench(testset, planner, log, budget_s=float(cfg.budget_s), collision=str(cfg.env.collision),
+                      progress=bool(cfg.progress), timing=timing, pre_query=pre_query)
+        except KeyboardInterrupt:
+            log.close()
+            print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)
+            raise
+    records = log.records
+    if timing is not None:
+        timing.log_cpu_s = log.child_cpu_s
+    if not quiet:
+        print(f"{cfg.env.name} / {cfg.planner.name} / seed {cfg.seed}: {run_dir}")
+        print(format_summary(summarize(records)) if records else "no queries to run")
+    return records
+
+
+def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
+    """bench(), with the user's mistakes as one line and exit status 1."""
+    try:
+        bench(cfg, run_dir, **kwargs)
+    except (ProblemFileError, UsageError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(1)
+    except FileExistsError as e:
+        print(f"error: {e} (or choose another hydra.run.dir)", file=sys.stderr)
+        sys.exit(1)
+
+
+def bench_in_child(container: dict, run_dir: str) -> None:
+    bench_or_exit(OmegaConf.create(container), Path(run_dir))

@@ -1,0 +1,86 @@
+"""From the composed config to what the stages take: the env object, data and model
+parameters (which are also cache keys), and the checks of the app's own keys.
+
+A planner's settings are checked by the planner's constructor (one place); the keys
+checked here are the app's: budget, seed, splits, logging switches, the env's knobs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from omegaconf import DictConfig, OmegaConf
+
+from harness.cli import UsageError
+from mpnet.data.dataset import DataParams
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.specs import get_spec
+
+
+def env_spec(env_cfg) -> EnvSpec:
+    """The env's fixed geometry with the config's validation step."""
+    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step))
+
+
+def _number(key: str, value, positive: bool = True) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or (positive and value <= 0):
+        raise UsageError(f"config key {key}: expected a {'positive ' if positive else ''}finite number, got {value!r}")
+
+
+def check_config(cfg: DictConfig) -> None:
+    """The values a user types, checked before any work: UsageError naming the key."""
+    _number("budget_s", cfg.budget_s)
+    _number("env.validation_step", cfg.env.validation_step)
+    _number("env.solvable_s", cfg.env.solvable_s)
+    if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
+        raise UsageError(f"config key seed: expected an integer >= 0, got {cfg.seed!r}")
+    splits = cfg.splits
+    if isinstance(splits, str) or not splits or any(s not in ("seen", "unseen") for s in splits):
+        raise UsageError(f"config key splits: expected a list from [seen, unseen], e.g. splits=[seen], got "
+                         f"{OmegaConf.to_container(splits) if OmegaConf.is_config(splits) else splits!r}")
+    checkers = get_spec(cfg.env.name).robot.checkers
+    if cfg.env.collision not in checkers:
+        raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {cfg.env.collision!r}")
+    for key in ("rerun", "resume", "progress"):
+        if not isinstance(cfg[key], bool):
+            raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
+
+
+def data_params(cfg: DictConfig) -> DataParams:
+    """Everything that decides the training dataset (its cache key)."""
+    return DataParams(
+        env=str(cfg.env.name), data_seed=int(cfg.env.data_seed), points_per_block=int(cfg.env.points_per_block),
+        train_workspaces=int(cfg.scale.train.workspaces), paths_per_workspace=int(cfg.scale.train.paths),
+        ae_workspaces=int(cfg.scale.train.ae_workspaces), expert_iterations=int(cfg.env.expert.iterations),
+        expert_max_seconds=float(cfg.env.expert.max_seconds),
+        expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)))
+
+
+def reference_params(cfg: DictConfig, spec: EnvSpec) -> dict:
+    """What decides the test set's reference costs (none for exact ones)."""
+    if spec.exact_reference:
+        return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
+    return {"iterations": int(cfg.env.expert.iterations), "expert_s": float(cfg.env.expert.max_seconds),
+            "bit_star_s": float(cfg.env.reference.bit_star_s)}
+
+
+def model_params(cfg: DictConfig) -> dict:
+    """Everything that decides the trained networks (and so their cache key)."""
+    m, f, t = cfg.scale.model, cfg.scale.fit, cfg.train
+    params = {
+        "format": "mpnet-bench/models@1",
+        "enet_hidden": [int(x) for x in m.enet_hidden], "latent": int(m.latent),
+        "pnet_hidden": [int(x) for x in m.pnet_hidden], "dropout": float(m.dropout),
+        "ae_epochs": int(f.ae_epochs), "pnet_epochs": int(f.pnet_epochs), "batch_size": int(f.batch_size),
+        "seed": int(t.seed), "lr": float(t.lr), "optimizer": str(t.optimizer), "lam": float(t.lam),
+        "val_fraction": float(t.val_fraction), "patience": int(t.patience),
+    }
+    if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
+        params["limit_batches"] = int(f.limit_batches)
+    return params
+
+
+def lightning_params(cfg: DictConfig) -> dict:
+    return {"accelerator": str(cfg.train.accelerator), "devices": cfg.train.devices, "strategy": str(cfg.train.strategy)}

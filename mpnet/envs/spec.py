@@ -1,0 +1,93 @@
+"""An environment as one object: its state space, robot, workspace generator and point
+cloud sampler, plus the fixed facts the stages share (DESIGN §4)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpnet.envs.clouds import point_cloud, workspace_cloud
+from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker
+from mpnet.envs.robots import Robot
+from mpnet.envs.spaces import StateSpace
+from mpnet.envs.workspace import Query, Workspace
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """What an environment is. `space` holds the state bounds, metric and interpolation;
+    `robot` the log description and checkers; `generator` makes its workspaces
+    (`make(index, split, seed)`, `make_many`); `sample_cloud(ws, total, rng)` draws the
+    obstacle points Enet sees. `exact_reference`: path costs have an exact reference (the
+    2D visibility graph) instead of a planned one."""
+
+    name: str
+    space: StateSpace
+    robot: Robot
+    workspace_dim: int
+    generator: object
+    blocks: int = 7  # obstacles per generated workspace: sizes the point cloud
+    validation_step: float = 0.01
+    exact_reference: bool = False
+    sample_cloud: Callable = point_cloud
+
+    @property
+    def state_dim(self) -> int:
+        return self.space.dim
+
+    @property
+    def bounds(self) -> tuple[tuple[float, float], ...]:
+        return self.space.bounds
+
+    @property
+    def lower(self) -> np.ndarray:
+        return self.space.lower
+
+    @property
+    def upper(self) -> np.ndarray:
+        return self.space.upper
+
+    def bounds_json(self) -> list[list[float]]:
+        return self.space.bounds_json()
+
+    def robot_json(self) -> dict:
+        return self.robot.to_json()
+
+    def in_bounds(self, q) -> bool:
+        return self.space.in_bounds(q)
+
+    def distance(self, a, b) -> float:
+        """The env's metric (the space's): path costs are sums of it."""
+        return self.space.distance(a, b)
+
+    def workspace_scale(self) -> list[float]:
+        """Per-axis scale the networks divide cloud points by: the workspace's largest
+        absolute bound (the state bounds of the workspace axes)."""
+        return [max(abs(lo), abs(hi)) for lo, hi in self.space.bounds[: self.workspace_dim]]
+
+    def make_checker(self, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str = "native") -> CollisionChecker:
+        return self.robot.make_checker(self, ws, margin, backend)
+
+    def cloud_size(self, points_per_block: int) -> int:
+        return points_per_block * self.blocks
+
+    def cloud(self, ws: Workspace, points_per_block: int, seed: int) -> np.ndarray:
+        """The workspace's point cloud as training and planning both draw it."""
+        return workspace_cloud(ws, self.cloud_size(points_per_block), seed, self.sample_cloud)
+
+
+@dataclass
+class TestSet:
+    """Workspaces and their queries, for one or more splits."""
+
+    spec: EnvSpec
+    workspaces: list[Workspace]
+    queries: list[Query]
+
+    def workspace(self, wid: str, split: str) -> Workspace:
+        for ws in self.workspaces:
+            if ws.id == wid and ws.split == split:
+                return ws
+        raise KeyError(f"no workspace {wid!r} in split {split!r}")
