@@ -16,17 +16,7 @@ from mpnet.envs.generators import s2d_layouts
 from mpnet.motion import verify_path
 from mpnet.envs.workspace import Workspace
 
-REPO = Path(__file__).resolve().parent.parent
-PROBLEMS = REPO / "tests" / "data" / "problems"
-
-
-def run(*args, cwd=None, check=True):
-    env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
-    p = subprocess.run([sys.executable, "-m", *args], cwd=cwd or REPO, capture_output=True, text=True,
-                       timeout=600, env=env)
-    if check and p.returncode != 0:
-        raise AssertionError(f"exit {p.returncode}\nstdout:\n{p.stdout}\nstderr:\n{p.stderr}")
-    return p
+pytestmark = pytest.mark.slow  # every test here runs the CLI in a subprocess
 
 
 def read_mcap(path):
@@ -54,9 +44,9 @@ def recheck(msgs):
     return n
 
 
-def test_bench_tiny_s2d(tmp_path):
+def test_bench_tiny_s2d(tmp_path, run_cli):
     out = tmp_path / "run"
-    p = run("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", f"hydra.run.dir={out}")
+    p = run_cli("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", f"hydra.run.dir={out}")
     assert "seen" in p.stdout and "unseen" in p.stdout and "success" in p.stdout
     schemas, msgs = read_mcap(out / "trials.mcap")
     assert {"mpnet_bench.Run", "mpnet_bench.Workspace", "mpnet_bench.Query", "foxglove.SceneUpdate"} <= schemas
@@ -84,17 +74,17 @@ def test_bench_tiny_s2d(tmp_path):
 
 
 @pytest.mark.parametrize("env", ["c2d", "c3d", "rigid"])
-def test_bench_tiny_other_envs(tmp_path, env):
+def test_bench_tiny_other_envs(tmp_path, env, run_cli):
     out = tmp_path / env
-    run("harness", f"+env={env}", "+planner=informed_rrt_star", "scale=tiny", "rerun=false",
+    run_cli("harness", f"+env={env}", "+planner=informed_rrt_star", "scale=tiny", "rerun=false",
         f"hydra.run.dir={out}")
     _, msgs = read_mcap(out / "trials.mcap")
     assert recheck(msgs) >= 7
 
 
-def test_used_by_form_multirun(tmp_path):
+def test_used_by_form_multirun(tmp_path, run_cli):
     """Overrides before and after -m, as users type it."""
-    run("harness", "+env=rigid", "+planner=rrt_connect", "scale=tiny", "rerun=false",
+    run_cli("harness", "+env=rigid", "+planner=rrt_connect", "scale=tiny", "rerun=false",
         f"hydra.sweep.dir={tmp_path}", "-m", "seed=0,1")
     files = sorted(tmp_path.rglob("trials.mcap"))
     assert len(files) == 2
@@ -102,8 +92,8 @@ def test_used_by_form_multirun(tmp_path):
     assert sorted(seeds) == [0, 1]
 
 
-def test_multirun_flag_last(tmp_path):
-    run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", "splits=[seen]",
+def test_multirun_flag_last(tmp_path, run_cli):
+    run_cli("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", "splits=[seen]",
         f"hydra.sweep.dir={tmp_path}", "seed=3", "--multirun")
     assert len(list(tmp_path.rglob("trials.mcap"))) == 1
 
@@ -114,8 +104,8 @@ def test_multirun_flag_last(tmp_path):
     (["+env=s3d", "+planner=bit_star"], "unknown env 's3d'"),
     (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar'"),
 ])
-def test_missing_or_unknown_choice(args, needle):
-    p = run("harness", *args, check=False)
+def test_missing_or_unknown_choice(args, needle, run_cli):
+    p = run_cli("harness", *args, check=False)
     assert p.returncode != 0
     assert needle in p.stderr
     assert "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1
@@ -124,8 +114,8 @@ def test_missing_or_unknown_choice(args, needle):
 @pytest.mark.parametrize("name", ["bad_not_json.json", "bad_wrong_format.json", "bad_unknown_env.json",
                                   "bad_center_dim.json", "bad_negative_size.json", "bad_nan.json",
                                   "bad_missing_start.json"])
-def test_bad_problem_file(tmp_path, name):
-    p = run("harness", "+env=s2d", "+planner=bit_star", f"problems={PROBLEMS / name}",
+def test_bad_problem_file(tmp_path, name, run_cli, problems_dir):
+    p = run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={problems_dir / name}",
             f"hydra.run.dir={tmp_path}", check=False)
     assert p.returncode == 1
     assert "Traceback" not in p.stderr
@@ -134,14 +124,14 @@ def test_bad_problem_file(tmp_path, name):
     assert not (tmp_path / "trials.mcap").exists()
 
 
-def test_problem_file_with_invalid_query(tmp_path):
-    doc = json.loads((PROBLEMS / "s2d.json").read_text())
+def test_problem_file_with_invalid_query(tmp_path, run_cli, problems_dir):
+    doc = json.loads((problems_dir / "s2d.json").read_text())
     blocked = doc["workspaces"][0]["obstacles"][0]["center"]
     doc["workspaces"][0]["queries"].append({"start": blocked, "goal": [19.0, 19.0]})
     doc["workspaces"][0]["queries"].append({"start": [-25.0, 0.0], "goal": [19.0, 19.0]})
     f = tmp_path / "p.json"
     f.write_text(json.dumps(doc))
-    run("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
     _, msgs = read_mcap(tmp_path / "r" / "trials.mcap")
     queries = [m for t, m in msgs if t == "/query"]
     assert all(q["split"] == "file" for q in queries)
@@ -151,8 +141,8 @@ def test_problem_file_with_invalid_query(tmp_path):
 
 
 @pytest.mark.parametrize("env", ["s2d", "c2d", "c3d", "rigid"])
-def test_problem_files_all_envs(tmp_path, env):
-    run("harness", f"+env={env}", "+planner=bit_star", f"problems={PROBLEMS / (env + '.json')}", "rerun=false",
+def test_problem_files_all_envs(tmp_path, env, run_cli, problems_dir):
+    run_cli("harness", f"+env={env}", "+planner=bit_star", f"problems={problems_dir / (env + '.json')}", "rerun=false",
         f"hydra.run.dir={tmp_path}")
     _, msgs = read_mcap(tmp_path / "trials.mcap")
     queries = [m for t, m in msgs if t == "/query"]
@@ -160,12 +150,12 @@ def test_problem_files_all_envs(tmp_path, env):
     assert {m["split"] for t, m in msgs if t == "/workspace"} == {"file"}
 
 
-def test_overhead_benchmark():
-    p = run("harness.overhead", "+env=s2d", "+planner=bit_star", "scale=tiny", "progress=false")
+def test_overhead_benchmark(run_cli):
+    p = run_cli("harness.overhead", "+env=s2d", "+planner=bit_star", "scale=tiny", "progress=false")
     assert "harness overhead" in p.stdout and "log process" in p.stdout and "ratio" in p.stdout
 
 
-def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
+def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, repo):
     """SIGKILL mid-run: the log process finalises every query it got; resume=true then
     finishes the run without logging any query twice."""
     import signal
@@ -175,7 +165,7 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
     cheap_refs = ["env.reference.bit_star_s=0.01", "env.expert.iterations=10"]  # a test set built in seconds
     args = [sys.executable, "-m", "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]",
             "progress=false", f"hydra.run.dir={out}", *cheap_refs]
-    proc = subprocess.Popen(args, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(args, cwd=repo, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     csv_file = out / "queries.csv"
     while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 5):
@@ -186,7 +176,7 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
     _, msgs = read_mcap(out / "trials.mcap")  # finalised: the indexed reader opens it
     first = [m["query_id"] for t, m in msgs if t == "/query"]
     assert 0 < len(first) < 200
-    run("harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
+    run_cli("harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
         "resume=true", f"hydra.run.dir={out}", *cheap_refs)
     _, msgs = read_mcap(out / "trials.mcap")
     ids = [m["query_id"] for t, m in msgs if t == "/query"]
@@ -195,14 +185,14 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path):
     assert recheck(msgs) >= 198
 
 
-def test_existing_run_dir_is_not_overwritten(tmp_path):
-    run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}")
-    p = run("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}",
+def test_existing_run_dir_is_not_overwritten(tmp_path, run_cli):
+    run_cli("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}")
+    p = run_cli("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}",
             check=False)
     assert p.returncode == 1 and "resume" in p.stderr and "Traceback" not in p.stderr
 
 
-def test_every_env_and_planner_config_runs(tmp_path):
+def test_every_env_and_planner_config_runs(tmp_path, run_cli):
     """Each conf/env × base planner, and s2d × every conf/planner (ablations and time to
     equal quality), at the smallest size."""
     from harness.cli import choices
@@ -212,7 +202,7 @@ def test_every_env_and_planner_config_runs(tmp_path):
     variants = sorted(set(planners) - set(base))
     assert {"mpnet_nr_random", "mpnet_hr_zeros", "bit_star_to_nr_x1.1"} <= set(variants)
     for name, env_list, planner_list in (("base", envs, base), ("variants", ["s2d"], variants)):
-        run("harness", "-m", f"+env={','.join(env_list)}", f"+planner={','.join(planner_list)}", "scale=tiny",
+        run_cli("harness", "-m", f"+env={','.join(env_list)}", f"+planner={','.join(planner_list)}", "scale=tiny",
             "splits=[unseen]", "rerun=false", "progress=false", f"hydra.sweep.dir={tmp_path / name}",
             f"cache_dir={tmp_path / 'cache'}")
         files = sorted((tmp_path / name).rglob("trials.mcap"))
@@ -234,15 +224,15 @@ def test_every_env_and_planner_config_runs(tmp_path):
                 assert all(q["path_cost"] >= q["reference_cost"] - 1e-9 for q in queries if q["success"])
 
 
-def test_ablation_under_mpnet_name_is_refused(tmp_path):
-    p = run("harness", "+env=s2d", "+planner=mpnet_nr", "planner.proposal=random", "scale=tiny",
+def test_ablation_under_mpnet_name_is_refused(tmp_path, run_cli):
+    p = run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "planner.proposal=random", "scale=tiny",
             f"hydra.run.dir={tmp_path}", f"cache_dir={tmp_path / 'cache'}", check=False)
     assert p.returncode == 1 and "config key planner.name" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "cache").exists()
 
 
-def test_joblib_launcher(tmp_path):
-    run("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", "rerun=false", "hydra/launcher=joblib",
+def test_joblib_launcher(tmp_path, run_cli):
+    run_cli("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", "rerun=false", "hydra/launcher=joblib",
         "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={tmp_path}", "-m", "seed=0,1,2")
     files = sorted(tmp_path.rglob("trials.mcap"))
     seeds = sorted(next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files)
@@ -253,48 +243,48 @@ def test_joblib_launcher(tmp_path):
                                           ("seed=-1", "seed"), ("seed=1.5", "seed"), ("splits=[bogus]", "splits"),
                                           ("env.collision=xyz", "env.collision"), ("rerun=maybe", "rerun"),
                                           ("env.validation_step=0", "env.validation_step")])
-def test_bad_config_values(tmp_path, override, key):
-    p = run("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
+def test_bad_config_values(tmp_path, override, key, run_cli):
+    p = run_cli("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
             check=False)
     assert p.returncode == 1 and f"config key {key}" in p.stderr and "Traceback" not in p.stderr
 
 
 @pytest.mark.parametrize("override", ["planner.steer_steps=[2.0,-1]", "planner.steer_steps=abc",
                                       "planner.steer_steps=[true]"])
-def test_bad_steer_steps_fail_before_any_training(tmp_path, override):
-    p = run("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
+def test_bad_steer_steps_fail_before_any_training(tmp_path, override, run_cli):
+    p = run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
             f"cache_dir={tmp_path / 'cache'}", check=False)
     assert p.returncode == 1 and "config key planner.steer_steps" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "cache").exists()
 
 
-def test_resume_refuses_other_workspaces(tmp_path):
-    doc = json.loads((PROBLEMS / "s2d.json").read_text())
+def test_resume_refuses_other_workspaces(tmp_path, run_cli, problems_dir):
+    doc = json.loads((problems_dir / "s2d.json").read_text())
     a = tmp_path / "a.json"
     a.write_text(json.dumps(doc))
-    run("harness", "+env=s2d", "+planner=bit_star", f"problems={a}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={a}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
     doc["workspaces"][0]["obstacles"][0]["center"][0] += 1.0
     b = tmp_path / "b.json"
     b.write_text(json.dumps(doc))
-    p = run("harness", "+env=s2d", "+planner=bit_star", f"problems={b}", "rerun=false", "resume=true",
+    p = run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={b}", "rerun=false", "resume=true",
             f"hydra.run.dir={tmp_path / 'r'}", check=False)
     assert p.returncode == 1 and "other obstacles" in p.stderr and "Traceback" not in p.stderr
 
 
-def test_summary_lists_failure_reasons(tmp_path):
-    doc = json.loads((PROBLEMS / "s2d.json").read_text())
+def test_summary_lists_failure_reasons(tmp_path, run_cli, problems_dir):
+    doc = json.loads((problems_dir / "s2d.json").read_text())
     doc["workspaces"][0]["queries"].append({"start": [25.0, 0.0], "goal": [19.0, 19.0]})
     f = tmp_path / "p.json"
     f.write_text(json.dumps(doc))
-    p = run("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    p = run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
     assert "invalid_query: 1" in p.stdout
 
 
-def test_mpnet_sweep_builds_artifacts_once(tmp_path):
+def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
     """MPNet at tiny scale from an empty cache: data and models are built once for a
     two-seed sweep; HR solves everything, every query logs its MPNet stats."""
     cache = tmp_path / "cache"
-    run("harness", "+env=s2d", "+planner=mpnet_hr", "scale=tiny", "rerun=false", "progress=false",
+    run_cli("harness", "+env=s2d", "+planner=mpnet_hr", "scale=tiny", "rerun=false", "progress=false",
         f"cache_dir={cache}", f"hydra.sweep.dir={tmp_path / 'sweep'}", "-m", "seed=0,1")
     assert len([d for d in (cache / "data").iterdir() if d.is_dir()]) == 1
     assert len([d for d in (cache / "models").iterdir() if d.is_dir()]) == 1
@@ -305,7 +295,7 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path):
         queries = [m for t, m in msgs if t == "/query"]
         assert len(queries) == 8 and recheck(msgs) == 8
         assert all({"pnet_calls", "replans", "fallback_used"} <= set(q) for q in queries)
-    run("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", "rerun=false", "progress=false",
+    run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", "rerun=false", "progress=false",
         f"cache_dir={cache}", f"hydra.run.dir={tmp_path / 'nr'}")
     _, msgs = read_mcap(tmp_path / "nr" / "trials.mcap")
     assert recheck(msgs) == sum(m["success"] for t, m in msgs if t == "/query")
@@ -313,9 +303,9 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path):
 
 
 @pytest.mark.parametrize("env", ["s2d", "rigid"])
-def test_paper_scale_dry_run(tmp_path, env):
+def test_paper_scale_dry_run(tmp_path, env, run_cli):
     """scale=paper composes and runs: the paper's networks, a few batches, a few queries."""
-    p = run("harness", f"+env={env}", "+planner=mpnet_hr", "+experiment=paper_dry_run", "progress=false",
+    p = run_cli("harness", f"+env={env}", "+planner=mpnet_hr", "+experiment=paper_dry_run", "progress=false",
             "rerun=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.run.dir={tmp_path / 'run'}")
     assert "seen" in p.stdout and "unseen" in p.stdout
     manifest = json.loads(next((tmp_path / "cache" / "models").glob("*/manifest.json")).read_text())
@@ -325,15 +315,15 @@ def test_paper_scale_dry_run(tmp_path, env):
     assert len(rows) == 4
 
 
-def test_table1_experiment_and_report(tmp_path):
+def test_table1_experiment_and_report(tmp_path, run_cli):
     """The Table I sweep (narrowed to two planners and two seeds at tiny scale), then the
     report over its folder: every run is in results.csv and Table I."""
     sweep = tmp_path / "sweep"
-    run("harness", "-m", "+experiment=table1", "scale=tiny", "+env=s2d", "+planner=bit_star,mpnet_nr", "seed=0,1",
+    run_cli("harness", "-m", "+experiment=table1", "scale=tiny", "+env=s2d", "+planner=bit_star,mpnet_nr", "seed=0,1",
         "progress=false", "rerun=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.sweep.dir={sweep}")
     assert len(list(sweep.rglob("trials.mcap"))) == 4
     out = tmp_path / "report"
-    run("harness.report", str(sweep), "--out", str(out), "--paper")
+    run_cli("harness.report", str(sweep), "--out", str(out), "--paper")
     rows = list(csv.DictReader((out / "results.csv").open()))
     assert sorted((r["planner"], r["split"], r["seeds"], r["queries"]) for r in rows) == [
         (p, s, "2", "8") for p in ("bit_star", "mpnet_nr") for s in ("seen", "unseen")]

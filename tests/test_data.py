@@ -13,7 +13,6 @@ from mpnet.envs import get_spec
 from mpnet.envs.generators import make_workspace
 from mpnet.motion import verify_path
 
-REPO = Path(__file__).resolve().parent.parent
 
 
 @pytest.mark.parametrize("env", ["s2d", "rigid"])
@@ -76,11 +75,12 @@ def test_store_clears_the_temp_folder_of_a_killed_builder(tmp_path):
     assert built and not stale.exists() and (folder / "x.txt").exists()
 
 
-def test_data_cli_builds_once_under_concurrency(tmp_path):
+@pytest.mark.slow
+def test_data_cli_builds_once_under_concurrency(tmp_path, repo):
     """Two jobs asking for the same dataset at once: one builds, the other waits and reuses."""
     cmd = [sys.executable, "-m", "harness.data", "+env=s2d", "scale=tiny", "progress=false",
            f"cache_dir={tmp_path}", f"hydra.run.dir={tmp_path / 'run'}"]
-    procs = [subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    procs = [subprocess.Popen(cmd, cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for _ in range(2)]
     outs = [p.communicate(timeout=600) for p in procs]
     assert all(p.returncode == 0 for p in procs), outs
@@ -96,16 +96,13 @@ def test_data_cli_builds_once_under_concurrency(tmp_path):
         assert z["path_offsets"][-1] == len(z["path_states"])
 
 
-def test_cached_testset_is_the_generated_one(tmp_path):
+def test_cached_testset_is_the_generated_one(tmp_path, compose_config):
     """The data stage's test set (problem files in the cache) holds exactly the queries the
     generator makes, with their splits; a second call reads the cache."""
-    from hydra import compose, initialize_config_dir
-
     from harness.artifacts import ensure_testset
     from mpnet.data.queries import make_testset
 
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
-        cfg = compose("config", ["+env=c3d", "+planner=bit_star", "scale=tiny", f"cache_dir={tmp_path}"])
+    cfg = compose_config(["+env=c3d", "+planner=bit_star", "scale=tiny", f"cache_dir={tmp_path}"])
     spec = get_spec("c3d")
     got = ensure_testset(cfg, progress=False)
     want = make_testset(spec, {"seen": (2, 2), "unseen": (2, 2)}, 0, float(cfg.env.solvable_s))

@@ -422,6 +422,7 @@ def test_pnet_module_end_to_end_and_checks():
         PnetModule(Pnet(10, 3, (16,)), Enet(120, (16,), 4), optimizer="sgd", **SCALES_2D)
 
 
+@pytest.mark.slow
 def test_importing_the_package_does_not_import_lightning():
     code = ("import sys, mpnet.models, mpnet.models.networks, mpnet.models.checkpoint; "
             "assert 'lightning' not in sys.modules and 'pytorch_lightning' not in sys.modules")

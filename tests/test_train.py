@@ -1,29 +1,25 @@
 """The training stage at tiny scale: Lightning trains Enet then Pnet into the cache,
 reproducibly, and the planner-side reader loads the result without Lightning."""
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
-REPO = Path(__file__).resolve().parent.parent
+pytestmark = pytest.mark.slow  # the training CLI in subprocesses
 
 
-def train(cache, *extra):
-    p = subprocess.run([sys.executable, "-m", "harness.train", "+env=rigid", "scale=tiny", "progress=false",
-                        f"cache_dir={cache}", f"hydra.run.dir={cache / 'run'}", *extra],
-                       cwd=REPO, capture_output=True, text=True, timeout=900)
-    assert p.returncode == 0, p.stderr[-3000:]
+def train(run_cli, cache, *extra):
+    p = run_cli("harness.train", "+env=rigid", "scale=tiny", "progress=false", f"cache_dir={cache}",
+                f"hydra.run.dir={cache / 'run'}", *extra, timeout=900)
     return next(line for line in p.stdout.splitlines() if line.startswith(("trained:", "cached:")))
 
 
-def test_train_cli_caches_and_reproduces(tmp_path):
-    out = train(tmp_path / "a")
+def test_train_cli_caches_and_reproduces(tmp_path, run_cli):
+    out = train(run_cli, tmp_path / "a")
     assert out.startswith("trained:")
-    assert train(tmp_path / "a").startswith("cached:")
-    train(tmp_path / "b")
+    assert train(run_cli, tmp_path / "a").startswith("cached:")
+    train(run_cli, tmp_path / "b")
     folders = [next(d for d in (tmp_path / c / "models").iterdir() if d.is_dir()) for c in ("a", "b")]
     manifest = json.loads((folders[0] / "manifest.json").read_text())
     assert manifest["fit"]["pnet"]["pairs"] > 0 and "data_folder" in manifest and manifest["config"]["seed"] == 0
@@ -39,5 +35,5 @@ def test_train_cli_caches_and_reproduces(tmp_path):
     z = encode(np.zeros((1400, 2), np.float32))
     x = step(z, np.array([1.0, 2.0, 0.5]), np.array([-3.0, 4.0, -1.0]), np.random.default_rng(0))
     assert x.shape == (3,) and np.all(np.isfinite(x))
-    other = train(tmp_path / "a", "train.seed=1")
+    other = train(run_cli, tmp_path / "a", "train.seed=1")
     assert other.startswith("trained:")

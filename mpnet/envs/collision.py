@@ -12,14 +12,10 @@ methods; everything else uses only the public, counted calls.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mpnet.envs.workspace import Workspace
-
-if TYPE_CHECKING:
-    from mpnet.envs.spec import EnvSpec
 
 # Boxes are inflated by this much while planning, so that a path accepted by the exact
 # test is not rejected by rounding in a sampled re-check; verification uses exact boxes.
@@ -31,7 +27,7 @@ class CollisionChecker:
     each counted. Subclasses implement the geometry (`_state_free`, `_motion_free`,
     `_states_free`, `_motions_free`)."""
 
-    def __init__(self, spec: EnvSpec, ws: Workspace, margin: float = PLANNING_MARGIN):
+    def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         if ws.dim != spec.workspace_dim:
             raise ValueError(f"workspace {ws.id!r} has {ws.dim}-D obstacles, env {spec.name} needs {spec.workspace_dim}-D")
         self.spec = spec
@@ -93,7 +89,7 @@ class CollisionChecker:
 class PointChecker(CollisionChecker):
     """A point robot in 2D or 3D: a point collides when it lies in a closed box."""
 
-    def __init__(self, spec: EnvSpec, ws: Workspace, margin: float = PLANNING_MARGIN):
+    def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         super().__init__(spec, ws, margin)
         self._boxes = [(tuple(lo), tuple(hi)) for lo, hi in zip(self.lo.tolist(), self.hi.tolist())]
         self._bounds = [tuple(b) for b in spec.space.bounds]

@@ -8,15 +8,11 @@ rigid use the original layout file: workspace i holds blocks at the centres of r
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import TYPE_CHECKING
 from importlib import resources
 
 import numpy as np
 
 from mpnet.envs.workspace import Workspace
-
-if TYPE_CHECKING:
-    from mpnet.envs.spec import EnvSpec
 
 N_TRAIN = 100
 N_UNSEEN = 10
@@ -93,13 +89,13 @@ class C3DLayouts:
         return [Workspace(str(i), split, centres[perm[i]], np.array(C3D_SIZES, float)) for i in indices]
 
 
-def make_workspace(spec: EnvSpec, index: int, split: str, seed: int = 0) -> Workspace:
+def make_workspace(spec, index: int, split: str, seed: int = 0) -> Workspace:
     """Workspace `index` of an env: 0-99 training, 100-109 unseen, beyond: extra layouts
     (point clouds for the autoencoder)."""
     return spec.generator.make(index, split, seed)
 
 
-def make_workspaces(spec: EnvSpec, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
+def make_workspaces(spec, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
     """Several workspaces at once (c3d draws its layouts once for the largest index)."""
     return spec.generator.make_many(indices, split, seed)
 

@@ -4,16 +4,12 @@ by exact separating-axis tests (native) or python-fcl (same answers, slower)."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker
 from mpnet.envs.spaces import wrap_angle
 from mpnet.envs.workspace import Workspace
-
-if TYPE_CHECKING:
-    from mpnet.envs.spec import EnvSpec
 
 
 class RigidChecker(CollisionChecker):
@@ -28,7 +24,7 @@ class RigidChecker(CollisionChecker):
 
     MAX_STEPS = 20000
 
-    def __init__(self, spec: EnvSpec, ws: Workspace, margin: float = PLANNING_MARGIN):
+    def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         super().__init__(spec, ws, margin)
         self.hx, self.hy = spec.robot.size[0] / 2, spec.robot.size[1] / 2
         self.radius = math.hypot(self.hx, self.hy)
@@ -157,7 +153,7 @@ class FclRigidChecker(RigidChecker):
     conservative advancement on its exact distance. The blocks are extruded boxes, the
     body a box of the same height, so 3D distances equal the 2D ones."""
 
-    def __init__(self, spec: EnvSpec, ws: Workspace, margin: float = PLANNING_MARGIN):
+    def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         import fcl
 
         super().__init__(spec, ws, margin)

@@ -4,14 +4,10 @@ can check it (by backend name: `env.collision`)."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
 from mpnet.envs.rigid import FclRigidChecker, RigidChecker
 from mpnet.envs.workspace import Workspace
-
-if TYPE_CHECKING:
-    from mpnet.envs.spec import EnvSpec
 
 
 class Robot:
@@ -23,7 +19,7 @@ class Robot:
     def to_json(self) -> dict:
         return {"kind": self.kind}
 
-    def make_checker(self, spec: EnvSpec, ws: Workspace, margin: float = PLANNING_MARGIN,
+    def make_checker(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN,
                      backend: str = "native") -> CollisionChecker:
         try:
             cls = self.checkers[backend]

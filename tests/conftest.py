@@ -1,0 +1,51 @@
+"""Shared fixtures: the repository's paths, the config composer, and the CLI runner."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def repo() -> Path:
+    return REPO_ROOT
+
+
+@pytest.fixture(scope="session")
+def problems_dir(repo) -> Path:
+    """The example problem files (valid and broken ones)."""
+    return repo / "tests" / "data" / "problems"
+
+
+@pytest.fixture(scope="session")
+def compose_config(repo):
+    """compose(overrides) -> the composed config, as `python -m harness` would see it."""
+    from hydra import compose, initialize_config_dir
+
+    def compose_(overrides: list[str], return_hydra_config: bool = False):
+        with initialize_config_dir(str(repo / "conf"), version_base="1.3"):
+            return compose("config", overrides, return_hydra_config=return_hydra_config)
+
+    return compose_
+
+
+@pytest.fixture(scope="session")
+def run_cli(repo):
+    """run_cli("harness", "+env=s2d", ...) runs `python -m ...` as a user does; raises
+    with its output when it fails and check is true."""
+
+    def run(*args, cwd=None, check=True, timeout=600):
+        env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
+        p = subprocess.run([sys.executable, "-m", *args], cwd=cwd or repo, capture_output=True, text=True,
+                           timeout=timeout, env=env)
+        if check and p.returncode != 0:
+            raise AssertionError(f"exit {p.returncode}\nstdout:\n{p.stdout}\nstderr:\n{p.stderr}")
+        return p
+
+    return run

@@ -1,0 +1,85 @@
+"""The house rules, checked: data flows one way (import-linter's contracts in
+pyproject.toml), no import cycle (function-level imports included), no module past
+~500 lines, and no test of the robot kind outside the space and robot classes."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import grimp
+
+MAX_LINES = 520
+# Where a robot kind may be named: its own classes (spaces, robots, checkers) and the
+# registry that binds them; the log painters are chosen by the logged robot kind.
+KIND_HOMES = {"mpnet/envs/spaces.py", "mpnet/envs/robots.py", "mpnet/envs/specs.py"}
+
+
+def _sources(repo):
+    return sorted(p for pkg in ("mpnet", "harness") for p in (repo / pkg).rglob("*.py"))
+
+
+def test_import_contracts_hold(repo):
+    p = subprocess.run([sys.executable, "-m", "importlinter.cli", "lint-imports"], cwd=repo, capture_output=True,
+                       text=True, timeout=120)
+    if p.returncode != 0:  # older entry point name
+        p = subprocess.run(["lint-imports"], cwd=repo, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stdout + p.stderr
+
+
+def _cycles(graph) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan, iterative)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+    for root in sorted(graph.modules):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph.find_modules_directly_imported_by(root))))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            for w in it:
+                if w not in index:
+                    index[w] = low[w] = counter[0]
+                    counter[0] += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(graph.find_modules_directly_imported_by(w)))))
+                    break
+                if w in on:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    comp = []
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        comp.append(w)
+                        if w == v:
+                            break
+                    if len(comp) > 1:
+                        out.append(sorted(comp))
+    return out
+
+
+def test_no_import_cycle():
+    graph = grimp.build_graph("mpnet", "harness")
+    assert _cycles(graph) == []
+
+
+def test_no_module_past_the_size_limit(repo):
+    long = {str(p.relative_to(repo)): n for p in _sources(repo) if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert long == {}
+
+
+def test_the_robot_kind_is_asked_only_of_its_classes(repo):
+    pattern = re.compile(r"is_se2|spec\.name\s*==|\.kind\s*==|robot\s*==")
+    hits = [f"{p.relative_to(repo)}:{i}" for p in _sources(repo) if str(p.relative_to(repo)) not in KIND_HOMES
+            for i, line in enumerate(p.read_text().splitlines(), 1) if pattern.search(line)]
+    assert hits == []

@@ -1,0 +1,88 @@
+"""Every config composes and builds its objects (env, planners, cost-target hook) without
+planning: env x planner at the default scale, every scale, and every experiment's grid."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+import torch
+
+from harness.bench.run import make_planner, runtime_objects
+from harness.cli import UsageError, choices
+from harness.config import check_config, env_spec
+from mpnet.models import Enet, Pnet
+from mpnet.planners.base import Planner
+
+ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "scale", "experiment"))
+
+
+@pytest.fixture(scope="module")
+def models_dirs(tmp_path_factory):
+    """A tiny Pnet checkpoint per state dimension, in the layout the reader expects."""
+    out = {}
+    for dim in (2, 3):
+        folder = tmp_path_factory.mktemp(f"models{dim}")
+        enet, pnet = Enet(10 * dim, (8,), 4), Pnet(4 + 2 * dim, dim, (8,))
+        state = {**{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
+                 **{f"encoder.{k}": v for k, v in enet.state_dict().items()}}
+        hp = {"pnet": pnet.config(), "encoder": enet.config(), "state_scale": [20.0] * dim, "cloud_scale": [20.0]}
+        torch.save({"hyper_parameters": hp, "state_dict": state}, folder / "pnet.ckpt")
+        out[dim] = folder
+    return out
+
+
+def build(cfg, models_dirs) -> list[Planner]:
+    """What a bench job builds before planning: the checked config, the env, the planners."""
+    check_config(cfg)
+    spec = env_spec(cfg.env)
+    runtime = {**runtime_objects(cfg, spec), "models_dir": models_dirs[spec.state_dim]}
+    planners = [make_planner(cfg.planner, "planner", runtime)]
+    if cfg.planner.get("cost_target") is not None:
+        planners.append(make_planner(cfg.planner.cost_target, "planner.cost_target", runtime))
+    for p in planners:
+        assert isinstance(p, Planner) and p.name
+    return planners
+
+
+@pytest.mark.parametrize("env,planner", list(itertools.product(ENVS, PLANNERS)))
+def test_every_env_and_planner_builds(env, planner, compose_config, models_dirs):
+    cfg = compose_config([f"+env={env}", f"+planner={planner}"])
+    (main, *_) = build(cfg, models_dirs)
+    assert main.name == cfg.planner.name
+
+
+@pytest.mark.parametrize("scale", SCALES)
+def test_every_scale_builds(scale, compose_config, models_dirs):
+    for env in ENVS:
+        cfg = compose_config([f"+env={env}", "+planner=mpnet_hr", f"scale={scale}"])
+        assert cfg.scale.name in SCALES
+        build(cfg, models_dirs)
+
+
+def _grid(params: dict) -> list[list[str]]:
+    """The sweep's jobs, one seed each (seeds build the same objects)."""
+    params = {k: (str(v).split(",")[0] if k == "seed" else v) for k, v in params.items()}
+    keys = list(params)
+    return [[f"{k}={v}" for k, v in zip(keys, combo)]
+            for combo in itertools.product(*(str(params[k]).split(",") for k in keys))]
+
+
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+def test_every_experiment_builds(experiment, compose_config, models_dirs):
+    """Each job of the experiment's sweep (or the experiment alone, with an env and a planner)."""
+    hydra_cfg = compose_config([f"+experiment={experiment}", "+env=s2d", "+planner=mpnet_nr"],
+                               return_hydra_config=True)
+    params = dict(hydra_cfg.hydra.sweeper.params or {})
+    jobs = _grid(params) if params else [["+env=s2d", "+planner=mpnet_nr"]]
+    for job in jobs:
+        build(compose_config([f"+experiment={experiment}", *job]), models_dirs)
+
+
+def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models_dirs):
+    for override, key in (("planner.stop=bogus", "planner.stop"), ("planner.proposal=bogus", "planner.proposal"),
+                          ("planner.steer_steps=[0.0]", "planner.steer_steps")):
+        planner = "bit_star" if "stop" in override else "mpnet_nr"
+        cfg = compose_config(["+env=s2d", f"+planner={planner}", override])
+        with pytest.raises(UsageError, match=key):
+            build(cfg, models_dirs)
