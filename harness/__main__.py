@@ -13,7 +13,7 @@ from harness.cli import run_hydra
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 def main(cfg: DictConfig) -> None:
     from harness.bench import bench_in_child, bench_or_exit, ompl_seeded
-    from harness.log_process import spawn_context
+    from harness.log import spawn_context
 
     run_dir = Path(hydra.core.hydra_config.HydraConfig.get().runtime.output_dir)
     if cfg.problems:

@@ -105,8 +105,9 @@ def _jsonable(v):
 
 
 def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
-    """Solve one query, timed: the record's fields. Its path cost and the fine re-check of
-    a claimed success come later, in the log process (harness.log_process.judge)."""
+    """Solve one query, timed: the record's fields, `failure` None when the planner claims an
+    exact solution in the budget. `success` (the claim and the fine re-check) and the path
+    cost are decided later, in the log process (harness.log.judge)."""
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     try:
         res = planner.solve(problem, budget_s)
@@ -117,7 +118,6 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     if failure is None and wall > budget_s:
         failure = "timeout"
     rec = {
-        "success": failure is None,
         "failure": failure,
         "path": res.path if res.path is not None else [],
         "time_s": wall,
@@ -136,8 +136,8 @@ def cost_target(target: Planner, problem: Problem, budget_s: float) -> dict:
     from mpnet.motion import path_cost, verify_path
 
     rec = plan_query(target, problem, budget_s)
-    ok = rec["success"] and verify_path(problem.spec, problem.workspace, rec["path"], problem.start, problem.goal,
-                                        problem.spec.validation_step) is None
+    ok = rec["failure"] is None and verify_path(problem.spec, problem.workspace, rec["path"], problem.start,
+                                                problem.goal, problem.spec.validation_step) is None
     cost = path_cost(problem.spec, rec["path"]) if ok else None
     return {"target_planner": target.name, "target_cost": cost if cost else None, "target_time_s": rec["time_s"]}
 
@@ -183,7 +183,7 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, colli
                 if target is None or problem.reference_cost is not None:
                     rec.update(plan_query(planner, problem, budget_s))
                 else:
-                    rec.update({"success": False, "failure": "no_target", "path": [], "time_s": 0.0, "cpu_s": 0.0,
+                    rec.update({"failure": "no_target", "path": [], "time_s": 0.0, "cpu_s": 0.0,
                                 **checker.counts(), "planner_status": "no_target"})
                 if q.reference_cost is not None:
                     rec["reference_cost"] = q.reference_cost
@@ -299,7 +299,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     import hydra
     from hydra.errors import InstantiationException
 
-    from harness.log_process import LogProcess
+    from harness.log import LogProcess
 
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
