@@ -30,7 +30,7 @@ from harness.report import (
     queries_frame,
     wilson,
 )
-from harness.trial_log import TrialLog
+from harness.log import TrialLog
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 

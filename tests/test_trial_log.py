@@ -20,14 +20,18 @@ from mcap.reader import make_reader
 from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
 
-from harness.trial_log import (CSV_FIXED, QUERY_FIELDS, TrialLog, plain, read_log, rect_outlines,
-                               scene_update_schema)
+from harness.log import (CSV_FIXED, QUERY_FIELDS, TrialLog, judge, painter_for, plain, read_log, rect_outlines,
+                         scene_update_schema)
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 
 REPO = Path(__file__).resolve().parents[1]
 TOPIC_SCHEMAS = {"/run": "mpnet_bench.Run", "/workspace": "mpnet_bench.Workspace",
                  "/query": "mpnet_bench.Query", "/scene": "foxglove.SceneUpdate"}
+
+
+def is_rect(spec):
+    return spec.robot_json()["kind"] == "rectangle"
 
 
 def make_run(env="s2d", seed=0, **kw):
@@ -52,7 +56,7 @@ def make_rec(env, qid, wid="ws0", split="seen", success=True, n=4, **extra):
     d = spec.state_dim
     start = np.full(d, -15.0)
     goal = np.array([15.0, -15.0] + [0.0] * (d - 2))
-    if spec.is_se2:
+    if is_rect(spec):
         start[2] = 0.0
     path = np.linspace(start, goal, n) if success else []
     rec = dict(query_id=qid, workspace_id=wid, split=split, start=start, goal=goal, success=np.bool_(success),
@@ -220,7 +224,7 @@ def test_scene_validates_against_foxglove_schema(tmp_path, env):
     fail_scene = q_scenes[1]["entities"][0]
     assert fail_scene["lines"][0]["points"] == []
     assert fail_scene["lines"][0]["color"]["r"] > fail_scene["lines"][0]["color"]["g"]
-    if spec.is_se2:
+    if is_rect(spec):
         assert len(ok_scene["cubes"]) == 6  # the body's footprint at every state
         assert ok_scene["cubes"][0]["size"]["x"] == 2.0 and ok_scene["cubes"][0]["size"]["y"] == 5.0
         assert len(fail_scene["cubes"]) == 2  # at start and goal
@@ -328,6 +332,129 @@ def test_rect_outlines_match_design_geometry():
     assert np.allclose(o[:4].min(axis=0), [-2.5, -1.0]) and np.allclose(o[:4].max(axis=0), [2.5, 1.0])
 
 
+# ------------------------------------------------------------------------ painters
+
+WS2 = {"workspace_id": "w", "split": "seen", "bounds": [[-20.0, 20.0], [-10.0, 10.0], [-math.pi, math.pi]],
+       "obstacles": [{"center": [1.0, 2.0], "size": [3.0, 4.0]}]}
+WS3 = {"workspace_id": "w", "split": "seen", "bounds": [[-20.0, 20.0]] * 3,
+       "obstacles": [{"center": [1.0, 2.0, 3.0], "size": [3.0, 4.0, 5.0]}]}
+
+
+def scene_entity(painter, msg):
+    from harness.log.foxglove import query_scene
+
+    (e,) = json.loads(query_scene(painter, msg, 1_700_000_000_123_456_789))["entities"]
+    jsonschema.validate({"deletions": [], "entities": [e]}, scene_update_schema())
+    return e
+
+
+def test_painter_registry():
+    from harness.log.painters import PointPainter2D, PointPainter3D, RectanglePainter
+
+    assert type(painter_for({"kind": "point"}, 2)) is PointPainter2D
+    assert type(painter_for({"kind": "point"}, 3)) is PointPainter3D
+    rect = painter_for({"kind": "rectangle", "size": [2, 5]}, 2)
+    assert type(rect) is RectanglePainter and rect.size == (2.0, 5.0)
+    for spec in SPECS.values():  # every env's robot has a painter
+        assert painter_for(spec.robot_json(), spec.workspace_dim).workspace_dim == spec.workspace_dim
+    with pytest.raises(ValueError, match="no painter"):
+        painter_for({"kind": "rectangle", "size": [2, 5]}, 3)
+    with pytest.raises(ValueError, match="no painter"):
+        painter_for("panda", 3)
+    with pytest.raises(ValueError, match="size"):
+        painter_for({"kind": "rectangle"}, 2)
+
+
+def test_rectangle_painter_known_answer():
+    import rerun as rr
+
+    p = painter_for({"kind": "rectangle", "size": [2, 5]}, 2)
+    (o,) = p.footprints([[1.0, 2.0, 0.0]])
+    assert o.tolist() == [[0.0, -0.5], [2.0, -0.5], [2.0, 4.5], [0.0, 4.5], [0.0, -0.5]]
+    msg = {"query_id": "q", "split": "seen", "start": [1.0, 2.0, 0.0], "goal": [3.0, 4.0, math.pi],
+           "path": [[1.0, 2.0, 0.0], [3.0, 4.0, math.pi]], "success": True, "failure": None}
+    e = scene_entity(p, msg)
+    assert [c["pose"]["position"] for c in e["cubes"]] == [{"x": 1.0, "y": 2.0, "z": 0.01},
+                                                           {"x": 3.0, "y": 4.0, "z": 0.01}]
+    q0, q1 = (c["pose"]["orientation"] for c in e["cubes"])
+    assert (q0["z"], q0["w"]) == (0.0, 1.0) and q1["z"] == 1.0 and abs(q1["w"]) < 1e-12  # yaw 0, yaw pi
+    assert all(c["size"] == {"x": 2.0, "y": 5.0, "z": 0.02} for c in e["cubes"])
+    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [(1.0, 2.0, 0.0), (3.0, 4.0, 0.0)]
+    no_path = scene_entity(p, {**msg, "path": [], "success": False, "failure": "timeout"})
+    assert len(no_path["cubes"]) == 2  # the body at start and goal
+    assert [e for e, _ in p.rerun_queries(rr, [msg])] == ["scene/world/path", "scene/world/endpoints",
+                                                           "scene/world/robot"]
+    cubes, _ = p.foxglove_workspace(WS2)
+    assert cubes[0]["pose"]["position"] == {"x": 1.0, "y": 2.0, "z": -0.05}
+    assert cubes[0]["size"] == {"x": 3.0, "y": 4.0, "z": 0.1}
+
+
+def test_point_painter_2d_draws_a_plane():
+    import rerun as rr
+
+    p = painter_for({"kind": "point"}, 2)
+    msg = {"query_id": "q", "split": "seen", "start": [-1.0, -2.0], "goal": [3.0, 4.0],
+           "path": [[-1.0, -2.0], [0.5, 1.5], [3.0, 4.0]], "success": True, "failure": None}
+    e = scene_entity(p, msg)
+    assert e["cubes"] == [] and p.footprints(msg["path"]).shape[0] == 0
+    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [(-1.0, -2.0, 0.0), (0.5, 1.5, 0.0),
+                                                                            (3.0, 4.0, 0.0)]
+    assert [s["pose"]["position"] for s in e["spheres"]] == [{"x": -1.0, "y": -2.0, "z": 0.0},
+                                                             {"x": 3.0, "y": 4.0, "z": 0.0}]
+    _, (bounds,) = p.foxglove_workspace(WS2)
+    assert {(q["x"], q["y"], q["z"]) for q in bounds["points"]} == {(-20.0, -10.0, 0.0), (20.0, -10.0, 0.0),
+                                                                    (20.0, 10.0, 0.0), (-20.0, 10.0, 0.0)}
+    assert len(bounds["points"]) == 8  # 4 edges as a line list
+    assert isinstance(p.rerun_obstacles(rr, WS2), rr.Boxes2D)
+    assert [e for e, _ in p.rerun_queries(rr, [msg])] == ["scene/world/path", "scene/world/endpoints"]
+
+
+def test_point_painter_3d_draws_a_3d_path_as_3d_points():
+    import rerun as rr
+
+    p = painter_for({"kind": "point"}, 3)
+    msg = {"query_id": "q", "split": "seen", "start": [-1.0, -2.0, -3.0], "goal": [3.0, 4.0, 5.0],
+           "path": [[-1.0, -2.0, -3.0], [0.5, 1.5, 2.5], [3.0, 4.0, 5.0]], "success": False,
+           "failure": "recheck_collision"}
+    e = scene_entity(p, msg)
+    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [(-1.0, -2.0, -3.0), (0.5, 1.5, 2.5),
+                                                                            (3.0, 4.0, 5.0)]
+    assert e["lines"][0]["color"]["r"] > e["lines"][0]["color"]["g"]  # a failure is red
+    assert [s["pose"]["position"]["z"] for s in e["spheres"]] == [-3.0, 5.0]
+    assert e["cubes"] == []
+    cubes, (bounds,) = p.foxglove_workspace(WS3)
+    assert cubes[0]["pose"]["position"] == {"x": 1.0, "y": 2.0, "z": 3.0}
+    assert cubes[0]["size"] == {"x": 3.0, "y": 4.0, "z": 5.0}
+    assert len(bounds["points"]) == 24  # 12 edges
+    assert isinstance(p.rerun_obstacles(rr, WS3), rr.Boxes3D)
+    assert p.rerun_types(rr) == (rr.Boxes3D, rr.LineStrips3D, rr.Points3D)
+
+
+# --------------------------------------------------------------------------- judge
+
+def planner_rec(path, start, goal, failure=None):
+    """A record as the bench hands it to the log process: no `success`, the planner's `failure`."""
+    return {"query_id": "q", "workspace_id": "ws0", "split": "seen", "start": start, "goal": goal,
+            "failure": failure, "path": path, "time_s": 0.01, "cpu_s": 0.01, "collision_checks": 5,
+            "planner_status": "exact" if failure is None else failure}
+
+
+def test_judge_decides_success():
+    spec, ws = SPECS["s2d"], make_ws("s2d")  # an obstacle fills [7.5, 12.5] x [7.5, 12.5]
+    through = judge(spec, ws, planner_rec([[10.0, 0.0], [10.0, 20.0]], [10.0, 0.0], [10.0, 20.0]), 0.01)
+    assert through["success"] is False and through["failure"] == "recheck_collision"
+    free = judge(spec, ws, planner_rec(np.array([[-15.0, -15.0], [15.0, -15.0]]), [-15.0, -15.0], [15.0, -15.0]),
+                 0.01)
+    assert free["success"] is True and free["failure"] is None and free["path_cost"] == pytest.approx(30.0)
+    assert free["path"] == [[-15.0, -15.0], [15.0, -15.0]] and type(free["path"][0][0]) is float
+    keys = list(free)
+    assert keys.index("success") == keys.index("failure") - 1 and keys[-1] == "path_cost"
+    failed = judge(spec, ws, planner_rec([], [-15.0, -15.0], [15.0, -15.0], failure="timeout"), 0.01)
+    assert failed["success"] is False and failed["failure"] == "timeout" and failed["path_cost"] is None
+    claimed = judge(spec, ws, {**planner_rec([], [-15.0, -15.0], [15.0, -15.0]), "success": True}, 0.01)
+    assert claimed["success"] is False and claimed["failure"] == "recheck_no_path"  # a claim is not trusted
+
+
 # ------------------------------------------------------------- check_trials structure
 
 def test_structure_independent_checker_relies_on(tmp_path):
@@ -359,7 +486,7 @@ KILL_SCRIPT = textwrap.dedent("""
     import os, sys
     sys.path.insert(0, {repo!r}); sys.path.insert(0, {tests!r})
     from test_trial_log import make_run, make_ws, make_rec
-    from harness.trial_log import TrialLog
+    from harness.log import TrialLog
     from mpnet.envs.specs import SPECS
     log = TrialLog({run_dir!r}, make_run("s2d"), SPECS["s2d"], rerun={rerun})
     log.add_workspace(make_ws("s2d"))
@@ -431,7 +558,7 @@ def test_unclosed_log_is_finalised_at_exit(tmp_path):
         import sys
         sys.path.insert(0, {str(REPO)!r}); sys.path.insert(0, {str(REPO / "tests")!r})
         from test_trial_log import make_run, make_ws, make_rec
-        from harness.trial_log import TrialLog
+        from harness.log import TrialLog
         from mpnet.envs.specs import SPECS
         log = TrialLog({str(tmp_path)!r}, make_run("s2d"), SPECS["s2d"], rerun=True)
         log.add_workspace(make_ws("s2d"))
@@ -587,7 +714,7 @@ def test_rrd_verifies_and_reads_back(tmp_path, env):
               "/stats/time_s", "/stats/collision_checks", "/workspaces/seen/ws0/obstacles",
               "/workspaces/unseen/ws1/obstacles"):
         assert e in paths, (e, paths)
-    assert ("/scene/world/robot" in paths) == SPECS[env].is_se2
+    assert ("/scene/world/robot" in paths) == is_rect(SPECS[env])
     rows = {}
     for c in chunks:
         if str(c.entity_path) == "/scene/world/path":

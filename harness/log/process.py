@@ -4,7 +4,7 @@ Writing a query to MCAP, Foxglove, Rerun and CSV costs ~150 us of Python and the
 re-check ~0.3 ms: together half the time BIT* needs for an s2d query. The bench loop
 only hands each finished query to this process over a pipe (~20 us), which judges it
 (DESIGN §5), logs it and keeps the records for the summary. Being apart also makes the
-judge independent of the planner's process.
+judge independent of the planner's process, and the only place where `success` is decided.
 
 Crash safety holds: the child ignores Ctrl-C and SIGTERM and finalises when the bench
 closes the log, raises, is interrupted, or dies (the pipe ends); every query it received
@@ -17,29 +17,41 @@ import signal
 import time
 from pathlib import Path
 
-from mpnet.envs.workspace import EnvSpec, Workspace
 from mpnet.motion import path_cost, verify_path
 
 SUMMARY_FIELDS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "path_cost",
                   "collision_checks")
 
 
-def judge(spec: EnvSpec, ws: Workspace, rec: dict, validation_step: float) -> dict:
-    """The path's cost; a claimed success stands only if the path passes the independent
-    fine re-check."""
-    path = rec["path"]
-    rec["path"] = [[float(x) for x in q] for q in path]
-    rec["path_cost"] = path_cost(spec, rec["path"]) if len(path) > 1 else None
-    if rec["success"]:
-        why = verify_path(spec, ws, rec["path"], rec["start"], rec["goal"], validation_step)
+def judge(spec, ws, rec: dict, validation_step: float) -> dict:
+    """The record with `success` decided and the path's cost.
+
+    `rec["failure"]` is the planner's side: None when it claimed an exact solution within
+    the budget, else the reason. The claim stands only if the path passes the independent
+    fine re-check; otherwise the failure becomes `recheck_<why>`. `success` is placed just
+    before `failure` (any `success` the record carried is not trusted and is replaced).
+    """
+    path = [[float(x) for x in q] for q in rec["path"]]
+    failure = rec["failure"]
+    if failure is None:
+        why = verify_path(spec, ws, path, rec["start"], rec["goal"], validation_step)
         if why:
-            rec["success"], rec["failure"] = False, f"recheck_{why}"
-    return rec
+            failure = f"recheck_{why}"
+    out = {}
+    for k, v in rec.items():
+        if k == "failure":
+            out["success"] = failure is None
+            out["failure"] = failure
+        elif k == "path":
+            out["path"] = path
+        elif k != "success":
+            out[k] = v
+    out["path_cost"] = path_cost(spec, path) if len(path) > 1 else None
+    return out
 
 
-def _serve(inbox, conn, run_dir: str, run: dict, spec: EnvSpec, validation_step: float,
-           log_kwargs: dict) -> None:
-    from harness.trial_log import TrialLog
+def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, log_kwargs: dict) -> None:
+    from harness.log.writer import TrialLog
 
     # The parent decides when to stop: a Ctrl-C or a scheduler's SIGTERM sent to the whole
     # process group must not kill the log before it has written what it received.
@@ -51,7 +63,7 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec: EnvSpec, validation_step:
         conn.send(("error", e))
         return
     conn.send(("ready", (log.done, log.logged_obstacles())))
-    workspaces: dict[tuple[str, str], Workspace] = {}
+    workspaces: dict[tuple[str, str], object] = {}
     records: list[dict] = []
     cpu0 = time.process_time()
     with log:
@@ -95,7 +107,7 @@ class LogProcess:
     """TrialLog's interface (add_workspace, add_query, done, context manager), served by
     a child process that also judges each query. close() returns the judged records."""
 
-    def __init__(self, run_dir: str | Path, run: dict, spec: EnvSpec, *, validation_step: float,
+    def __init__(self, run_dir: str | Path, run: dict, spec, *, validation_step: float,
                  rerun: bool = True, resume: bool = False):
         ctx = spawn_context()  # never fork a process that has started OMPL's threads
         # Queries go down a one-way pipe widened to hold hundreds of them, so the loop never
@@ -125,7 +137,7 @@ class LogProcess:
         except EOFError:
             raise RuntimeError(f"the trial-log process died (exit code {self._proc.exitcode})") from None
 
-    def add_workspace(self, ws: Workspace) -> None:
+    def add_workspace(self, ws) -> None:
         self._outbox.send(("workspace", ws))
 
     def add_query(self, rec: dict) -> None:

@@ -1,0 +1,22 @@
+"""The per-run trial log (DESIGN §6, §8, §9), one job per module:
+
+- schemas: the JSON Schemas of /run, /workspace, /query and Foxglove's /scene
+- mcap_io: plain JSON values, MCAP writing helpers, `read_log` (also of a killed run's file)
+- csv: queries.csv;  rerun: the Rerun sink (trials.rrd);  foxglove: /scene SceneUpdates
+- painters: how each robot kind is drawn (`painter_for`), for Foxglove, Rerun and the report
+- writer: `TrialLog`, the three files together, resume and finalisation
+- process: `LogProcess`, the log in a child process that `judge`s each query
+"""
+from __future__ import annotations
+
+from harness.log.csv import CSV_FIXED, CSV_NAME
+from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
+from harness.log.painters import Painter, painter_for, rect_outlines, register
+from harness.log.process import SUMMARY_FIELDS, LogProcess, judge, spawn_context
+from harness.log.rerun import RRD_NAME
+from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_schema
+from harness.log.writer import TrialLog
+
+__all__ = ["CSV_FIXED", "CSV_NAME", "FORMAT", "MCAP_NAME", "QUERY_FIELDS", "RRD_NAME", "RUN_FIELDS",
+           "SUMMARY_FIELDS", "LogProcess", "LoggedMessage", "Painter", "TrialLog", "judge", "painter_for", "plain",
+           "read_log", "rect_outlines", "register", "scene_update_schema", "spawn_context"]

@@ -1,0 +1,60 @@
+"""queries.csv: the scalar fields of each query, a flat table beside the MCAP record."""
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+from typing import Iterable
+
+CSV_NAME = "queries.csv"
+# Scalar columns of queries.csv that always come first, in this order.
+CSV_FIXED = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "cpu_s",
+             "path_cost", "collision_checks")
+_NON_CSV = frozenset(("start", "goal", "path"))
+
+
+class QueryCsv:
+    """One row per query, flushed per row.
+
+    Columns are the fixed fields, then `extra_fields`, then other scalar keys in the order
+    first seen; a key first seen late rewrites the file (atomically) with the wider header.
+    """
+
+    def __init__(self, path: Path, extra_fields: Iterable[str]):
+        self.path = path
+        self.cols = list(CSV_FIXED) + [k for k in extra_fields if k not in CSV_FIXED]
+        self._known = set(self.cols)
+        self.rows: list[dict] = []
+        self._open(rewrite=False)
+
+    def _open(self, rewrite: bool):
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        f = open(tmp if rewrite else self.path, "w", newline="", encoding="utf-8")
+        w = csv.DictWriter(f, self.cols, restval="", extrasaction="ignore")
+        w.writeheader()
+        if rewrite:
+            w.writerows(self.rows)
+            f.flush()
+            os.replace(tmp, self.path)
+        self.f, self.w = f, w
+        f.flush()
+
+    def add(self, msg: dict):
+        row = {k: v for k, v in msg.items() if k not in _NON_CSV and (v is None or type(v) in (str, int, float, bool))}
+        new = [k for k in row if k not in self._known]
+        self.rows.append(row)
+        if new:
+            self.cols += new
+            self._known.update(new)
+            old = self.f
+            self._open(rewrite=True)
+            old.close()
+        else:
+            self.w.writerow(row)
+            self.f.flush()
+
+    def close(self):
+        try:
+            self.f.close()
+        except Exception:  # noqa: BLE001
+            pass

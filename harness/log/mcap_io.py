@@ -1,0 +1,121 @@
+"""`trials.mcap` at the byte level: plain JSON values, the writer's channels, and the reader
+that also reads a file whose writer was killed (DESIGN §6, §9)."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, BinaryIO, Iterable
+
+import numpy as np
+from mcap.reader import make_reader
+from mcap.records import Channel, Message
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
+
+MCAP_NAME = "trials.mcap"
+RESUME_SUFFIX = ".resume-"  # trials.mcap.resume-<k>: a previous file moved aside on resume
+
+
+def plain(v: Any) -> Any:
+    """Numpy scalars/arrays, tuples and paths to plain JSON-ready Python values.
+
+    JSON has no NaN or infinity: non-finite floats become None (null), so the file stays
+    strict JSON that Foxglove and other parsers read.
+    """
+    t = type(v)
+    if t is float:
+        return v if math.isfinite(v) else None
+    if t is str or t is int or t is bool or v is None:
+        return v
+    if t is list or t is tuple:
+        return [plain(x) for x in v]
+    if t is dict:
+        return {str(k): plain(x) for k, x in v.items()}
+    if isinstance(v, np.ndarray):
+        if v.dtype.kind == "f" and not np.isfinite(v).all():
+            return plain(v.tolist())
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return plain(v.item())
+    if isinstance(v, bool):
+        return bool(v)
+    if isinstance(v, float):
+        return plain(float(v))
+    if isinstance(v, int):
+        return int(v)
+    if isinstance(v, (list, tuple)):
+        return [plain(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): plain(x) for k, x in v.items()}
+    return str(v)  # enums, paths, ...: keep the information rather than fail the run
+
+
+def dumps(msg: dict) -> bytes:
+    """A message's compact, strict JSON (plain() values)."""
+    return json.dumps(msg, separators=(",", ":"), allow_nan=False).encode()
+
+
+def new_writer(f: BinaryIO) -> Writer:
+    """A zstd-chunked MCAP writer on `f`; each writer.flush() closes a chunk, so what was
+    flushed stays readable after a kill."""
+    return Writer(f, compression=CompressionType.ZSTD)
+
+
+def start_channels(w: Writer, topics: Iterable[tuple[str, str, bytes]]) -> dict[str, int]:
+    """Start `w` and register each (topic, schema name, schema) of harness.log.schemas.topic_schemas():
+    the channel id per topic."""
+    w.start(profile="", library="mpnet-bench")
+    channels = {}
+    for topic, name, schema in topics:
+        sid = w.register_schema(name, "jsonschema", schema)
+        channels[topic] = w.register_channel(topic, "json", sid)
+    return channels
+
+
+def aside_index(p: Path) -> int:
+    """k of trials.mcap.resume-<k> (files are re-read oldest first)."""
+    tail = p.name.rsplit("-", 1)[-1]
+    return int(tail) if tail.isdigit() else 0
+
+
+@dataclass
+class LoggedMessage:
+    topic: str
+    data: dict
+    log_time: int
+    publish_time: int
+
+
+def read_log(path: str | Path, topics: Iterable[str] | None = None) -> tuple[list[LoggedMessage], bool]:
+    """All JSON messages of a trials.mcap, and whether the file was finalised.
+
+    A file whose writer was killed has no summary; it is then read as a stream up to
+    where it ends (as check_trials.py does), dropping a last, partly written record.
+    """
+    topics = None if topics is None else set(topics)
+    try:
+        with open(path, "rb") as f:
+            out = [LoggedMessage(c.topic, json.loads(m.data), m.log_time, m.publish_time)
+                   for _, c, m in make_reader(f).iter_messages(topics=topics, log_time_order=False)]
+        return out, True
+    except Exception:  # noqa: BLE001 - any failure means: not a finalised file
+        pass
+    out, chans = [], {}
+    with open(path, "rb") as f:
+        try:
+            for rec in StreamReader(f, skip_magic=False).records:
+                if isinstance(rec, Channel):
+                    chans[rec.id] = rec.topic
+                elif isinstance(rec, Message):
+                    topic = chans.get(rec.channel_id)
+                    if topic is None or (topics is not None and topic not in topics):
+                        continue
+                    try:
+                        out.append(LoggedMessage(topic, json.loads(rec.data), rec.log_time, rec.publish_time))
+                    except ValueError:
+                        pass
+        except Exception:  # noqa: BLE001 - truncated tail
+            pass
+    return out, False

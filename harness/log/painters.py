@@ -1,0 +1,246 @@
+"""How each robot kind is drawn: one painter per (robot kind, workspace dimension).
+
+A painter turns the log's own messages (/workspace and /query as JSON) into Foxglove scene
+primitives, Rerun archetypes, and the footprint outlines the report draws. The writer, the
+Rerun sink and the Foxglove module only call a painter, so a new robot kind (an arm) is a new
+painter class registered here, and nothing else changes.
+
+    painter = painter_for(ws_msg["robot"], workspace_dim)
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from harness.log.foxglove import LINE_LIST, YAW_CUBE, cube, fx, jcolor, line, p3
+from harness.log.style import C_BOUNDS, C_FAILURE, C_GOAL, C_OBSTACLE, C_ROBOT, C_START, C_SUCCESS, THIN_Z, rgba8
+
+_PAINTERS: dict[tuple[str, int], type[Painter]] = {}
+
+
+def register(cls: type[Painter]) -> type[Painter]:
+    """Class decorator: make `cls` the painter of its (kind, workspace_dim)."""
+    _PAINTERS[(cls.kind, cls.workspace_dim)] = cls
+    return cls
+
+
+def painter_for(robot: dict | str, workspace_dim: int) -> Painter:
+    """The painter of a /workspace message's `robot` ({"kind": ...}, or an arm's name)
+    in a workspace of `workspace_dim` dimensions."""
+    kind = robot.get("kind") if isinstance(robot, dict) else robot
+    cls = _PAINTERS.get((kind, int(workspace_dim)))
+    if cls is None:
+        known = ", ".join(f"{k} ({d}D)" for k, d in sorted(_PAINTERS))
+        raise ValueError(f"no painter for robot {robot!r} in a {workspace_dim}D workspace; painters: {known}")
+    return cls(robot)
+
+
+class Painter:
+    """Draws one robot kind in one workspace dimension, from the log's JSON messages.
+
+    Subclasses set `kind` and `workspace_dim`; the planar and spatial bases below draw the
+    workspace, paths and endpoints, a robot with a body adds its footprints and bodies.
+    """
+
+    kind: ClassVar[str]
+    workspace_dim: ClassVar[int]
+
+    def __init__(self, robot: dict | str):
+        self.robot = robot
+
+    # ------------------------------------------------------------- geometry
+    def trace(self, msg: dict) -> tuple[list, list | None, list | None]:
+        """A /query's path, start and goal as workspace points (for a body: its reference point)."""
+        d = self.workspace_dim
+        return [p[:d] for p in (msg.get("path") or [])], msg["start"][:d], msg["goal"][:d]
+
+    def footprints(self, states) -> np.ndarray:
+        """Closed outlines of the robot's body at each state, (n, k, workspace_dim) in
+        workspace coordinates (what the report draws along a path); a point has none (n = 0)."""
+        return np.zeros((0, 0, self.workspace_dim))
+
+    # -------------------------------------------------------------- Foxglove
+    def foxglove_workspace(self, msg: dict) -> tuple[list[dict], list[dict]]:
+        """Cube and line primitives of a /workspace message: its obstacles and bounds."""
+        raise NotImplementedError
+
+    def foxglove_bodies(self, msg: dict) -> str:
+        """JSON text of the cube primitives (comma-separated) that show the robot's body
+        along a /query's path; empty for a point."""
+        return ""
+
+    # ----------------------------------------------------------------- Rerun
+    def rerun_types(self, rr) -> tuple[Any, Any, Any]:
+        """Rerun's box, line-strip and point archetypes of this dimension."""
+        raise NotImplementedError
+
+    def rerun_static(self, rr, bounds: list) -> list[tuple[str, Any]]:
+        """(entity path, archetype) logged once: the world frame and the state bounds."""
+        raise NotImplementedError
+
+    def rerun_view(self, rrb, bounds: list):
+        """The blueprint's view of /scene."""
+        raise NotImplementedError
+
+    def rerun_obstacles(self, rr, msg: dict):
+        """A /workspace message's obstacles as boxes."""
+        d = self.workspace_dim
+        obs = msg["obstacles"]
+        c = np.array([o["center"][:d] for o in obs], float).reshape(-1, d)
+        s = np.array([o["size"][:d] for o in obs], float).reshape(-1, d)
+        return self.rerun_types(rr)[0](centers=c, sizes=s, colors=[rgba8(C_OBSTACLE)])
+
+    def rerun_queries(self, rr, msgs: list[dict]) -> list[tuple[str, Any]]:
+        """(entity path, columns) with one row per /query message: path strips labelled
+        with the outcome, start and goal points."""
+        d = self.workspace_dim
+        _, strips_t, points_t = self.rerun_types(rr)
+        n = len(msgs)
+        ok = np.array([bool(m.get("success")) for m in msgs])
+        colors = np.where(ok[:, None], np.array(rgba8(C_SUCCESS), np.uint8), np.array(rgba8(C_FAILURE), np.uint8))
+        strips = [np.asarray(m.get("path") or np.zeros((0, d)), float).reshape(-1, max(len(m["start"]), d))[:, :d]
+                  for m in msgs]
+        labels = [f"{m['query_id']}: " + ("ok" if m.get("success") else str(m.get("failure"))) for m in msgs]
+        ends = np.array([[m["start"][:d], m["goal"][:d]] for m in msgs], float).reshape(2 * n, d)
+        end_colors = np.tile(np.array([rgba8(C_START), rgba8(C_GOAL)], np.uint8), (n, 1))
+        return [("scene/world/path", strips_t.columns(strips=strips, colors=colors, labels=labels)),
+                ("scene/world/endpoints", points_t.columns(
+                    positions=ends, colors=end_colors, radii=np.full(2 * n, 0.4, np.float32)).partition([2] * n))]
+
+
+class _Planar(Painter):
+    """A 2D workspace: obstacles as thin boxes below z = 0 in Foxglove, Rerun's 2D view
+    with y pointing up."""
+
+    workspace_dim = 2
+
+    def foxglove_workspace(self, msg):
+        cubes = [cube({"x": o["center"][0], "y": o["center"][1], "z": -THIN_Z / 2},
+                      {"x": o["size"][0], "y": o["size"][1], "z": THIN_Z}, C_OBSTACLE) for o in msg["obstacles"]]
+        (x0, x1), (y0, y1) = msg["bounds"][0], msg["bounds"][1]
+        c = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+        edges = [p for i in range(4) for p in (c[i], c[(i + 1) % 4])]
+        return cubes, [line(LINE_LIST, edges, C_BOUNDS, 0.1)]
+
+    def rerun_types(self, rr):
+        return rr.Boxes2D, rr.LineStrips2D, rr.Points2D
+
+    def rerun_static(self, rr, bounds):
+        lo, hi = _lo_hi(bounds, 2)
+        # Rerun's 2D views draw y down; flip the world so y points up as in the paper.
+        return [("scene/world", rr.Transform3D(scale=[1.0, -1.0, 1.0])),
+                ("scene/world/bounds", rr.LineStrips2D([[lo, [hi[0], lo[1]], hi, [lo[0], hi[1]], lo]],
+                                                       colors=[rgba8(C_BOUNDS)]))]
+
+    def rerun_view(self, rrb, bounds):
+        lo, hi = _lo_hi(bounds, 2)
+        pad = 0.05 * float(max(hi - lo))
+        return rrb.Spatial2DView(name="scene", origin="/scene", visual_bounds=rrb.VisualBounds2D(
+            x_range=[lo[0] - pad, hi[0] + pad], y_range=[-hi[1] - pad, -lo[1] + pad]))
+
+
+class _Spatial(Painter):
+    """A 3D workspace: obstacles as boxes, Rerun's 3D view."""
+
+    workspace_dim = 3
+
+    def foxglove_workspace(self, msg):
+        cubes = [cube(p3(o["center"]), p3(o["size"]), C_OBSTACLE) for o in msg["obstacles"]]
+        lo, hi = (list(x) for x in zip(*msg["bounds"][:3]))
+        edges = []
+        for a in range(3):  # the 12 edges, 4 along each axis
+            b, d = [k for k in range(3) if k != a]
+            for vb in (lo[b], hi[b]):
+                for vd in (lo[d], hi[d]):
+                    p, q = [0.0] * 3, [0.0] * 3
+                    p[a], q[a] = lo[a], hi[a]
+                    p[b] = q[b] = vb
+                    p[d] = q[d] = vd
+                    edges += [p, q]
+        return cubes, [line(LINE_LIST, edges, C_BOUNDS, 0.1)]
+
+    def rerun_types(self, rr):
+        return rr.Boxes3D, rr.LineStrips3D, rr.Points3D
+
+    def rerun_static(self, rr, bounds):
+        lo, hi = _lo_hi(bounds, 3)
+        return [("scene/world/bounds", rr.Boxes3D(mins=[lo], sizes=[hi - lo], colors=[rgba8(C_BOUNDS)]))]
+
+    def rerun_view(self, rrb, bounds):
+        return rrb.Spatial3DView(name="scene", origin="/scene")
+
+
+@register
+class PointPainter2D(_Planar):
+    """A point robot in the plane (s2d, c2d): the state is the position."""
+
+    kind = "point"
+
+
+@register
+class PointPainter3D(_Spatial):
+    """A point robot in space (c3d): the state is the position."""
+
+    kind = "point"
+
+
+@register
+class RectanglePainter(_Planar):
+    """A rigid rectangle in the plane (rigid), state (x, y, theta): its footprint is drawn
+    at every state of a path (at start and goal when there is no path)."""
+
+    kind = "rectangle"
+
+    def __init__(self, robot: dict):
+        super().__init__(robot)
+        if not isinstance(robot, dict) or len(robot.get("size") or ()) < 2:
+            raise ValueError(f"a rectangle robot needs its size [w, h], got {robot!r}")
+        self.size = (float(robot["size"][0]), float(robot["size"][1]))
+
+    def footprints(self, states) -> np.ndarray:
+        return rect_outlines(states, self.size)
+
+    def foxglove_bodies(self, msg):
+        states = msg.get("path") or [msg["start"], msg["goal"]]
+        sx, sy = repr(self.size[0]), repr(self.size[1])
+        return ",".join([YAW_CUBE % (fx(q[0]), fx(q[1]), "0.01", repr(math.sin(_f(q[2]) / 2)),
+                                     repr(math.cos(_f(q[2]) / 2)), sx, sy, "0.02", _J_ROBOT) for q in states])
+
+    def rerun_queries(self, rr, msgs):
+        out = super().rerun_queries(rr, msgs)
+        outl = [self.footprints(np.asarray(m.get("path") or [m["start"], m["goal"]], float)) for m in msgs]
+        lens = [len(o) for o in outl]
+        outl = np.concatenate(outl)
+        out.append(("scene/world/robot", rr.LineStrips2D.columns(
+            strips=outl, colors=np.tile(np.array(rgba8(C_ROBOT), np.uint8), (len(outl), 1))).partition(lens)))
+        return out
+
+
+def rect_outlines(states, size) -> np.ndarray:
+    """Closed outlines (n, 5, 2) of a rectangle body at each (x, y, theta).
+
+    Body extents `size` = (along body x, along body y); body x axis is (cos, sin).
+    """
+    states = np.asarray(states, float).reshape(-1, 3)
+    c, s = np.cos(states[:, 2]), np.sin(states[:, 2])
+    hx, hy = size[0] / 2, size[1] / 2
+    sx = np.array([-1, 1, 1, -1, -1], float) * hx  # corner loop, closed
+    sy = np.array([-1, -1, 1, 1, -1], float) * hy
+    x = states[:, :1] + sx[None] * c[:, None] - sy[None] * s[:, None]
+    y = states[:, 1:2] + sx[None] * s[:, None] + sy[None] * c[:, None]
+    return np.stack([x, y], axis=2)
+
+
+def _lo_hi(bounds: list, d: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners of the first `d` state bounds (the workspace's)."""
+    b = np.array(bounds[:d], float)
+    return b[:, 0], b[:, 1]
+
+
+def _f(x) -> float:
+    return 0.0 if x is None else float(x)
+
+
+_J_ROBOT = jcolor(C_ROBOT)

@@ -1,0 +1,146 @@
+"""The JSON Schemas of the trial log's topics, written with each channel of `trials.mcap`.
+
+The `/scene` topic carries Foxglove `foxglove.SceneUpdate` messages. Their schema,
+`harness/schemas/foxglove.SceneUpdate.json`, is our own description of Foxglove's documented
+SceneUpdate message, written from Foxglove's message-schema docs
+(https://docs.foxglove.dev/docs/visualization/message-schemas/scene-update/ and the pages it
+links); its field names are Foxglove's. Foxglove recognises the data by the schema name
+`foxglove.SceneUpdate`. The file shares types through `$defs`; the copy written into the MCAP
+file has every `$ref` inlined, since Foxglove's JSON Schema reader expects each field to give
+its own `type`.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+FORMAT = "mpnet-bench/trials@1"
+SCHEMA_DIR = Path(__file__).resolve().parent.parent / "schemas"
+
+RUN_FIELDS = ("env", "planner", "seed", "split", "config", "git_rev", "versions", "host", "started_at")
+QUERY_FIELDS = ("query_id", "workspace_id", "split", "start", "goal", "success", "failure",
+                "path", "time_s", "cpu_s", "path_cost", "collision_checks")
+
+_NUM = {"type": "number"}
+_VEC = {"type": "array", "items": _NUM}
+_STATE_LIST = {"type": "array", "items": _VEC}
+
+RUN_SCHEMA = {
+    "$schema": "http://json-schema.org/draft-07/schema#",
+    "title": "mpnet_bench.Run",
+    "description": "One bench run: what was run, with which code and config (DESIGN §6).",
+    "type": "object",
+    "properties": {
+        "format": {"type": "string", "description": "Log format version, e.g. " + FORMAT},
+        "env": {"type": "string"},
+        "planner": {"type": "string"},
+        "seed": {"type": "integer"},
+        "split": {"type": "string", "description": "seen, unseen, file or seen+unseen"},
+        "config": {"type": "string", "description": "Resolved config as YAML text"},
+        "git_rev": {"type": ["string", "null"]},
+        "versions": {"type": "object", "description": "Package name to version"},
+        "host": {"type": "string"},
+        "started_at": {"type": ["string", "number"]},
+        "resumed_from": {"type": "object", "description": "Set when the run resumed an earlier log"},
+    },
+    "required": list(RUN_FIELDS),
+}
+WORKSPACE_SCHEMA = {
+    "$schema": "http://json-schema.org/draft-07/schema#",
+    "title": "mpnet_bench.Workspace",
+    "description": "A workspace used by the run: bounds, axis-aligned box obstacles, robot.",
+    "type": "object",
+    "properties": {
+        "workspace_id": {"type": "string"},
+        "split": {"type": "string", "description": "seen, unseen or file"},
+        "bounds": {"type": "array", "items": {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2},
+                   "description": "[lo, hi] per state dimension"},
+        "obstacles": {"type": "array", "items": {
+            "type": "object",
+            "properties": {"center": _VEC, "size": _VEC},
+            "required": ["center", "size"]}},
+        "robot": {"type": ["object", "string"],
+                  "description": '{"kind": "point"}, {"kind": "rectangle", "size": [w, h]} or the arm\'s name'},
+    },
+    "required": ["workspace_id", "split", "bounds", "obstacles", "robot"],
+}
+QUERY_SCHEMA = {
+    "$schema": "http://json-schema.org/draft-07/schema#",
+    "title": "mpnet_bench.Query",
+    "description": "One finished query; extra keys are the planner's own statistics.",
+    "type": "object",
+    "properties": {
+        "query_id": {"type": "string"},
+        "workspace_id": {"type": "string"},
+        "split": {"type": "string"},
+        "start": _VEC,
+        "goal": _VEC,
+        "success": {"type": "boolean"},
+        "failure": {"type": ["string", "null"], "description": "null on success, else the reason"},
+        "path": _STATE_LIST,
+        "time_s": {"type": ["number", "null"], "description": "Wall-clock planning time (null if not finite)"},
+        "cpu_s": {"type": ["number", "null"]},
+        "path_cost": {"type": ["number", "null"]},
+        "collision_checks": {"type": ["integer", "null"]},
+        "state_checks": {"type": ["integer", "null"]},
+        "motion_checks": {"type": ["integer", "null"]},
+        "pnet_calls": {"type": ["integer", "null"]},
+        "replans": {"type": ["integer", "null"]},
+        "fallback_used": {"type": ["boolean", "null"]},
+        "planner_status": {"type": ["string", "null"]},
+    },
+    "required": list(QUERY_FIELDS),
+}
+
+
+def scene_update_schema(inline: bool = False) -> dict:
+    """Our JSON Schema for Foxglove's foxglove.SceneUpdate (see module docstring).
+
+    inline=True: every `$ref` replaced by its definition and `$defs` dropped, the form
+    written to MCAP (Foxglove's reader does not follow `$ref`).
+    """
+    schema = json.loads((SCHEMA_DIR / "foxglove.SceneUpdate.json").read_text())
+    return _inline_refs(schema, schema.get("$defs", {})) if inline else schema
+
+
+def _inline_refs(node: Any, defs: dict) -> Any:
+    """`node` with each {"$ref": "#/$defs/<name>", ...} replaced by that definition
+    (recursively inlined, sibling keys kept) and any `$defs` dropped."""
+    if isinstance(node, list):
+        return [_inline_refs(x, defs) for x in node]
+    if not isinstance(node, dict):
+        return node
+    out = {}
+    ref = node.get("$ref")
+    if ref is not None:
+        prefix = "#/$defs/"
+        if not ref.startswith(prefix) or ref[len(prefix):] not in defs:
+            raise ValueError(f"unsupported $ref {ref!r}")
+        out.update(_inline_refs(defs[ref[len(prefix):]], defs))
+    for k, v in node.items():
+        if k not in ("$ref", "$defs"):
+            out[k] = _inline_refs(v, defs)
+    return out
+
+
+def schema_bytes(schema: dict) -> bytes:
+    return json.dumps(schema, separators=(",", ":")).encode()
+
+
+_SCENE_SCHEMA_CACHE: list[bytes] = []
+
+
+def scene_schema_bytes() -> bytes:
+    """The inlined SceneUpdate schema as written to MCAP (read and inlined once per process)."""
+    if not _SCENE_SCHEMA_CACHE:
+        _SCENE_SCHEMA_CACHE.append(schema_bytes(scene_update_schema(inline=True)))
+    return _SCENE_SCHEMA_CACHE[0]
+
+
+def topic_schemas() -> tuple[tuple[str, str, bytes], ...]:
+    """(topic, schema name, schema) of every channel, in the order the writer registers them."""
+    return (("/run", "mpnet_bench.Run", schema_bytes(RUN_SCHEMA)),
+            ("/workspace", "mpnet_bench.Workspace", schema_bytes(WORKSPACE_SCHEMA)),
+            ("/query", "mpnet_bench.Query", schema_bytes(QUERY_SCHEMA)),
+            ("/scene", "foxglove.SceneUpdate", scene_schema_bytes()))
