@@ -4,13 +4,9 @@ query. This module knows the message's layout; what is drawn comes from the pain
 from __future__ import annotations
 
 import json
-from typing import TYPE_CHECKING
 
 from harness.log.mcap_io import dumps
 from harness.log.style import C_FAILURE, C_GOAL, C_START, C_SUCCESS, rgba
-
-if TYPE_CHECKING:
-    from harness.log.painters import Painter
 
 FRAME_ID = "world"
 LINE_STRIP, LINE_LOOP, LINE_LIST = 0, 1, 2
@@ -45,7 +41,7 @@ def entity(eid: str, stamp: dict, **prims) -> dict:
     return e
 
 
-def workspace_scene(painter: Painter, msg: dict, t: int) -> bytes:
+def workspace_scene(painter, msg: dict, t: int) -> bytes:
     """Clear the scene and draw the workspace of a /workspace message (obstacles, bounds)."""
     st = stamp(t)
     split, wid = msg["split"], msg["workspace_id"]
@@ -55,7 +51,7 @@ def workspace_scene(painter: Painter, msg: dict, t: int) -> bytes:
     return dumps({"deletions": [{"timestamp": st, "type": 1, "id": ""}], "entities": [ent]})
 
 
-def query_scene(painter: Painter, msg: dict, t: int) -> bytes:
+def query_scene(painter, msg: dict, t: int) -> bytes:
     """A /query message's scene: its path as a line strip (green on success, red on failure),
     start and goal as spheres, and the painter's robot bodies as cubes.
 
