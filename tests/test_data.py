@@ -96,6 +96,7 @@ def test_data_cli_builds_once_under_concurrency(tmp_path, repo):
         assert z["path_offsets"][-1] == len(z["path_states"])
 
 
+@pytest.mark.slow  # builds a c3d test set with planned references
 def test_cached_testset_is_the_generated_one(tmp_path, compose_config):
     """The data stage's test set (problem files in the cache) holds exactly the queries the
     generator makes, with their splits; a second call reads the cache."""

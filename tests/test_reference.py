@@ -71,6 +71,7 @@ def test_exact_reference_never_exceeds_a_planned_path(ws_index, seed):
         assert np.linalg.norm(q.goal - q.start) - 1e-9 <= ref <= path_cost(spec, path) + 1e-9
 
 
+@pytest.mark.slow
 def test_reference_is_reached_by_a_long_bit_star_run():
     """BIT* given seconds on an s2d query gets within a few percent of the exact cost."""
     ws = make_workspace(S2D, 5, "seen")

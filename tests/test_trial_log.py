@@ -503,6 +503,7 @@ def run_and_kill(run_dir: Path, rerun=False):
     return run_dir / "trials.mcap"
 
 
+@pytest.mark.slow  # a subprocess
 @pytest.mark.parametrize("rerun", [False, True])
 def test_sigkill_leaves_every_finished_query(tmp_path, rerun):
     path = run_and_kill(tmp_path, rerun)
@@ -553,6 +554,7 @@ def test_close_is_idempotent_and_closed_log_refuses(tmp_path):
     assert len(by_topic(read_all(tmp_path / "trials.mcap")[1], "/query")) == 1
 
 
+@pytest.mark.slow  # a subprocess
 def test_unclosed_log_is_finalised_at_exit(tmp_path):
     script = textwrap.dedent(f"""
         import sys
@@ -621,6 +623,7 @@ def check_resumed(tmp_path, expect_ids):
     return msgs
 
 
+@pytest.mark.slow  # a subprocess
 def test_resume_after_close_skips_done_and_never_duplicates(tmp_path):
     log_some(tmp_path, n=3)
     _, first = read_all(tmp_path / "trials.mcap")
@@ -642,6 +645,7 @@ def test_resume_after_close_skips_done_and_never_duplicates(tmp_path):
                           capture_output=True, timeout=120).returncode == 0
 
 
+@pytest.mark.slow  # a subprocess
 def test_resume_after_sigkill(tmp_path):
     run_and_kill(tmp_path)
     with TrialLog(tmp_path, make_run(), SPECS["s2d"], rerun=False, resume=True) as log:
@@ -689,6 +693,7 @@ def rerun_cli():
     return [exe] if exe else [sys.executable, "-m", "rerun"]
 
 
+@pytest.mark.slow  # a subprocess
 @pytest.mark.parametrize("env", ["s2d", "rigid", "c3d"])
 def test_rrd_verifies_and_reads_back(tmp_path, env):
     with TrialLog(tmp_path, make_run(env), SPECS[env], rerun=True, rerun_batch=2) as log:
