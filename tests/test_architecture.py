@@ -83,3 +83,11 @@ def test_the_robot_kind_is_asked_only_of_its_classes(repo):
     hits = [f"{p.relative_to(repo)}:{i}" for p in _sources(repo) if str(p.relative_to(repo)) not in KIND_HOMES
             for i, line in enumerate(p.read_text().splitlines(), 1) if pattern.search(line)]
     assert hits == []
+
+
+def test_ruff_clean(repo):
+    """Lint and format as configured in pyproject.toml (ruff is a dev dependency)."""
+    for args in (["check", "."], ["format", "--check", "."]):
+        p = subprocess.run([sys.executable, "-m", "ruff", *args], cwd=repo, capture_output=True, text=True,
+                           timeout=120)
+        assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-2000:]
