@@ -2,6 +2,7 @@
 and without the paper's numbers, figures, the OMPL benchmark database, bad files."""
 from __future__ import annotations
 
+import functools
 import math
 import os
 import sqlite3
@@ -15,26 +16,35 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from harness.report import (
-    BOOT_N,
-    boot_interval,
-    boot_medians,
-    comparator_of,
-    env_rank,
-    fisher_p,
-    load,
-    main,
-    pick_example,
-    planner_label,
-    planner_rank,
-    queries_frame,
-    wilson,
-)
 from harness.log import TrialLog
+from harness.report.__main__ import main
+from harness.report.figures import pick_example
+from harness.report.load import load, queries_frame
+from harness.report.facts import PlannerFacts, facts_from_config, learn
+from harness.report.names import (BOOT_N, ablation_of, comparator_of, env_rank, equal_quality_of, planner_label,
+                                  planner_rank)
+from harness.report.stats import boot_interval, boot_medians, fisher_p, wilson
+from mpnet.envs.spaces import SE2Space
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+@functools.lru_cache(maxsize=None)
+def planner_yaml(planner: str) -> str:
+    """The `planner:` section a real run of this planner logs (its composed config), so the
+    report reads the planner's facts as it does from real logs; a bare name otherwise."""
+    from hydra import compose, initialize_config_dir
+    from omegaconf import OmegaConf
+
+    from harness.cli import choices
+
+    if planner not in choices("planner"):
+        return f"planner:\n  name: {planner}\n"
+    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+        cfg = compose("config", ["+env=s2d", f"+planner={planner}"])
+    return OmegaConf.to_yaml({"planner": OmegaConf.to_container(cfg.planner, resolve=True)})
 
 
 def ws(env: str, wid: str, split: str) -> Workspace:
@@ -49,14 +59,14 @@ def write_log(run_dir: Path, env: str, planner: str, seed, queries: list[dict], 
     spec = SPECS[env]
     d = spec.state_dim
     run = {"env": env, "planner": planner, "seed": seed, "split": "seen+unseen",
-           "config": config or f"budget_s: 10.0\nplanner:\n  name: {planner}\n", "git_rev": "abc1234",
+           "config": config or f"budget_s: 10.0\n{planner_yaml(planner)}", "git_rev": "abc1234",
            "versions": {"ompl": "2.0.1"}, "host": "testhost", "started_at": "2026-11-21T12:00:00+00:00", **run_kw}
     with TrialLog(run_dir, run, spec, rerun=False) as log:
         for q in queries:
             log.add_workspace(ws(env, q["wid"], q["split"]))
             start, mid, goal = np.full(d, -15.0), np.zeros(d), np.full(d, 15.0)
             mid[1] = 15.0
-            if spec.is_se2:
+            if isinstance(spec.space, SE2Space):
                 start[2], mid[2], goal[2] = 0.0, 1.0, 0.5
             rec = dict(query_id=f"{q['wid']}/{q['i']}", workspace_id=q["wid"], split=q["split"], start=start,
                        goal=goal, success=q["ok"], failure=None if q["ok"] else q.get("failure", "timeout"),
@@ -458,7 +468,14 @@ def test_wilson_fisher_bootstrap_known_values():
     assert lo == 1.0 and hi == np.inf
 
 
+def _run(planner: str, config: str | None = None) -> dict:
+    return {"planner": planner, "config": config or f"budget_s: 10.0\n{planner_yaml(planner)}"}
+
+
 def test_planner_names():
+    learn(_run(p) for p in ("mpnet_nr", "mpnet_hr", "mpnet_nr_zeros", "mpnet_hr_zeros", "mpnet_hr_nodropout",
+                            "informed_rrt_star_to_nr_x1.1", "bit_star_to_nr", "mpnet_hr_random", "mpnet_nr_random",
+                            "rrt_star", "bit_star"))
     assert comparator_of("mpnet_nr") is None and comparator_of("mpnet_hr") == "mpnet_nr"
     assert comparator_of("mpnet_nr_zeros") == "mpnet_nr" and comparator_of("mpnet_hr_zeros") == "mpnet_hr"
     assert comparator_of("bit_star") == "mpnet_nr"
@@ -470,9 +487,23 @@ def test_planner_names():
                                                "mpnet_nr_zeros", "mpnet_hr_random", "bit_star_to_nr"]
 
 
+def test_facts_come_from_the_config_not_the_name():
+    """A planner's kind is what its run's config says, whatever it is called."""
+    nr_random = planner_yaml("mpnet_nr_random").replace("name: mpnet_nr_random", "name: my_planner")
+    learn([_run("my_planner", nr_random), _run("mpnet_nr_lookalike", planner_yaml("mpnet_nr")),
+           _run("to_target", planner_yaml("informed_rrt_star_to_nr_x1.1"))])
+    assert ablation_of("my_planner") == ("mpnet_nr", "random") and comparator_of("my_planner") == "mpnet_nr"
+    assert ablation_of("mpnet_nr_lookalike") is None
+    assert equal_quality_of("to_target") == ("informed_rrt_star", "nr", 1.1)
+    assert facts_from_config({"hybrid": True, "encoding": "zeros"}).ablation == ("mpnet_hr", "zeros")
+    assert facts_from_config("not a mapping") == facts_from_config({"algorithm": "bit_star"}) == PlannerFacts()
+
+
 def eq_config(name: str, factor: float | None = None) -> str:
+    """A time-to-equal-quality run's config: a cost target (MPNet-NR) and its factor."""
     extra = "" if factor is None else f"  stop: cost\n  cost_factor: {factor}\n"
-    return f"budget_s: 10.0\nplanner:\n  name: {name}\n{extra}"
+    return (f"budget_s: 10.0\nplanner:\n  name: {name}\n  algorithm: bit_star\n{extra}"
+            f"  cost_target:\n    name: mpnet_nr\n    hybrid: false\n")
 
 
 @pytest.fixture()

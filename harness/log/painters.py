@@ -46,6 +46,10 @@ class Painter:
 
     kind: ClassVar[str]
     workspace_dim: ClassVar[int]
+    # What the report says about this robot's path costs: their metric, and whether a query's
+    # reference cost is the exact shortest path (2D point robots) rather than a planned one.
+    cost_metric: ClassVar[str] = "the env's path cost"
+    exact_reference: ClassVar[bool] = False
 
     def __init__(self, robot: dict | str):
         self.robot = robot
@@ -177,6 +181,8 @@ class PointPainter2D(_Planar):
     """A point robot in the plane (s2d, c2d): the state is the position."""
 
     kind = "point"
+    cost_metric = "Euclidean length"
+    exact_reference = True
 
 
 @register
@@ -184,6 +190,7 @@ class PointPainter3D(_Spatial):
     """A point robot in space (c3d): the state is the position."""
 
     kind = "point"
+    cost_metric = "Euclidean length"
 
 
 @register
@@ -192,6 +199,7 @@ class RectanglePainter(_Planar):
     at every state of a path (at start and goal when there is no path)."""
 
     kind = "rectangle"
+    cost_metric = "OMPL's SE(2) metric, |Δxy| + 0.5·|Δθ| per segment (Δθ along the shorter arc)"
 
     def __init__(self, robot: dict):
         super().__init__(robot)

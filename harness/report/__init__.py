@@ -1,0 +1,44 @@
+"""`python -m harness.report DIR... [--out OUT] [--paper]`: the paper's tables, figures and an
+OMPL benchmark database, regenerated from trial logs alone (DESIGN §6 "Report").
+
+Only the `trials.mcap` files found under the given directories are read (topics `/run`,
+`/workspace`, `/query`): no planning, no artifacts, no torch or OMPL. A file that cannot be
+read (empty, corrupt, no `/run`) is skipped with one warning line; a file cut short (a
+killed writer, or truncated by hand) is read up to where it breaks, with one warning line;
+a file with a `/run` but no `/query` gets one warning line. No query at all is an error.
+
+How the numbers are computed (also written to OUT/README.md):
+- Rows are env x split x planner, where split is each query's own `split` (a run's `/run`
+  may say "seen+unseen" or "file").
+- `queries` counts every logged query of every seed; `seeds` is the number of distinct
+  seeds. Several files with the same (env, planner, seed), e.g. a sweep run twice, all
+  count: their queries are pooled into that seed, with one warning line per (env, planner,
+  seed) whose queries appear in more than one file. A file whose `/run` has no integer
+  seed counts as a seed of its own (with a warning), so such files are never pooled.
+- `success_mean` / `success_std`: mean and standard deviation of the per-seed success rates,
+  the std with ddof=1 (sample std) when there are two seeds or more, 0 for a single seed.
+- Time statistics (`time_*`) are over the successful queries of all seeds pooled that logged
+  a finite time (the paper's convention: time to a first solution); `time_std_s` uses ddof=1
+  when there are two such queries or more, else 0. `cpu_mean_s`, `cost_mean` and
+  `collision_checks_median` are over all successful queries (each over those that logged it).
+- `pnet_calls_median`, `replans_mean` and `fallback_rate` are over every query that logged
+  the field (NaN for planners that do not).
+- Table I: mean ± std time in seconds, and the BIT*/MPNet (NR) ratio of mean times; other
+  planners come after the ratio, so the first columns are the paper's layout. Table I,
+  success_cost and the figures leave out the MPNet ablations (`mpnet_nr_*`, `mpnet_hr_*`:
+  ablations.*); results.csv leaves out the time-to-equal-quality runs (`*_to_nr*`:
+  equal_quality.*), whose success means "reached MPNet-NR's cost".
+- Intervals (95%): Wilson score for every success rate (pooled successes / queries);
+  percentile bootstrap (BOOT_N resamples, seeded per row) for every median time and ratio of
+  medians. Significance against the comparator (comparator_of) at 5%: Fisher's exact test
+  for success, the ratio-of-medians interval excluding 1 for time; "≈" marks a difference
+  that is not significant.
+- Path quality: path cost / the query's logged `reference_cost` (median, p90) over
+  successful queries, and the median ratio to bit_star's path cost on the queries both
+  solved (paired on env, split, seed, query id): quality.*.
+
+Modules: `load` (logs to frames), `facts` (what kind of planner a run is, from its
+config), `names` (orders and labels), `stats`, `tables`, `render` (Markdown, LaTeX),
+`figures`, `arena` (the OMPL benchmark database), `readme`, `write` (the whole report)
+and `__main__` (the CLI).
+"""

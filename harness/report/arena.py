@@ -1,0 +1,187 @@
+"""The OMPL benchmark database (the SQLite schema Planner Arena reads), one run per logged query."""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.report.facts import budget_of
+from harness.report.load import TrialFile, run_seed
+from harness.report.names import (
+    OMPL_STATUS,
+    ST_CRASH,
+    ST_EXACT,
+    ST_INVALID_START,
+    ST_TIMEOUT,
+    ST_UNKNOWN,
+    planner_rank,
+    sort_rows,
+)
+
+_RUN_COLUMNS = (  # OMPL's own run properties first, then ours
+    ("time", "REAL"), ("memory", "REAL"), ("solved", "BOOLEAN"), ("status", "ENUM"),
+    ("approximate_solution", "BOOLEAN"), ("correct_solution", "BOOLEAN"), ("solution_length", "REAL"),
+    ("solution_segments", "INTEGER"), ("cpu_time", "REAL"), ("collision_checks", "INTEGER"),
+    ("state_checks", "INTEGER"), ("motion_checks", "INTEGER"), ("pnet_calls", "INTEGER"),
+    ("replans", "INTEGER"), ("fallback_used", "BOOLEAN"), ("seed", "INTEGER"), ("split", "VARCHAR(64)"),
+    ("workspace_id", "VARCHAR(256)"), ("query_id", "VARCHAR(256)"), ("failure", "VARCHAR(256)"),
+)
+
+_SCHEMA = """
+CREATE TABLE experiments
+    (id INTEGER PRIMARY KEY AUTOINCREMENT, name VARCHAR(512),
+    totaltime REAL, timelimit REAL, memorylimit REAL, runcount INTEGER,
+    version VARCHAR(128), hostname VARCHAR(1024), cpuinfo TEXT,
+    date DATETIME, seed VARCHAR(24), setup TEXT);
+CREATE TABLE plannerConfigs
+    (id INTEGER PRIMARY KEY AUTOINCREMENT,
+    name VARCHAR(512) NOT NULL, settings TEXT);
+CREATE TABLE enums
+    (name VARCHAR(512), value INTEGER, description TEXT,
+    PRIMARY KEY (name, value));
+CREATE TABLE runs
+    (id INTEGER PRIMARY KEY AUTOINCREMENT, experimentid INTEGER, plannerid INTEGER,
+    FOREIGN KEY (experimentid) REFERENCES experiments(id) ON DELETE CASCADE,
+    FOREIGN KEY (plannerid) REFERENCES plannerConfigs(id) ON DELETE CASCADE);
+CREATE TABLE progress
+    (runid INTEGER, time REAL, PRIMARY KEY (runid, time),
+    FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
+"""
+
+_VIEWS = """
+CREATE VIEW bestPlannerConfigsPerExperiment AS
+SELECT plannerid, experimentid, MIN(avg_solved) AS avg_solved, avg_total_time FROM
+  (SELECT plannerid, plannerName, experimentid, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time
+   FROM (SELECT plannerid, plannerConfigs.name AS plannerName, experimentid, solved, time AS total_time
+         FROM plannerConfigs INNER JOIN experiments INNER JOIN runs
+         ON plannerConfigs.id=runs.plannerid AND experiments.id=runs.experimentid)
+   GROUP BY plannerid, experimentid)
+GROUP BY plannerName, experimentid ORDER BY avg_solved DESC, avg_total_time ASC;
+CREATE VIEW bestPlannerConfigs AS
+SELECT plannerid, MIN(avg_solved) AS avg_solved, avg_total_time FROM
+  (SELECT plannerid, plannerName, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time
+   FROM (SELECT plannerid, plannerConfigs.name AS plannerName, experimentid, solved, time AS total_time
+         FROM plannerConfigs INNER JOIN experiments INNER JOIN runs
+         ON plannerConfigs.id=runs.plannerid AND experiments.id=runs.experimentid)
+   GROUP BY plannerid)
+GROUP BY plannerName ORDER BY avg_solved DESC, avg_total_time ASC;
+"""
+
+
+def planner_settings(config) -> str:
+    """The `planner:` section of a run's resolved config (YAML text), or all of it."""
+    import yaml
+
+    text = str(config or "")
+    try:
+        cfg = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+    if isinstance(cfg, dict) and isinstance(cfg.get("planner"), dict):
+        return yaml.safe_dump(cfg["planner"], sort_keys=False)
+    return text
+
+
+def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
+    """OMPL PlannerStatus values: exact solution for a success; timeout, invalid start,
+    crash (an exception in the planner) or unknown (no solution, a path that failed the
+    harness's re-check, ...) for a failure."""
+    f = failure.fillna("").astype(str)
+    st = np.full(len(f), ST_UNKNOWN)
+    st[f.eq("timeout").to_numpy()] = ST_TIMEOUT
+    st[f.eq("invalid_query").to_numpy()] = ST_INVALID_START
+    st[f.isin(("error", "exception", "crash")).to_numpy()] = ST_CRASH
+    st[success.to_numpy(bool)] = ST_EXACT
+    return st
+
+
+def _none(v):
+    """NaN to None (NULL); numpy scalars to Python ones."""
+    if v is None:
+        return None
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def _path_len(v) -> int:
+    return len(v) if isinstance(v, (list, tuple)) else 0
+
+
+def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> int:
+    """OUT/benchmark.db in the schema of OMPL's benchmark statistics script, so Planner Arena
+    opens it: one experiment per env x split, one planner config per (planner name, settings)
+    as that script keys them (runs of one planner with other settings get their own), one run
+    per query. Replaces any earlier file. Returns the number of runs written."""
+    if path.exists():
+        path.unlink()
+    conn = sqlite3.connect(path)
+    try:
+        c = conn.cursor()
+        c.execute("PRAGMA FOREIGN_KEYS = ON")
+        c.executescript(_SCHEMA)
+        for name, typ in _RUN_COLUMNS:
+            c.execute(f"ALTER TABLE runs ADD {name} {typ}")
+        c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
+        configs = [(str(tf.run["planner"]), planner_settings(tf.run.get("config"))) for tf in files]
+        config_ids = {}
+        for p, settings in sorted(set(configs), key=lambda k: (planner_rank(k[0]), k[1])):
+            c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)", (f"geometric_{p}", settings))
+            config_ids[(p, settings)] = c.lastrowid
+        file_config = [config_ids[k] for k in configs]
+        if q.empty:
+            conn.commit()
+            return 0
+        n = 0
+        order = sort_rows(q[["env", "split"]].drop_duplicates(), ("env", "split"))
+        for env, split in zip(order["env"], order["split"]):
+            d = q[(q["env"] == env) & (q["split"] == split)]
+            fruns = [files[i].run for i in sorted(d["file"].unique())]
+            ompl = sorted({str(r["versions"]["ompl"]) for r in fruns
+                           if isinstance(r.get("versions"), dict) and r["versions"].get("ompl") is not None})
+            logged_seed = np.array([run_seed(files[f].run) is not None for f in d["file"]], bool)
+            budgets = {b for b in (budget_of(r.get("config")) for r in fruns) if b is not None}
+            started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
+            hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
+            git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})
+            c.execute("INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
+                      " cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                      (f"{env} {split}", float(np.nansum(d["time_s"])), max(budgets) if budgets else None, 0.0,
+                       int(d.groupby("planner").size().max()), "OMPL " + (",".join(ompl) or "unknown"),
+                       ", ".join(hosts), None, started[0] if started else None,
+                       ",".join(str(s) for s in sorted(d.loc[logged_seed, "seed"].unique())),
+                       f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}"))
+            exp_id = c.lastrowid
+            ok = d["success"].to_numpy(bool)
+            status = ompl_status(d["success"], d["failure"])
+            plen = np.array([_path_len(files[f].queries[i].get("path")) for f, i in zip(d["file"], d["qidx"])], int)
+            cols = {
+                "time": d["time_s"], "memory": np.full(len(d), np.nan), "solved": ok.astype(int),
+                "status": status, "approximate_solution": np.zeros(len(d), int), "correct_solution": ok.astype(int),
+                "solution_length": d["path_cost"].where(ok),
+                "solution_segments": np.where(ok & (plen > 0), np.maximum(plen - 1, 0), np.nan),
+                "cpu_time": d["cpu_s"], "collision_checks": d["collision_checks"], "state_checks": d["state_checks"],
+                "motion_checks": d["motion_checks"], "pnet_calls": d["pnet_calls"], "replans": d["replans"],
+                "fallback_used": d["fallback_used"], "seed": d["seed"].where(logged_seed), "split": d["split"],
+                "workspace_id": d["workspace_id"], "query_id": d["query_id"], "failure": d["failure"],
+            }
+            ints = {"solution_segments", "collision_checks", "state_checks", "motion_checks", "pnet_calls",
+                    "replans", "fallback_used", "seed"}
+            data = [[exp_id] * len(d), [file_config[f] for f in d["file"]]]
+            for name, _ in _RUN_COLUMNS:
+                v = np.asarray(cols[name], dtype=object)
+                data.append([None if x is None or (isinstance(x, float) and not math.isfinite(x))
+                             else (int(x) if name in ints else _none(x)) for x in v])
+            names = ["experimentid", "plannerid"] + [n for n, _ in _RUN_COLUMNS]
+            c.executemany(f"INSERT INTO runs ({','.join(names)}) VALUES ({','.join('?' * len(names))})",
+                          list(zip(*data)))
+            n += len(d)
+        c.executescript(_VIEWS)
+        conn.commit()
+        return n
+    finally:
+        conn.close()

@@ -1,0 +1,155 @@
+"""Reading the trial logs: every readable trials.mcap under the given folders, its /run, workspaces and queries, into one queries frame."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.log import MCAP_NAME, read_log
+from harness.report.facts import learn
+from harness.report.names import QUERY_COLS
+
+
+@dataclass
+class TrialFile:
+    """One readable trials.mcap: its /run message, workspaces by (split, id), queries."""
+
+    path: Path
+    run: dict
+    workspaces: dict[tuple[str, str], dict] = field(default_factory=dict)
+    queries: list[dict] = field(default_factory=list)
+    finalised: bool = True
+
+
+def find_logs(dirs: Iterable[str | Path]) -> tuple[list[Path], list[str]]:
+    """Every trials.mcap under the given directories (a file path is taken as is), sorted and
+    without duplicates; plus one warning per argument that is neither."""
+    found, warns = {}, []
+    for d in dirs:
+        p = Path(d)
+        if p.is_file():
+            found.setdefault(p.resolve(), p)
+        elif p.is_dir():
+            for f in p.rglob(MCAP_NAME):
+                if f.is_file():
+                    found.setdefault(f.resolve(), f)
+        else:
+            warns.append(f"warning: {d}: no such file or directory")
+    return sorted(found.values(), key=str), warns
+
+
+def read_trials(path: Path) -> tuple[TrialFile | None, str | None]:
+    """The file's contents, or None; and a one-line warning when it is skipped or cut short."""
+    try:
+        msgs, finalised = read_log(path, ("/run", "/workspace", "/query"))
+    except Exception as e:  # noqa: BLE001 - unreadable for any reason: skipped, never a traceback
+        return None, f"warning: skipped {path}: cannot read it ({type(e).__name__}: {e})"
+    run, out = None, None
+    for m in msgs:
+        if m.topic == "/run":
+            if run is None:
+                run = m.data
+                if not isinstance(run, dict) or not run.get("env") or not run.get("planner"):
+                    return None, f"warning: skipped {path}: its /run message names no env or planner"
+                out = TrialFile(path, run, finalised=finalised)
+        elif out is None or not isinstance(m.data, dict):
+            continue
+        elif m.topic == "/query":
+            out.queries.append(m.data)
+        else:
+            out.workspaces.setdefault((str(m.data.get("split")), str(m.data.get("workspace_id"))), m.data)
+    if out is None:
+        why = "no /run message" if msgs else "empty file" if _size(path) == 0 else "not a readable MCAP trial log"
+        return None, f"warning: skipped {path}: {why}"
+    if not finalised:
+        return out, (f"warning: {path} was not finalised (cut short?): read its {len(out.queries)} "
+                     "queries up to where it breaks")
+    if not out.queries:
+        return out, f"warning: {path}: no queries"
+    return out, None
+
+
+def _size(path: Path) -> int | None:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return None
+
+
+def run_seed(run: dict) -> int | None:
+    """The /run message's seed when it is an integer, else None."""
+    seed = run.get("seed")
+    return seed if isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)) else None
+
+
+def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
+    """Readable trial files, warnings (one line each) and the number of files skipped."""
+    paths, warns = find_logs(dirs)
+    files, skipped = [], 0
+    for p in paths:
+        tf, w = read_trials(p)
+        if w:
+            warns.append(w)
+        if tf is None:
+            skipped += 1
+            continue
+        files.append(tf)
+        if tf.queries and run_seed(tf.run) is None:
+            warns.append(f"warning: {p}: its /run has no integer seed ({tf.run.get('seed')!r}): "
+                         "its queries count as a seed of their own")
+    learn(tf.run for tf in files)
+    return files, warns, skipped
+
+
+def _flag(v) -> float:
+    """A logged boolean as 1.0 / 0.0, anything else (missing, null) as NaN."""
+    return float(v) if isinstance(v, (bool, np.bool_)) else math.nan
+
+
+def _numbers(col: pd.Series) -> pd.Series:
+    """A column as floats; anything that is not a number (null, text, a list) becomes NaN."""
+    try:
+        return pd.to_numeric(col, errors="coerce").astype(float)
+    except (TypeError, ValueError):
+        return col.map(lambda v: float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan)
+
+
+def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
+    """One row per logged query (no paths): the run's env, planner and seed, the query's
+    scalar fields, and (file, qidx) to find the full message again. A file without an
+    integer seed gets a negative seed of its own, below every logged one, so that it is
+    neither pooled with another file nor lost."""
+    parts = []
+    free_seed = min([s for s in map(run_seed, (tf.run for tf in files)) if s is not None] + [0]) - 1
+    for i, tf in enumerate(files):
+        if not tf.queries:
+            continue
+        df = pd.DataFrame.from_records(tf.queries, columns=list(QUERY_COLS))
+        df["success"] = [_flag(v) == 1.0 for v in df["success"]]
+        df["fallback_used"] = [_flag(v) for v in df["fallback_used"]]
+        for c in ("time_s", "cpu_s", "path_cost", "collision_checks", "state_checks", "motion_checks",
+                  "pnet_calls", "replans", "reference_cost", "target_cost", "target_time_s"):
+            df[c] = _numbers(df[c])
+        df["target_planner"] = [v if isinstance(v, str) else None for v in df["target_planner"]]
+        for c in ("query_id", "workspace_id", "split"):
+            df[c] = df[c].astype(str)
+        df["failure"] = df["failure"].astype(object).where(df["failure"].notna(), None)
+        df["file"] = i
+        df["qidx"] = np.arange(len(df))
+        df["env"] = str(tf.run["env"])
+        df["planner"] = str(tf.run["planner"])
+        seed = run_seed(tf.run)
+        if seed is None:
+            seed, free_seed = free_seed, free_seed - 1
+        df["seed"] = int(seed)
+        parts.append(df)
+    if not parts:
+        return pd.DataFrame(columns=list(QUERY_COLS) + ["file", "qidx", "env", "planner", "seed"])
+    df = pd.concat(parts, ignore_index=True)
+    df["success"] = df["success"].astype(bool)
+    return df

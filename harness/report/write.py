@@ -1,0 +1,85 @@
+"""The whole report from a set of log folders: every table, figure, the database and the README."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+from harness.report.arena import write_benchmark_db
+from harness.report.figures import write_figures
+from harness.report.load import load, queries_frame
+from harness.report.names import load_paper
+from harness.report.readme import provenance, readme_text, reference_notes
+from harness.report.render import (
+    render_ablations,
+    render_equal_quality,
+    render_quality,
+    render_success_cost,
+    render_table1,
+)
+from harness.report.tables import (
+    ablation_table,
+    duplicate_warnings,
+    equal_quality_table,
+    main_planners,
+    quality_table,
+    results_table,
+    success_cost,
+    table1,
+)
+
+
+def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper: bool = False) -> dict:
+    """Read the trial logs under dirs and write every output into out. Returns a summary
+    dict (files, skipped, warnings, queries, outputs); files == 0 or queries == 0 means nothing
+    was written."""
+    files, warns, skipped = load(dirs)
+    summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": []}
+    if not files or not any(tf.queries for tf in files):
+        return summary
+    q = queries_frame(files)
+    summary["queries"] = len(q)
+    warns += duplicate_warnings(q, files)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    res = results_table(q)
+    res.to_csv(out / "results.csv", index=False)
+    written = [out / "results.csv"]
+    main_res = main_planners(res)
+    paper_df = load_paper() if paper else None
+    t, planners = table1(main_res, paper_df)
+    t.to_csv(out / "table1.csv", index=False)
+    md, tex = render_table1(t, planners, paper, main_res, paper_df)
+    (out / "table1.md").write_text(md)
+    (out / "table1.tex").write_text(tex)
+    sc = success_cost(main_res)
+    sc.to_csv(out / "success_cost.csv", index=False)
+    md, tex = render_success_cost(sc, paper)
+    (out / "success_cost.md").write_text(md)
+    (out / "success_cost.tex").write_text(tex)
+    written += [out / n for n in ("table1.md", "table1.tex", "table1.csv",
+                                  "success_cost.md", "success_cost.tex", "success_cost.csv")]
+    refs = reference_notes(q, files)
+    eq, eq_warns = equal_quality_table(q, files)
+    warns += eq_warns
+    optional = {"quality": (quality_table(res), lambda d: render_quality(
+                    d, refs or ["no query in these logs has a reference cost: the quality columns are blank."])),
+                "ablations": (ablation_table(res), render_ablations),
+                "equal_quality": (eq, render_equal_quality)}
+    extra = {"reference_notes": refs}
+    for name, (df, render) in optional.items():
+        for ext in ("md", "csv", "tex"):  # an earlier report's table must not outlive its data
+            (out / f"{name}.{ext}").unlink(missing_ok=True)
+        extra[name] = not df.empty
+        if df.empty:
+            continue
+        df.to_csv(out / f"{name}.csv", index=False)
+        (out / f"{name}.md").write_text(render(df))
+        written += [out / f"{name}.md", out / f"{name}.csv"]
+    shown = set(main_res["planner"])
+    summary["figures"], fig_warns = write_figures(main_res, q[q["planner"].isin(shown)], files, out / "figures")
+    warns += fig_warns
+    write_benchmark_db(q, files, out / "benchmark.db")
+    (out / "README.md").write_text(readme_text(len(files), len(q), paper, provenance(files), dirs, warns, extra))
+    summary["outputs"] = written + [out / "benchmark.db", out / "README.md"]
+    return summary
