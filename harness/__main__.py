@@ -1,4 +1,5 @@
 """`python -m harness +env=ENV +planner=PLANNER [seed=N] [scale=S] [problems=FILE]`: the bench."""
+
 from __future__ import annotations
 
 import sys
@@ -24,7 +25,8 @@ def main(cfg: DictConfig) -> None:
     # OMPL's RNG takes its seed once per process: a later job of an in-process sweep
     # (Hydra's basic launcher) runs in a fresh interpreter so its seed holds.
     child = spawn_context().Process(
-        target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir)))
+        target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir))
+    )
     child.start()
     child.join()
     if child.exitcode:

@@ -1,4 +1,5 @@
 """Artifacts a stage needs, built on first use with the same code as the explicit stage."""
+
 from __future__ import annotations
 
 import sys
@@ -25,8 +26,14 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
     params = data_params(cfg)
 
     def build(folder: Path) -> dict:
-        bar = tqdm(total=params.train_workspaces, desc=f"expert paths {spec.name}", unit="workspace",
-                   file=sys.stderr, disable=not progress, dynamic_ncols=True)
+        bar = tqdm(
+            total=params.train_workspaces,
+            desc=f"expert paths {spec.name}",
+            unit="workspace",
+            file=sys.stderr,
+            disable=not progress,
+            dynamic_ncols=True,
+        )
         try:
             return build_dataset(spec, params, folder, jobs=int(cfg.jobs), progress=bar.update)
         finally:
@@ -43,28 +50,55 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
     now when missing); returns the splits cfg.splits asks for as one TestSet."""
     spec = env_spec(cfg.env)
     sizes = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in ("seen", "unseen")}
-    key_config = {"format": TESTSET_FORMAT, "env": spec.name, "data_seed": int(cfg.env.data_seed),
-                  "solvable_s": float(cfg.env.solvable_s), "splits": {s: list(v) for s, v in sizes.items()},
-                  "reference": reference_params(cfg, spec)}
+    key_config = {
+        "format": TESTSET_FORMAT,
+        "env": spec.name,
+        "data_seed": int(cfg.env.data_seed),
+        "solvable_s": float(cfg.env.solvable_s),
+        "splits": {s: list(v) for s, v in sizes.items()},
+        "reference": reference_params(cfg, spec),
+    }
 
     def build(folder: Path) -> dict:
         from ompl import util as ou
 
         ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
-        with tqdm(total=sum(n for n, _ in sizes.values()), desc=f"test set {spec.name}", unit="workspace",
-                  file=sys.stderr, disable=not progress, dynamic_ncols=True) as bar:
+        with tqdm(
+            total=sum(n for n, _ in sizes.values()),
+            desc=f"test set {spec.name}",
+            unit="workspace",
+            file=sys.stderr,
+            disable=not progress,
+            dynamic_ncols=True,
+        ) as bar:
             ts = make_testset(spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update)
         t0 = time.perf_counter()
-        with tqdm(total=len(ts.workspaces), desc=f"reference costs {spec.name}", unit="workspace",
-                  file=sys.stderr, disable=not progress, dynamic_ncols=True) as bar:
-            reference_costs(spec, ts.workspaces, ts.queries, **key_config["reference"],
-                            seed=int(cfg.env.data_seed), jobs=int(cfg.jobs), progress=bar.update)
+        with tqdm(
+            total=len(ts.workspaces),
+            desc=f"reference costs {spec.name}",
+            unit="workspace",
+            file=sys.stderr,
+            disable=not progress,
+            dynamic_ncols=True,
+        ) as bar:
+            reference_costs(
+                spec,
+                ts.workspaces,
+                ts.queries,
+                **key_config["reference"],
+                seed=int(cfg.env.data_seed),
+                jobs=int(cfg.jobs),
+                progress=bar.update,
+            )
         ref_s = time.perf_counter() - t0
         for split in sizes:
             dump_problems(folder / f"{split}.json", ts, split=split)
-        return {"format": TESTSET_FORMAT, "files": [f"{s}.json" for s in sizes],
-                "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes},
-                "reference": {"method": describe(spec), "seconds": ref_s}}
+        return {
+            "format": TESTSET_FORMAT,
+            "files": [f"{s}.json" for s in sizes],
+            "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes},
+            "reference": {"method": describe(spec), "seconds": ref_s},
+        }
 
     folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance)
     workspaces, queries = [], []
@@ -92,5 +126,6 @@ def ensure_models(cfg: DictConfig, progress: bool = True):
         return fit_models(spec, data, params, lightning, folder, progress)
 
     key_config = {"data": data_manifest["key"], **params}
-    return ensure(cfg.cache_dir, "models", key_config, build,
-                  lambda: {**artifact_provenance(), "data_folder": str(data_folder)})
+    return ensure(
+        cfg.cache_dir, "models", key_config, build, lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
+    )

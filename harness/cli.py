@@ -5,6 +5,7 @@ fails with "unrecognized arguments"), so the flag is moved to the front first. T
 `+env=`/`+planner=` choices are checked before Hydra composes, so a missing or unknown
 name gets one line listing the choices instead of Hydra's traceback-like report.
 """
+
 from __future__ import annotations
 
 import sys
@@ -36,7 +37,7 @@ def _override_values(argv: list[str], group: str) -> list[str] | None:
             value = value.strip()
             for prefix in ("choice(", "glob("):
                 if value.startswith(prefix) and value.endswith(")"):
-                    value = value[len(prefix):-1]
+                    value = value[len(prefix) : -1]
             return [v.strip() for v in value.split(",")]
     return None
 
@@ -49,8 +50,10 @@ def check_groups(argv: list[str], required: tuple[str, ...], optional: tuple[str
         values = _override_values(argv, group)
         if values is None:
             if group in required and not has_experiment:
-                raise UsageError(f"choose {'an' if group[0] in 'aeiou' else 'a'} {group} with +{group}=NAME "
-                                 f"(choices: {', '.join(names)})")
+                raise UsageError(
+                    f"choose {'an' if group[0] in 'aeiou' else 'a'} {group} with +{group}=NAME "
+                    f"(choices: {', '.join(names)})"
+                )
             continue
         for v in values:
             if v not in names and "*" not in v:
@@ -60,8 +63,7 @@ def check_groups(argv: list[str], required: tuple[str, ...], optional: tuple[str
 def run_hydra(main, required: tuple[str, ...], optional: tuple[str, ...] = ("scale",)) -> None:
     """Check and normalise sys.argv, then call a @hydra.main function."""
     argv = sys.argv[1:]
-    if not any(a in ("-h", "--help", "--hydra-help", "--info", "--cfg", "-c") or a.startswith("--info")
-               for a in argv):
+    if not any(a in ("-h", "--help", "--hydra-help", "--info", "--cfg", "-c") or a.startswith("--info") for a in argv):
         try:
             check_groups(argv, required, optional)
         except UsageError as e:

@@ -24,8 +24,12 @@ def env_spec(env_cfg) -> EnvSpec:
 
 
 def _number(key: str, value, positive: bool = True) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or (positive and value <= 0):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or (positive and value <= 0)
+    ):
         raise UsageError(f"config key {key}: expected a {'positive ' if positive else ''}finite number, got {value!r}")
 
 
@@ -38,8 +42,10 @@ def check_config(cfg: DictConfig) -> None:
         raise UsageError(f"config key seed: expected an integer >= 0, got {cfg.seed!r}")
     splits = cfg.splits
     if isinstance(splits, str) or not splits or any(s not in ("seen", "unseen") for s in splits):
-        raise UsageError(f"config key splits: expected a list from [seen, unseen], e.g. splits=[seen], got "
-                         f"{OmegaConf.to_container(splits) if OmegaConf.is_config(splits) else splits!r}")
+        raise UsageError(
+            f"config key splits: expected a list from [seen, unseen], e.g. splits=[seen], got "
+            f"{OmegaConf.to_container(splits) if OmegaConf.is_config(splits) else splits!r}"
+        )
     checkers = get_spec(cfg.env.name).robot.checkers
     if cfg.env.collision not in checkers:
         raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {cfg.env.collision!r}")
@@ -51,19 +57,27 @@ def check_config(cfg: DictConfig) -> None:
 def data_params(cfg: DictConfig) -> DataParams:
     """Everything that decides the training dataset (its cache key)."""
     return DataParams(
-        env=str(cfg.env.name), data_seed=int(cfg.env.data_seed), points_per_block=int(cfg.env.points_per_block),
-        train_workspaces=int(cfg.scale.train.workspaces), paths_per_workspace=int(cfg.scale.train.paths),
-        ae_workspaces=int(cfg.scale.train.ae_workspaces), expert_iterations=int(cfg.env.expert.iterations),
+        env=str(cfg.env.name),
+        data_seed=int(cfg.env.data_seed),
+        points_per_block=int(cfg.env.points_per_block),
+        train_workspaces=int(cfg.scale.train.workspaces),
+        paths_per_workspace=int(cfg.scale.train.paths),
+        ae_workspaces=int(cfg.scale.train.ae_workspaces),
+        expert_iterations=int(cfg.env.expert.iterations),
         expert_max_seconds=float(cfg.env.expert.max_seconds),
-        expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)))
+        expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)),
+    )
 
 
 def reference_params(cfg: DictConfig, spec: EnvSpec) -> dict:
     """What decides the test set's reference costs (none for exact ones)."""
     if spec.exact_reference:
         return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
-    return {"iterations": int(cfg.env.expert.iterations), "expert_s": float(cfg.env.expert.max_seconds),
-            "bit_star_s": float(cfg.env.reference.bit_star_s)}
+    return {
+        "iterations": int(cfg.env.expert.iterations),
+        "expert_s": float(cfg.env.expert.max_seconds),
+        "bit_star_s": float(cfg.env.reference.bit_star_s),
+    }
 
 
 def model_params(cfg: DictConfig) -> dict:
@@ -71,11 +85,19 @@ def model_params(cfg: DictConfig) -> dict:
     m, f, t = cfg.scale.model, cfg.scale.fit, cfg.train
     params = {
         "format": "mpnet-bench/models@1",
-        "enet_hidden": [int(x) for x in m.enet_hidden], "latent": int(m.latent),
-        "pnet_hidden": [int(x) for x in m.pnet_hidden], "dropout": float(m.dropout),
-        "ae_epochs": int(f.ae_epochs), "pnet_epochs": int(f.pnet_epochs), "batch_size": int(f.batch_size),
-        "seed": int(t.seed), "lr": float(t.lr), "optimizer": str(t.optimizer), "lam": float(t.lam),
-        "val_fraction": float(t.val_fraction), "patience": int(t.patience),
+        "enet_hidden": [int(x) for x in m.enet_hidden],
+        "latent": int(m.latent),
+        "pnet_hidden": [int(x) for x in m.pnet_hidden],
+        "dropout": float(m.dropout),
+        "ae_epochs": int(f.ae_epochs),
+        "pnet_epochs": int(f.pnet_epochs),
+        "batch_size": int(f.batch_size),
+        "seed": int(t.seed),
+        "lr": float(t.lr),
+        "optimizer": str(t.optimizer),
+        "lam": float(t.lam),
+        "val_fraction": float(t.val_fraction),
+        "patience": int(t.patience),
     }
     if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
         params["limit_batches"] = int(f.limit_batches)
@@ -83,4 +105,8 @@ def model_params(cfg: DictConfig) -> dict:
 
 
 def lightning_params(cfg: DictConfig) -> dict:
-    return {"accelerator": str(cfg.train.accelerator), "devices": cfg.train.devices, "strategy": str(cfg.train.strategy)}
+    return {
+        "accelerator": str(cfg.train.accelerator),
+        "devices": cfg.train.devices,
+        "strategy": str(cfg.train.strategy),
+    }

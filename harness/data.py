@@ -1,4 +1,5 @@
 """`python -m harness.data +env=ENV [scale=S]`: build (or find) the env's training dataset."""
+
 from __future__ import annotations
 
 import json
@@ -16,10 +17,11 @@ def main(cfg: DictConfig) -> None:
     testset = ensure_testset(cfg, progress=bool(cfg.progress))
     folder, m, built = ensure_dataset(cfg, progress=bool(cfg.progress))
     print(f"{'built' if built else 'cached'}: {folder}")
-    print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries "
-          f"({', '.join(cfg.splits)})")
-    print(f"{m['expert']['paths']} expert paths over {m['sizes']['train_ids'][0]} workspaces, "
-          f"{m['sizes']['ae_clouds'][0]} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB")
+    print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries ({', '.join(cfg.splits)})")
+    print(
+        f"{m['expert']['paths']} expert paths over {m['sizes']['train_ids'][0]} workspaces, "
+        f"{m['sizes']['ae_clouds'][0]} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB"
+    )
     print(json.dumps(m["expert"], indent=2))
 
 

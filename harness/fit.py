@@ -1,5 +1,6 @@
 """Lightning training of MPNet's networks into an artifact folder (called by
 harness.artifacts.ensure_models; Lightning is imported only here)."""
+
 from __future__ import annotations
 
 import time
@@ -14,8 +15,15 @@ from mpnet.envs.spec import EnvSpec
 ENET_FILE, PNET_FILE = "enet.ckpt", "pnet.ckpt"
 
 
-def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dict, progress: bool,
-             limit_batches: int | None = None):
+def _trainer(
+    folder: Path,
+    name: str,
+    epochs: int,
+    patience: int,
+    lightning: dict,
+    progress: bool,
+    limit_batches: int | None = None,
+):
     import lightning as L
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
     from lightning.pytorch.loggers import CSVLogger
@@ -26,19 +34,29 @@ def _trainer(folder: Path, name: str, epochs: int, patience: int, lightning: dic
     warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\)")
     loggers = [CSVLogger(str(folder), name=f"{name}_logs", version=0)]
     try:
-        from lightning.pytorch.loggers import TensorBoardLogger
         import tensorboard  # noqa: F401  (optional: logged when installed)
+        from lightning.pytorch.loggers import TensorBoardLogger
 
         loggers.append(TensorBoardLogger(str(folder), name=f"{name}_tb", version=0))
     except ImportError:
         pass
-    checkpoint = ModelCheckpoint(dirpath=str(folder), filename=name, monitor="val_loss", mode="min",
-                                 save_top_k=1, enable_version_counter=False)
-    trainer = L.Trainer(max_epochs=epochs, accelerator=lightning["accelerator"], devices=lightning["devices"],
-                        strategy=lightning["strategy"], logger=loggers, default_root_dir=str(folder),
-                        callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
-                        enable_progress_bar=progress, enable_model_summary=False, log_every_n_steps=10,
-                        limit_train_batches=limit_batches, limit_val_batches=limit_batches)
+    checkpoint = ModelCheckpoint(
+        dirpath=str(folder), filename=name, monitor="val_loss", mode="min", save_top_k=1, enable_version_counter=False
+    )
+    trainer = L.Trainer(
+        max_epochs=epochs,
+        accelerator=lightning["accelerator"],
+        devices=lightning["devices"],
+        strategy=lightning["strategy"],
+        logger=loggers,
+        default_root_dir=str(folder),
+        callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
+        enable_progress_bar=progress,
+        enable_model_summary=False,
+        log_every_n_steps=10,
+        limit_train_batches=limit_batches,
+        limit_val_batches=limit_batches,
+    )
     return trainer, checkpoint
 
 
@@ -51,8 +69,17 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
 
     # Lightning's hardware banners and tips would flood the Hydra log on every fit.
     logging.getLogger("lightning.pytorch").setLevel(logging.WARNING)
-    from mpnet.models import (CloudDataModule, ContractiveAE, Decoder, Enet, EnetModule, MPNetDataModule,
-                              Pnet, PnetModule, waypoint_pairs)
+    from mpnet.models import (
+        CloudDataModule,
+        ContractiveAE,
+        Decoder,
+        Enet,
+        EnetModule,
+        MPNetDataModule,
+        Pnet,
+        PnetModule,
+        waypoint_pairs,
+    )
 
     L.seed_everything(params["seed"], workers=True, verbose=False)
     flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
@@ -63,10 +90,12 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     enet = Enet(in_dim, params["enet_hidden"], params["latent"])
     ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
     ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"], cloud_scale=spec.workspace_scale())
-    trainer, ckpt = _trainer(folder, "enet", params["ae_epochs"], params["patience"], lightning, progress,
-                             params.get("limit_batches"))
-    trainer.fit(ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"],
-                                                       params["seed"]))
+    trainer, ckpt = _trainer(
+        folder, "enet", params["ae_epochs"], params["patience"], lightning, progress, params.get("limit_batches")
+    )
+    trainer.fit(
+        ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"], params["seed"])
+    )
     ae_best = EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")
     ae_seconds, ae_epochs = time.perf_counter() - t0, trainer.current_epoch
 
@@ -74,25 +103,51 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     paths = [spec.space.continuous(p) for p in data.paths.paths()]  # targets never jump by 2 pi
     pairs = waypoint_pairs(paths, data.paths.workspace)
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
-    module = PnetModule(pnet, ae_best.encoder, lr=params["lr"], optimizer=params["optimizer"],
-                        freeze_encoder=True, state_scale=spec.space.scale(), cloud_scale=spec.workspace_scale())
+    module = PnetModule(
+        pnet,
+        ae_best.encoder,
+        lr=params["lr"],
+        optimizer=params["optimizer"],
+        freeze_encoder=True,
+        state_scale=spec.space.scale(),
+        cloud_scale=spec.workspace_scale(),
+    )
     import torch
 
     with torch.no_grad():  # the encoder is frozen: each workspace's code once, not once per batch
         codes = module.encode(torch.from_numpy(np.ascontiguousarray(flat_train, np.float32))).numpy()
-    dm = MPNetDataModule(codes, pairs.ws_index, pairs.x_t, pairs.x_goal, pairs.x_next, params["batch_size"],
-                         params["val_fraction"], params["seed"], groups=pairs.path_id, features="codes")
-    trainer, ckpt2 = _trainer(folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress,
-                              params.get("limit_batches"))
+    dm = MPNetDataModule(
+        codes,
+        pairs.ws_index,
+        pairs.x_t,
+        pairs.x_goal,
+        pairs.x_next,
+        params["batch_size"],
+        params["val_fraction"],
+        params["seed"],
+        groups=pairs.path_id,
+        features="codes",
+    )
+    trainer, ckpt2 = _trainer(
+        folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress, params.get("limit_batches")
+    )
     trainer.fit(module, datamodule=dm)
     pnet_seconds, pnet_epochs = time.perf_counter() - t1, trainer.current_epoch
     return {
         "files": [ENET_FILE, PNET_FILE],
         "fit": {
-            "enet": {"seconds": ae_seconds, "epochs": ae_epochs, "best_val_loss": float(ckpt.best_model_score),
-                     "clouds": len(ae_clouds)},
-            "pnet": {"seconds": pnet_seconds, "epochs": pnet_epochs, "best_val_loss": float(ckpt2.best_model_score),
-                     "pairs": len(pairs.x_t)},
+            "enet": {
+                "seconds": ae_seconds,
+                "epochs": ae_epochs,
+                "best_val_loss": float(ckpt.best_model_score),
+                "clouds": len(ae_clouds),
+            },
+            "pnet": {
+                "seconds": pnet_seconds,
+                "epochs": pnet_epochs,
+                "best_val_loss": float(ckpt2.best_model_score),
+                "pairs": len(pairs.x_t),
+            },
             "bytes": {f: (folder / f).stat().st_size for f in (ENET_FILE, PNET_FILE)},
         },
     }

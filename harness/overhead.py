@@ -7,6 +7,7 @@ query to the log process), as medians and p90s and as fractions of planning time
 the log process's CPU time per query (the fine re-check and writing MCAP, Rerun and
 CSV), which runs beside the loop.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -23,8 +24,10 @@ from harness.cli import run_hydra
 def _row(name: str, xs: list[float], plan: list[float]) -> str:
     a = np.asarray(xs)
     frac = a.sum() / np.sum(plan)
-    return (f"{name:<22} median {np.median(a) * 1e3:8.3f} ms   p90 {np.percentile(a, 90) * 1e3:8.3f} ms   "
-            f"total/planning {frac * 100:6.1f}%")
+    return (
+        f"{name:<22} median {np.median(a) * 1e3:8.3f} ms   p90 {np.percentile(a, 90) * 1e3:8.3f} ms   "
+        f"total/planning {frac * 100:6.1f}%"
+    )
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
@@ -40,11 +43,15 @@ def main(cfg: DictConfig) -> None:
     print(f"\nharness overhead, {cfg.env.name} / {cfg.planner.name}, {len(plan)} queries")
     print(_row("planner (time_s)", plan, plan))
     print(_row("harness in the loop", timing.harness_s, plan))
-    print(f"{'log process (CPU)':<22} mean   {timing.log_cpu_s / len(plan) * 1e3:8.3f} ms per query "
-          f"(re-check and writing, beside the loop)   total/planning {timing.log_cpu_s / sum(plan) * 100:6.1f}%")
+    print(
+        f"{'log process (CPU)':<22} mean   {timing.log_cpu_s / len(plan) * 1e3:8.3f} ms per query "
+        f"(re-check and writing, beside the loop)   total/planning {timing.log_cpu_s / sum(plan) * 100:6.1f}%"
+    )
     ratio = [h / p for h, p in zip(timing.harness_s, plan) if p > 0]
-    print(f"per-query harness/planning ratio: median {statistics.median(ratio) * 100:.1f}%, "
-          f"p90 {np.percentile(ratio, 90) * 100:.1f}%")
+    print(
+        f"per-query harness/planning ratio: median {statistics.median(ratio) * 100:.1f}%, "
+        f"p90 {np.percentile(ratio, 90) * 100:.1f}%"
+    )
 
 
 if __name__ == "__main__":

@@ -76,7 +76,7 @@ def training(size: str, device: torch.device, sync, batches=(100, 1024), steps: 
         x = torch.randn(b, pnet.in_dim, device=device)
         y = torch.randn(b, pnet.out_dim, device=device)
 
-        def step():
+        def step(pnet=pnet, opt=opt, x=x, y=y):
             opt.zero_grad(set_to_none=True)
             loss = torch.nn.functional.mse_loss(pnet(x), y)
             loss.backward()
@@ -94,10 +94,18 @@ def measure(device_name: str) -> dict:
         torch.set_num_threads(max(1, torch.get_num_threads()))
     name = torch.cuda.get_device_name(device) if device.type == "cuda" else platform.processor() or platform.machine()
     return {
-        "device": device_name, "device_name": name, "torch": torch.__version__, "threads": torch.get_num_threads(),
-        "sizes": {s: {"parameters": sum(p.numel() for p in _pnet(s).parameters()),
-                      "inference": inference(s, device, sync), "training": training(s, device, sync)}
-                  for s in SIZES},
+        "device": device_name,
+        "device_name": name,
+        "torch": torch.__version__,
+        "threads": torch.get_num_threads(),
+        "sizes": {
+            s: {
+                "parameters": sum(p.numel() for p in _pnet(s).parameters()),
+                "inference": inference(s, device, sync),
+                "training": training(s, device, sync),
+            }
+            for s in SIZES
+        },
     }
 
 

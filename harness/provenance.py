@@ -17,10 +17,15 @@ PACKAGES = ("numpy", "ompl", "python-fcl", "hydra-core", "mcap", "rerun-sdk", "t
 
 def git_rev() -> str:
     try:
-        rev = subprocess.run(["git", "-C", str(REPO), "rev-parse", "HEAD"], capture_output=True, text=True,
-                             timeout=5).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(REPO), "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, timeout=5).stdout.strip()
+        rev = subprocess.run(
+            ["git", "-C", str(REPO), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(REPO), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+        ).stdout.strip()
         return (rev + ("-dirty" if dirty else "")) if rev else "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
@@ -39,10 +44,15 @@ def versions() -> dict[str, str]:
 def run_info(env: str, planner: str, seed: int, split: str, config_yaml: str) -> dict:
     """The `/run` message of a bench run."""
     return {
-        "env": env, "planner": planner, "seed": int(seed), "split": split, "config": config_yaml,
-        "git_rev": git_rev(), "versions": versions(),
+        "env": env,
+        "planner": planner,
+        "seed": int(seed),
+        "split": split,
+        "config": config_yaml,
+        "git_rev": git_rev(),
+        "versions": versions(),
         "host": f"{socket.gethostname()} ({os.cpu_count()} cpus, {platform.machine()})",
-        "started_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "started_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
 
 

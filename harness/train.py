@@ -1,5 +1,6 @@
 """`python -m harness.train +env=ENV [scale=S]`: train Enet (contractive autoencoder on
 point clouds) and then Pnet (on expert waypoint pairs, both directions) with Lightning."""
+
 from __future__ import annotations
 
 import json

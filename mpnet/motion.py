@@ -1,4 +1,5 @@
 """Motion primitives shared by every planner, and the fine re-check that decides success."""
+
 from __future__ import annotations
 
 from collections.abc import Sequence

@@ -20,6 +20,7 @@ A start or goal that is in collision or out of bounds is *not* a format error: t
 planner logs such a query as a failure with reason `invalid_query`, so no collision or
 bounds checks happen here. Unknown extra keys are ignored.
 """
+
 from __future__ import annotations
 
 import json
@@ -30,15 +31,23 @@ from typing import Any
 
 import numpy as np
 
-from mpnet.envs.specs import SPECS
 from mpnet.envs.spec import EnvSpec, TestSet
+from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Query, Workspace
 
 FORMAT = "mpnet-bench/problems@1"
 SPLIT = "file"
 
-__all__ = ["FORMAT", "SPLIT", "ProblemFileError", "load_problems", "dump_problems", "dumps_problems",
-           "problems_document", "query_id"]
+__all__ = [
+    "FORMAT",
+    "SPLIT",
+    "ProblemFileError",
+    "load_problems",
+    "dump_problems",
+    "dumps_problems",
+    "problems_document",
+    "query_id",
+]
 
 
 def query_id(workspace_id: str, index: int) -> str:
@@ -53,9 +62,16 @@ class ProblemFileError(ValueError):
     (None where they do not apply) and `detail` (the message without the location).
     """
 
-    def __init__(self, path, detail: str, *, workspace_index: int | None = None,
-                 workspace_id: str | None = None, query_index: int | None = None,
-                 where: str | None = None):
+    def __init__(
+        self,
+        path,
+        detail: str,
+        *,
+        workspace_index: int | None = None,
+        workspace_id: str | None = None,
+        query_index: int | None = None,
+        where: str | None = None,
+    ):
         self.path = str(path)
         self.detail = detail
         self.workspace_index = workspace_index
@@ -80,6 +96,7 @@ def _one_line(s: str) -> str:
 
 
 # --------------------------------------------------------------------------- parsing
+
 
 class _NonFinite:
     """Stands in for a NaN/Infinity literal (or an overflowing number) while parsing, so
@@ -123,6 +140,7 @@ def _read_json(path) -> Any:
 
 # --------------------------------------------------------------------------- validation
 
+
 def _type_name(v) -> str:
     if v is None:
         return "null"
@@ -163,8 +181,9 @@ class _Checker:
         self.where: str | None = None
 
     def fail(self, detail: str):
-        raise ProblemFileError(self.path, detail, workspace_index=self.wi, workspace_id=self.wid,
-                               query_index=self.qi, where=self.where)
+        raise ProblemFileError(
+            self.path, detail, workspace_index=self.wi, workspace_id=self.wid, query_index=self.qi, where=self.where
+        )
 
     def obj(self, v, what: str) -> dict:
         if not isinstance(v, dict):
@@ -222,8 +241,10 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
     if env != spec.name:
         if env not in SPECS:
             c.fail(f"unknown env {env!r}; choices: {', '.join(sorted(SPECS))}")
-        c.fail(f"the file is for env {env!r} but env {spec.name!r} was chosen; "
-               f"run with +env={env} or use a file for {spec.name}")
+        c.fail(
+            f"the file is for env {env!r} but env {spec.name!r} was chosen; "
+            f"run with +env={env} or use a file for {spec.name}"
+        )
 
     raw_ws = c.lst(c.key(doc, "workspaces"), "workspaces")
     if not raw_ws:
@@ -270,12 +291,14 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
                 ref = c.number(ref, "reference_cost")
                 if ref <= 0:
                     c.fail(f"reference_cost is {ref:g}; it must be positive")
-            queries.append(Query(id=query_id(wid, qi), workspace_id=wid, split=SPLIT,
-                                 start=start, goal=goal, reference_cost=ref))
+            queries.append(
+                Query(id=query_id(wid, qi), workspace_id=wid, split=SPLIT, start=start, goal=goal, reference_cost=ref)
+            )
         c.qi = None
         shape = (len(centers), spec.workspace_dim)  # an empty workspace keeps its dimension
-        workspaces.append(Workspace(id=wid, split=SPLIT, centers=np.reshape(centers, shape),
-                                    sizes=np.reshape(sizes, shape)))
+        workspaces.append(
+            Workspace(id=wid, split=SPLIT, centers=np.reshape(centers, shape), sizes=np.reshape(sizes, shape))
+        )
 
     c.wi = c.wid = c.qi = c.where = None
     try:
@@ -320,6 +343,7 @@ def _reject_leftover_non_finite(doc, c: _Checker, raw_ws: list) -> None:
 
 # --------------------------------------------------------------------------- API
 
+
 def load_problems(path: str | Path, spec: EnvSpec) -> TestSet:
     """Read and validate a problem file for `spec` (the env chosen on the command line).
 
@@ -337,15 +361,18 @@ def problems_document(testset: TestSet, split: str | None = None) -> dict:
     spec = testset.spec
     wss = [w for w in testset.workspaces if split is None or w.split == split]
     if not wss:
-        raise ValueError("nothing to export: the test set has no workspaces"
-                         + (f" in split {split!r}" if split is not None else ""))
+        raise ValueError(
+            "nothing to export: the test set has no workspaces" + (f" in split {split!r}" if split is not None else "")
+        )
     out: list[dict] = []
     by_key: dict[tuple[str, str], list] = {}
     first_split: dict[str, str] = {}
     for w in wss:
         if w.id in first_split:
-            raise ValueError(f"workspace id {w.id!r} appears in splits {first_split[w.id]!r} and {w.split!r}; "
-                             "problem-file ids must be unique, pass split= to export one split")
+            raise ValueError(
+                f"workspace id {w.id!r} appears in splits {first_split[w.id]!r} and {w.split!r}; "
+                "problem-file ids must be unique, pass split= to export one split"
+            )
         first_split[w.id] = w.split
         qs: list[dict] = []
         by_key[(w.id, w.split)] = qs
@@ -355,8 +382,10 @@ def problems_document(testset: TestSet, split: str | None = None) -> dict:
             continue
         qs = by_key.get((q.workspace_id, q.split))
         if qs is None:
-            raise ValueError(f"query {q.id!r} refers to workspace {q.workspace_id!r} in split {q.split!r}, "
-                             "which the test set does not hold")
+            raise ValueError(
+                f"query {q.id!r} refers to workspace {q.workspace_id!r} in split {q.split!r}, "
+                "which the test set does not hold"
+            )
         item = {"start": [float(x) for x in q.start], "goal": [float(x) for x in q.goal]}
         if q.reference_cost is not None:
             item["reference_cost"] = float(q.reference_cost)

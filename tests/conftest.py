@@ -42,8 +42,9 @@ def run_cli(repo):
 
     def run(*args, cwd=None, check=True, timeout=600):
         env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
-        p = subprocess.run([sys.executable, "-m", *args], cwd=cwd or repo, capture_output=True, text=True,
-                           timeout=timeout, env=env)
+        p = subprocess.run(
+            [sys.executable, "-m", *args], cwd=cwd or repo, capture_output=True, text=True, timeout=timeout, env=env
+        )
         if check and p.returncode != 0:
             raise AssertionError(f"exit {p.returncode}\nstdout:\n{p.stdout}\nstderr:\n{p.stderr}")
         return p

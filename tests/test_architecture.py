@@ -21,8 +21,13 @@ def _sources(repo):
 
 
 def test_import_contracts_hold(repo):
-    p = subprocess.run([sys.executable, "-m", "importlinter.cli", "lint-imports"], cwd=repo, capture_output=True,
-                       text=True, timeout=120)
+    p = subprocess.run(
+        [sys.executable, "-m", "importlinter.cli", "lint-imports"],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     if p.returncode != 0:  # older entry point name
         p = subprocess.run(["lint-imports"], cwd=repo, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stdout + p.stderr
@@ -80,14 +85,18 @@ def test_no_module_past_the_size_limit(repo):
 
 def test_the_robot_kind_is_asked_only_of_its_classes(repo):
     pattern = re.compile(r"""is_se2|spec\.name\s*==|robot\.kind|robot\.get\(["']kind|robot\[["']kind|\brobot\s*==""")
-    hits = [f"{p.relative_to(repo)}:{i}" for p in _sources(repo) if str(p.relative_to(repo)) not in KIND_HOMES
-            for i, line in enumerate(p.read_text().splitlines(), 1) if pattern.search(line)]
+    hits = [
+        f"{p.relative_to(repo)}:{i}"
+        for p in _sources(repo)
+        if str(p.relative_to(repo)) not in KIND_HOMES
+        for i, line in enumerate(p.read_text().splitlines(), 1)
+        if pattern.search(line)
+    ]
     assert hits == []
 
 
 def test_ruff_clean(repo):
     """Lint and format as configured in pyproject.toml (ruff is a dev dependency)."""
     for args in (["check", "."], ["format", "--check", "."]):
-        p = subprocess.run([sys.executable, "-m", "ruff", *args], cwd=repo, capture_output=True, text=True,
-                           timeout=120)
+        p = subprocess.run([sys.executable, "-m", "ruff", *args], cwd=repo, capture_output=True, text=True, timeout=120)
         assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-2000:]

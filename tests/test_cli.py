@@ -1,20 +1,19 @@
 """End to end: every CLI the README shows, at tiny scale, in subprocesses as a user runs them."""
+
 import csv
 import json
-import os
 import shutil
 import sqlite3
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
 
 from mpnet.envs import get_spec
 from mpnet.envs.generators import s2d_layouts
-from mpnet.motion import verify_path
 from mpnet.envs.workspace import Workspace
+from mpnet.motion import verify_path
 
 pytestmark = pytest.mark.slow  # every test here runs the CLI in a subprocess
 
@@ -37,8 +36,12 @@ def recheck(msgs):
     for t, q in msgs:
         if t == "/query" and q["success"]:
             w = wss[(q["split"], q["workspace_id"])]
-            ws = Workspace(w["workspace_id"], w["split"], [o["center"] for o in w["obstacles"]],
-                           [o["size"] for o in w["obstacles"]])
+            ws = Workspace(
+                w["workspace_id"],
+                w["split"],
+                [o["center"] for o in w["obstacles"]],
+                [o["size"] for o in w["obstacles"]],
+            )
             assert verify_path(spec, ws, q["path"], q["start"], q["goal"], 0.01) is None
             n += 1
     return n
@@ -69,23 +72,31 @@ def test_bench_tiny_s2d(tmp_path, run_cli):
     assert len(rows) == 8 and {"time_s", "collision_checks", "success"} <= set(rows[0])
     rerun_cli = shutil.which("rerun")
     if rerun_cli:
-        subprocess.run([rerun_cli, "rrd", "verify", str(out / "trials.rrd")], check=True, capture_output=True,
-                       timeout=120)
+        subprocess.run(
+            [rerun_cli, "rrd", "verify", str(out / "trials.rrd")], check=True, capture_output=True, timeout=120
+        )
 
 
 @pytest.mark.parametrize("env", ["c2d", "c3d", "rigid"])
 def test_bench_tiny_other_envs(tmp_path, env, run_cli):
     out = tmp_path / env
-    run_cli("harness", f"+env={env}", "+planner=informed_rrt_star", "scale=tiny", "rerun=false",
-        f"hydra.run.dir={out}")
+    run_cli("harness", f"+env={env}", "+planner=informed_rrt_star", "scale=tiny", "rerun=false", f"hydra.run.dir={out}")
     _, msgs = read_mcap(out / "trials.mcap")
     assert recheck(msgs) >= 7
 
 
 def test_used_by_form_multirun(tmp_path, run_cli):
     """Overrides before and after -m, as users type it."""
-    run_cli("harness", "+env=rigid", "+planner=rrt_connect", "scale=tiny", "rerun=false",
-        f"hydra.sweep.dir={tmp_path}", "-m", "seed=0,1")
+    run_cli(
+        "harness",
+        "+env=rigid",
+        "+planner=rrt_connect",
+        "scale=tiny",
+        "rerun=false",
+        f"hydra.sweep.dir={tmp_path}",
+        "-m",
+        "seed=0,1",
+    )
     files = sorted(tmp_path.rglob("trials.mcap"))
     assert len(files) == 2
     seeds = [next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files]
@@ -93,17 +104,29 @@ def test_used_by_form_multirun(tmp_path, run_cli):
 
 
 def test_multirun_flag_last(tmp_path, run_cli):
-    run_cli("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", "splits=[seen]",
-        f"hydra.sweep.dir={tmp_path}", "seed=3", "--multirun")
+    run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=rrt_connect",
+        "scale=tiny",
+        "rerun=false",
+        "splits=[seen]",
+        f"hydra.sweep.dir={tmp_path}",
+        "seed=3",
+        "--multirun",
+    )
     assert len(list(tmp_path.rglob("trials.mcap"))) == 1
 
 
-@pytest.mark.parametrize("args,needle", [
-    (["+planner=bit_star"], "choose an env with +env=NAME (choices: c2d, c3d, rigid, s2d)"),
-    (["+env=s2d"], "choose a planner with +planner=NAME"),
-    (["+env=s3d", "+planner=bit_star"], "unknown env 's3d'"),
-    (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar'"),
-])
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["+planner=bit_star"], "choose an env with +env=NAME (choices: c2d, c3d, rigid, s2d)"),
+        (["+env=s2d"], "choose a planner with +planner=NAME"),
+        (["+env=s3d", "+planner=bit_star"], "unknown env 's3d'"),
+        (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar'"),
+    ],
+)
 def test_missing_or_unknown_choice(args, needle, run_cli):
     p = run_cli("harness", *args, check=False)
     assert p.returncode != 0
@@ -111,12 +134,27 @@ def test_missing_or_unknown_choice(args, needle, run_cli):
     assert "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("name", ["bad_not_json.json", "bad_wrong_format.json", "bad_unknown_env.json",
-                                  "bad_center_dim.json", "bad_negative_size.json", "bad_nan.json",
-                                  "bad_missing_start.json"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "bad_not_json.json",
+        "bad_wrong_format.json",
+        "bad_unknown_env.json",
+        "bad_center_dim.json",
+        "bad_negative_size.json",
+        "bad_nan.json",
+        "bad_missing_start.json",
+    ],
+)
 def test_bad_problem_file(tmp_path, name, run_cli, problems_dir):
-    p = run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={problems_dir / name}",
-            f"hydra.run.dir={tmp_path}", check=False)
+    p = run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=bit_star",
+        f"problems={problems_dir / name}",
+        f"hydra.run.dir={tmp_path}",
+        check=False,
+    )
     assert p.returncode == 1
     assert "Traceback" not in p.stderr
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("error:")]
@@ -131,7 +169,9 @@ def test_problem_file_with_invalid_query(tmp_path, run_cli, problems_dir):
     doc["workspaces"][0]["queries"].append({"start": [-25.0, 0.0], "goal": [19.0, 19.0]})
     f = tmp_path / "p.json"
     f.write_text(json.dumps(doc))
-    run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    run_cli(
+        "harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}"
+    )
     _, msgs = read_mcap(tmp_path / "r" / "trials.mcap")
     queries = [m for t, m in msgs if t == "/query"]
     assert all(q["split"] == "file" for q in queries)
@@ -142,8 +182,14 @@ def test_problem_file_with_invalid_query(tmp_path, run_cli, problems_dir):
 
 @pytest.mark.parametrize("env", ["s2d", "c2d", "c3d", "rigid"])
 def test_problem_files_all_envs(tmp_path, env, run_cli, problems_dir):
-    run_cli("harness", f"+env={env}", "+planner=bit_star", f"problems={problems_dir / (env + '.json')}", "rerun=false",
-        f"hydra.run.dir={tmp_path}")
+    run_cli(
+        "harness",
+        f"+env={env}",
+        "+planner=bit_star",
+        f"problems={problems_dir / (env + '.json')}",
+        "rerun=false",
+        f"hydra.run.dir={tmp_path}",
+    )
     _, msgs = read_mcap(tmp_path / "trials.mcap")
     queries = [m for t, m in msgs if t == "/query"]
     assert queries and recheck(msgs) == len(queries)
@@ -163,8 +209,18 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, repo):
 
     out = tmp_path / "run"
     cheap_refs = ["env.reference.bit_star_s=0.01", "env.expert.iterations=10"]  # a test set built in seconds
-    args = [sys.executable, "-m", "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]",
-            "progress=false", f"hydra.run.dir={out}", *cheap_refs]
+    args = [
+        sys.executable,
+        "-m",
+        "harness",
+        "+env=rigid",
+        "+planner=rrt_star",
+        "scale=quick",
+        "splits=[seen]",
+        "progress=false",
+        f"hydra.run.dir={out}",
+        *cheap_refs,
+    ]
     proc = subprocess.Popen(args, cwd=repo, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     csv_file = out / "queries.csv"
@@ -176,8 +232,17 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, repo):
     _, msgs = read_mcap(out / "trials.mcap")  # finalised: the indexed reader opens it
     first = [m["query_id"] for t, m in msgs if t == "/query"]
     assert 0 < len(first) < 200
-    run_cli("harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
-        "resume=true", f"hydra.run.dir={out}", *cheap_refs)
+    run_cli(
+        "harness",
+        "+env=rigid",
+        "+planner=rrt_star",
+        "scale=quick",
+        "splits=[seen]",
+        "progress=false",
+        "resume=true",
+        f"hydra.run.dir={out}",
+        *cheap_refs,
+    )
     _, msgs = read_mcap(out / "trials.mcap")
     ids = [m["query_id"] for t, m in msgs if t == "/query"]
     assert len(ids) == len(set(ids)) == 200
@@ -187,8 +252,15 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, repo):
 
 def test_existing_run_dir_is_not_overwritten(tmp_path, run_cli):
     run_cli("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}")
-    p = run_cli("harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"hydra.run.dir={tmp_path}",
-            check=False)
+    p = run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=rrt_connect",
+        "scale=tiny",
+        "rerun=false",
+        f"hydra.run.dir={tmp_path}",
+        check=False,
+    )
     assert p.returncode == 1 and "resume" in p.stderr and "Traceback" not in p.stderr
 
 
@@ -198,13 +270,24 @@ def test_every_env_and_planner_config_runs(tmp_path, run_cli):
     from harness.cli import choices
 
     envs, planners = choices("env"), choices("planner")
-    base = [p for p in planners if not any(p.startswith(b + "_") for b in ("mpnet_nr", "mpnet_hr")) and "_to_nr" not in p]
+    base = [
+        p for p in planners if not any(p.startswith(b + "_") for b in ("mpnet_nr", "mpnet_hr")) and "_to_nr" not in p
+    ]
     variants = sorted(set(planners) - set(base))
     assert {"mpnet_nr_random", "mpnet_hr_zeros", "bit_star_to_nr_x1.1"} <= set(variants)
     for name, env_list, planner_list in (("base", envs, base), ("variants", ["s2d"], variants)):
-        run_cli("harness", "-m", f"+env={','.join(env_list)}", f"+planner={','.join(planner_list)}", "scale=tiny",
-            "splits=[unseen]", "rerun=false", "progress=false", f"hydra.sweep.dir={tmp_path / name}",
-            f"cache_dir={tmp_path / 'cache'}")
+        run_cli(
+            "harness",
+            "-m",
+            f"+env={','.join(env_list)}",
+            f"+planner={','.join(planner_list)}",
+            "scale=tiny",
+            "splits=[unseen]",
+            "rerun=false",
+            "progress=false",
+            f"hydra.sweep.dir={tmp_path / name}",
+            f"cache_dir={tmp_path / 'cache'}",
+        )
         files = sorted((tmp_path / name).rglob("trials.mcap"))
         assert len(files) == len(env_list) * len(planner_list)
         for f in files:
@@ -225,35 +308,72 @@ def test_every_env_and_planner_config_runs(tmp_path, run_cli):
 
 
 def test_ablation_under_mpnet_name_is_refused(tmp_path, run_cli):
-    p = run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "planner.proposal=random", "scale=tiny",
-            f"hydra.run.dir={tmp_path}", f"cache_dir={tmp_path / 'cache'}", check=False)
+    p = run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=mpnet_nr",
+        "planner.proposal=random",
+        "scale=tiny",
+        f"hydra.run.dir={tmp_path}",
+        f"cache_dir={tmp_path / 'cache'}",
+        check=False,
+    )
     assert p.returncode == 1 and "config key planner.name" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "cache").exists()
 
 
 def test_joblib_launcher(tmp_path, run_cli):
-    run_cli("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", "rerun=false", "hydra/launcher=joblib",
-        "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={tmp_path}", "-m", "seed=0,1,2")
+    run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=bit_star",
+        "scale=tiny",
+        "rerun=false",
+        "hydra/launcher=joblib",
+        "hydra.launcher.n_jobs=2",
+        f"hydra.sweep.dir={tmp_path}",
+        "-m",
+        "seed=0,1,2",
+    )
     files = sorted(tmp_path.rglob("trials.mcap"))
     seeds = sorted(next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files)
     assert seeds == [0, 1, 2]
 
 
-@pytest.mark.parametrize("override,key", [("budget_s=abc", "budget_s"), ("budget_s=-1", "budget_s"),
-                                          ("seed=-1", "seed"), ("seed=1.5", "seed"), ("splits=[bogus]", "splits"),
-                                          ("env.collision=xyz", "env.collision"), ("rerun=maybe", "rerun"),
-                                          ("env.validation_step=0", "env.validation_step")])
+@pytest.mark.parametrize(
+    "override,key",
+    [
+        ("budget_s=abc", "budget_s"),
+        ("budget_s=-1", "budget_s"),
+        ("seed=-1", "seed"),
+        ("seed=1.5", "seed"),
+        ("splits=[bogus]", "splits"),
+        ("env.collision=xyz", "env.collision"),
+        ("rerun=maybe", "rerun"),
+        ("env.validation_step=0", "env.validation_step"),
+    ],
+)
 def test_bad_config_values(tmp_path, override, key, run_cli):
-    p = run_cli("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
-            check=False)
+    p = run_cli(
+        "harness", "+env=s2d", "+planner=bit_star", "scale=tiny", override, f"hydra.run.dir={tmp_path}", check=False
+    )
     assert p.returncode == 1 and f"config key {key}" in p.stderr and "Traceback" not in p.stderr
 
 
-@pytest.mark.parametrize("override", ["planner.steer_steps=[2.0,-1]", "planner.steer_steps=abc",
-                                      "planner.steer_steps=[true]"])
+@pytest.mark.parametrize(
+    "override", ["planner.steer_steps=[2.0,-1]", "planner.steer_steps=abc", "planner.steer_steps=[true]"]
+)
 def test_bad_steer_steps_fail_before_any_training(tmp_path, override, run_cli):
-    p = run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", override, f"hydra.run.dir={tmp_path}",
-            f"cache_dir={tmp_path / 'cache'}", check=False)
+    p = run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=mpnet_nr",
+        "scale=tiny",
+        override,
+        f"hydra.run.dir={tmp_path}",
+        f"cache_dir={tmp_path / 'cache'}",
+        check=False,
+    )
     assert p.returncode == 1 and "config key planner.steer_steps" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "cache").exists()
 
@@ -262,12 +382,22 @@ def test_resume_refuses_other_workspaces(tmp_path, run_cli, problems_dir):
     doc = json.loads((problems_dir / "s2d.json").read_text())
     a = tmp_path / "a.json"
     a.write_text(json.dumps(doc))
-    run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={a}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    run_cli(
+        "harness", "+env=s2d", "+planner=bit_star", f"problems={a}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}"
+    )
     doc["workspaces"][0]["obstacles"][0]["center"][0] += 1.0
     b = tmp_path / "b.json"
     b.write_text(json.dumps(doc))
-    p = run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={b}", "rerun=false", "resume=true",
-            f"hydra.run.dir={tmp_path / 'r'}", check=False)
+    p = run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=bit_star",
+        f"problems={b}",
+        "rerun=false",
+        "resume=true",
+        f"hydra.run.dir={tmp_path / 'r'}",
+        check=False,
+    )
     assert p.returncode == 1 and "other obstacles" in p.stderr and "Traceback" not in p.stderr
 
 
@@ -276,7 +406,9 @@ def test_summary_lists_failure_reasons(tmp_path, run_cli, problems_dir):
     doc["workspaces"][0]["queries"].append({"start": [25.0, 0.0], "goal": [19.0, 19.0]})
     f = tmp_path / "p.json"
     f.write_text(json.dumps(doc))
-    p = run_cli("harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}")
+    p = run_cli(
+        "harness", "+env=s2d", "+planner=bit_star", f"problems={f}", "rerun=false", f"hydra.run.dir={tmp_path / 'r'}"
+    )
     assert "invalid_query: 1" in p.stdout
 
 
@@ -284,8 +416,18 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
     """MPNet at tiny scale from an empty cache: data and models are built once for a
     two-seed sweep; HR solves everything, every query logs its MPNet stats."""
     cache = tmp_path / "cache"
-    run_cli("harness", "+env=s2d", "+planner=mpnet_hr", "scale=tiny", "rerun=false", "progress=false",
-        f"cache_dir={cache}", f"hydra.sweep.dir={tmp_path / 'sweep'}", "-m", "seed=0,1")
+    run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=mpnet_hr",
+        "scale=tiny",
+        "rerun=false",
+        "progress=false",
+        f"cache_dir={cache}",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        "-m",
+        "seed=0,1",
+    )
     assert len([d for d in (cache / "data").iterdir() if d.is_dir()]) == 1
     assert len([d for d in (cache / "models").iterdir() if d.is_dir()]) == 1
     files = sorted((tmp_path / "sweep").rglob("trials.mcap"))
@@ -295,8 +437,16 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
         queries = [m for t, m in msgs if t == "/query"]
         assert len(queries) == 8 and recheck(msgs) == 8
         assert all({"pnet_calls", "replans", "fallback_used"} <= set(q) for q in queries)
-    run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", "rerun=false", "progress=false",
-        f"cache_dir={cache}", f"hydra.run.dir={tmp_path / 'nr'}")
+    run_cli(
+        "harness",
+        "+env=s2d",
+        "+planner=mpnet_nr",
+        "scale=tiny",
+        "rerun=false",
+        "progress=false",
+        f"cache_dir={cache}",
+        f"hydra.run.dir={tmp_path / 'nr'}",
+    )
     _, msgs = read_mcap(tmp_path / "nr" / "trials.mcap")
     assert recheck(msgs) == sum(m["success"] for t, m in msgs if t == "/query")
     assert not any(m["fallback_used"] for t, m in msgs if t == "/query")
@@ -305,8 +455,16 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
 @pytest.mark.parametrize("env", ["s2d", "rigid"])
 def test_paper_scale_dry_run(tmp_path, env, run_cli):
     """scale=paper composes and runs: the paper's networks, a few batches, a few queries."""
-    p = run_cli("harness", f"+env={env}", "+planner=mpnet_hr", "+experiment=paper_dry_run", "progress=false",
-            "rerun=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.run.dir={tmp_path / 'run'}")
+    p = run_cli(
+        "harness",
+        f"+env={env}",
+        "+planner=mpnet_hr",
+        "+experiment=paper_dry_run",
+        "progress=false",
+        "rerun=false",
+        f"cache_dir={tmp_path / 'cache'}",
+        f"hydra.run.dir={tmp_path / 'run'}",
+    )
     assert "seen" in p.stdout and "unseen" in p.stdout
     manifest = json.loads(next((tmp_path / "cache" / "models").glob("*/manifest.json")).read_text())
     assert manifest["config"]["pnet_hidden"] == [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32]
@@ -319,14 +477,26 @@ def test_table1_experiment_and_report(tmp_path, run_cli):
     """The Table I sweep (narrowed to two planners and two seeds at tiny scale), then the
     report over its folder: every run is in results.csv and Table I."""
     sweep = tmp_path / "sweep"
-    run_cli("harness", "-m", "+experiment=table1", "scale=tiny", "+env=s2d", "+planner=bit_star,mpnet_nr", "seed=0,1",
-        "progress=false", "rerun=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.sweep.dir={sweep}")
+    run_cli(
+        "harness",
+        "-m",
+        "+experiment=table1",
+        "scale=tiny",
+        "+env=s2d",
+        "+planner=bit_star,mpnet_nr",
+        "seed=0,1",
+        "progress=false",
+        "rerun=false",
+        f"cache_dir={tmp_path / 'cache'}",
+        f"hydra.sweep.dir={sweep}",
+    )
     assert len(list(sweep.rglob("trials.mcap"))) == 4
     out = tmp_path / "report"
     run_cli("harness.report", str(sweep), "--out", str(out), "--paper")
     rows = list(csv.DictReader((out / "results.csv").open()))
     assert sorted((r["planner"], r["split"], r["seeds"], r["queries"]) for r in rows) == [
-        (p, s, "2", "8") for p in ("bit_star", "mpnet_nr") for s in ("seen", "unseen")]
+        (p, s, "2", "8") for p in ("bit_star", "mpnet_nr") for s in ("seen", "unseen")
+    ]
     table = (out / "table1.md").read_text()
     assert "MPNet (NR)" in table and "BIT*" in table and "paper" in table
     for fig in ("time_per_planner", "success", "time_boxplot", "example_s2d"):

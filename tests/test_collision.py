@@ -1,5 +1,6 @@
 """Geometry: known answers, batch == single, continuous checks agree with dense sampling,
 and the rigid body's separating-axis test agrees with python-fcl."""
+
 import math
 
 import fcl
@@ -10,8 +11,8 @@ from hypothesis import strategies as st
 
 from mpnet.envs import Workspace, get_spec
 from mpnet.envs.collision import PointChecker
-from mpnet.envs.rigid import RigidChecker
 from mpnet.envs.generators import make_workspace
+from mpnet.envs.rigid import RigidChecker
 from mpnet.motion import interpolate
 
 S2D = get_spec("s2d")
@@ -72,9 +73,13 @@ def test_c3d_batch_equals_single(pts):
 
 def _fcl_rect_collides(q, ws):
     """python-fcl as an independent oracle: 2 x 5 box turned by theta vs the blocks."""
-    body = fcl.CollisionObject(fcl.Box(2.0, 5.0, 1.0), fcl.Transform(
-        np.array([[math.cos(q[2]), -math.sin(q[2]), 0], [math.sin(q[2]), math.cos(q[2]), 0], [0, 0, 1.0]]),
-        np.array([q[0], q[1], 0.0])))
+    body = fcl.CollisionObject(
+        fcl.Box(2.0, 5.0, 1.0),
+        fcl.Transform(
+            np.array([[math.cos(q[2]), -math.sin(q[2]), 0], [math.sin(q[2]), math.cos(q[2]), 0], [0, 0, 1.0]]),
+            np.array([q[0], q[1], 0.0]),
+        ),
+    )
     for c, s in zip(ws.centers, ws.sizes):
         box = fcl.CollisionObject(fcl.Box(s[0], s[1], 1.0), fcl.Transform(np.array([c[0], c[1], 0.0])))
         if fcl.collide(body, box, fcl.CollisionRequest(), fcl.CollisionResult()):
@@ -112,8 +117,10 @@ def test_rigid_rotation_in_place_hits():
     assert ch.is_valid((0.0, 0.0, 0.0)) and ch.is_valid((0.0, 0.0, math.pi))
     assert not ch.motion_valid((0.0, 0.0, 0.0), (0.0, 0.0, 3.0))
     # the shorter arc from 3.0 to -3.0 crosses pi, not 0
-    assert ch.motion_valid((0.0, 0.0, 3.0), (0.0, 0.0, -3.0)) == ch.states_valid(
-        interpolate(RIGID, (0.0, 0.0, 3.0), (0.0, 0.0, -3.0), 0.001)).all()
+    assert (
+        ch.motion_valid((0.0, 0.0, 3.0), (0.0, 0.0, -3.0))
+        == ch.states_valid(interpolate(RIGID, (0.0, 0.0, 3.0), (0.0, 0.0, -3.0), 0.001)).all()
+    )
 
 
 def test_rigid_bounds_are_the_centre():

@@ -24,8 +24,10 @@ def models_dirs(tmp_path_factory):
     for dim in (2, 3):
         folder = tmp_path_factory.mktemp(f"models{dim}")
         enet, pnet = Enet(10 * dim, (8,), 4), Pnet(4 + 2 * dim, dim, (8,))
-        state = {**{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
-                 **{f"encoder.{k}": v for k, v in enet.state_dict().items()}}
+        state = {
+            **{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
+            **{f"encoder.{k}": v for k, v in enet.state_dict().items()},
+        }
         hp = {"pnet": pnet.config(), "encoder": enet.config(), "state_scale": [20.0] * dim, "cloud_scale": [20.0]}
         torch.save({"hyper_parameters": hp, "state_dict": state}, folder / "pnet.ckpt")
         out[dim] = folder
@@ -64,15 +66,16 @@ def _grid(params: dict) -> list[list[str]]:
     """The sweep's jobs, one seed each (seeds build the same objects)."""
     params = {k: (str(v).split(",")[0] if k == "seed" else v) for k, v in params.items()}
     keys = list(params)
-    return [[f"{k}={v}" for k, v in zip(keys, combo)]
-            for combo in itertools.product(*(str(params[k]).split(",") for k in keys))]
+    return [
+        [f"{k}={v}" for k, v in zip(keys, combo)]
+        for combo in itertools.product(*(str(params[k]).split(",") for k in keys))
+    ]
 
 
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
 def test_every_experiment_builds(experiment, compose_config, models_dirs):
     """Each job of the experiment's sweep (or the experiment alone, with an env and a planner)."""
-    hydra_cfg = compose_config([f"+experiment={experiment}", "+env=s2d", "+planner=mpnet_nr"],
-                               return_hydra_config=True)
+    hydra_cfg = compose_config([f"+experiment={experiment}", "+env=s2d", "+planner=mpnet_nr"], return_hydra_config=True)
     params = dict(hydra_cfg.hydra.sweeper.params or {})
     jobs = _grid(params) if params else [["+env=s2d", "+planner=mpnet_nr"]]
     for job in jobs:
@@ -80,8 +83,11 @@ def test_every_experiment_builds(experiment, compose_config, models_dirs):
 
 
 def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models_dirs):
-    for override, key in (("planner.stop=bogus", "planner.stop"), ("planner.proposal=bogus", "planner.proposal"),
-                          ("planner.steer_steps=[0.0]", "planner.steer_steps")):
+    for override, key in (
+        ("planner.stop=bogus", "planner.stop"),
+        ("planner.proposal=bogus", "planner.proposal"),
+        ("planner.steer_steps=[0.0]", "planner.steer_steps"),
+    ):
         planner = "bit_star" if "stop" in override else "mpnet_nr"
         cfg = compose_config(["+env=s2d", f"+planner={planner}", override])
         with pytest.raises(UsageError, match=key):

@@ -1,8 +1,8 @@
 """The data stage: expert paths, the dataset on disk, the artifact cache."""
+
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +12,6 @@ from mpnet.data.store import ArtifactError, content_key, ensure, read_manifest
 from mpnet.envs import get_spec
 from mpnet.envs.generators import make_workspace
 from mpnet.motion import verify_path
-
 
 
 @pytest.mark.parametrize("env", ["s2d", "rigid"])
@@ -78,10 +77,19 @@ def test_store_clears_the_temp_folder_of_a_killed_builder(tmp_path):
 @pytest.mark.slow
 def test_data_cli_builds_once_under_concurrency(tmp_path, repo):
     """Two jobs asking for the same dataset at once: one builds, the other waits and reuses."""
-    cmd = [sys.executable, "-m", "harness.data", "+env=s2d", "scale=tiny", "progress=false",
-           f"cache_dir={tmp_path}", f"hydra.run.dir={tmp_path / 'run'}"]
-    procs = [subprocess.Popen(cmd, cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for _ in range(2)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "harness.data",
+        "+env=s2d",
+        "scale=tiny",
+        "progress=false",
+        f"cache_dir={tmp_path}",
+        f"hydra.run.dir={tmp_path / 'run'}",
+    ]
+    procs = [
+        subprocess.Popen(cmd, cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)
+    ]
     outs = [p.communicate(timeout=600) for p in procs]
     assert all(p.returncode == 0 for p in procs), outs
     firsts = sorted(o[0].splitlines()[0].split(":")[0] for o in outs)
@@ -110,13 +118,17 @@ def test_cached_testset_is_the_generated_one(tmp_path, compose_config):
     assert [(w.id, w.split) for w in got.workspaces] == [(w.id, w.split) for w in want.workspaces]
     for a, b in zip(got.workspaces, want.workspaces):
         assert np.array_equal(a.centers, b.centers) and np.array_equal(a.sizes, b.sizes)
-    assert [(q.id, q.workspace_id, q.split) for q in got.queries] == [(q.id, q.workspace_id, q.split)
-                                                                       for q in want.queries]
-    assert all(np.array_equal(a.start, b.start) and np.array_equal(a.goal, b.goal)
-               for a, b in zip(got.queries, want.queries))
+    assert [(q.id, q.workspace_id, q.split) for q in got.queries] == [
+        (q.id, q.workspace_id, q.split) for q in want.queries
+    ]
+    assert all(
+        np.array_equal(a.start, b.start) and np.array_equal(a.goal, b.goal) for a, b in zip(got.queries, want.queries)
+    )
     # every query carries its planned reference cost, at least the straight-line distance
-    assert all(q.reference_cost is not None and q.reference_cost >= np.linalg.norm(q.goal - q.start) - 1e-9
-               for q in got.queries)
+    assert all(
+        q.reference_cost is not None and q.reference_cost >= np.linalg.norm(q.goal - q.start) - 1e-9
+        for q in got.queries
+    )
     (folder,) = (tmp_path / "testset").glob("*/")
     assert read_manifest(folder, folder.name)["queries"] == {"seen": 4, "unseen": 4}
     stamp = (folder / "seen.json").stat().st_mtime_ns

@@ -1,4 +1,5 @@
 """MPNet's networks, their numpy export, the LightningModules and DataModules."""
+
 import math
 import subprocess
 import sys
@@ -10,10 +11,25 @@ import torch
 import torch.nn.functional as F
 
 import mpnet.models.networks as networks
-from mpnet.models import (PNET_HIDDEN, CloudDataModule, ContractiveAE, Decoder, Enet, EnetModule,
-                          MPNetDataModule, Normalizer, Pnet, PnetModule, enet_numpy,
-                          load_enet_checkpoint, load_pnet_checkpoint, paper_s2d, pnet_numpy,
-                          split_indices, waypoint_pairs)
+from mpnet.models import (
+    PNET_HIDDEN,
+    CloudDataModule,
+    ContractiveAE,
+    Decoder,
+    Enet,
+    EnetModule,
+    MPNetDataModule,
+    Normalizer,
+    Pnet,
+    PnetModule,
+    enet_numpy,
+    load_enet_checkpoint,
+    load_pnet_checkpoint,
+    paper_s2d,
+    pnet_numpy,
+    split_indices,
+    waypoint_pairs,
+)
 
 SCALES_2D = {"state_scale": [20.0, 20.0], "cloud_scale": 20.0}  # the s2d bounds: [-20, 20]^2
 
@@ -105,7 +121,7 @@ def test_penalty_uses_only_encoder_weights():
     torch.manual_seed(0)
     enet = Enet(40, (16, 8), 4)
     ae = ContractiveAE(enet, Decoder.mirror(enet), lam=0.01)
-    expected = 0.01 * sum((m.weight ** 2).sum() for m in enet.net if isinstance(m, torch.nn.Linear))
+    expected = 0.01 * sum((m.weight**2).sum() for m in enet.net if isinstance(m, torch.nn.Linear))
     assert torch.allclose(ae.penalty(), expected)
     with torch.no_grad():
         for p in ae.decoder.parameters():
@@ -191,9 +207,12 @@ def test_numpy_export_with_normalizer_takes_raw_states():
     z = np.linspace(-1, 1, 4)
     x, g = np.array([5.0, -3.0, 1.0]), np.array([-12.0, 15.0, -2.5])
     with torch.inference_mode():
-        ref = pnet.step(torch.tensor(z, dtype=torch.float32),
-                        torch.tensor(norm.normalize(x), dtype=torch.float32),
-                        torch.tensor(norm.normalize(g), dtype=torch.float32), stochastic=False)
+        ref = pnet.step(
+            torch.tensor(z, dtype=torch.float32),
+            torch.tensor(norm.normalize(x), dtype=torch.float32),
+            torch.tensor(norm.normalize(g), dtype=torch.float32),
+            stochastic=False,
+        )
     np.testing.assert_allclose(step(z, x, g), norm.denormalize(ref.numpy()), rtol=1e-4, atol=1e-4)
     np.testing.assert_allclose(step(z, x[None], g[None])[0], step(z, x, g), rtol=1e-6)
     with pytest.raises(ValueError):
@@ -304,9 +323,15 @@ def test_mpnet_datamodule_batches():
 
 
 def _trainer(tmp_path):
-    return L.Trainer(max_epochs=2, accelerator="cpu", logger=False, enable_checkpointing=True,
-                     default_root_dir=tmp_path, enable_progress_bar=False,
-                     enable_model_summary=False)
+    return L.Trainer(
+        max_epochs=2,
+        accelerator="cpu",
+        logger=False,
+        enable_checkpointing=True,
+        default_root_dir=tmp_path,
+        enable_progress_bar=False,
+        enable_model_summary=False,
+    )
 
 
 def _ae_loss(module: EnetModule, clouds: np.ndarray) -> float:
@@ -316,8 +341,7 @@ def _ae_loss(module: EnetModule, clouds: np.ndarray) -> float:
 
 def _pnet_loss(module: PnetModule, data) -> float:
     clouds, ws, x_t, x_goal, x_next = (torch.as_tensor(a) for a in data)
-    batch = {"clouds": clouds.float(), "ws": ws, "x_t": x_t.float(), "x_goal": x_goal.float(),
-             "x_next": x_next.float()}
+    batch = {"clouds": clouds.float(), "ws": ws, "x_t": x_t.float(), "x_goal": x_goal.float(), "x_next": x_next.float()}
     with torch.no_grad():
         return float(module._loss(batch, stochastic=False)[0])
 
@@ -330,8 +354,7 @@ def test_train_enet_then_pnet_and_reload(tmp_path):
     rng = np.random.default_rng(0)
     ae_clouds = (rng.normal(size=(512, 3)) @ rng.normal(size=(3, 120)) * 4).astype(np.float32)
     enet = Enet(120, (32, 16), 6)
-    emod = EnetModule(ContractiveAE(enet, Decoder.mirror(enet)), lr=1e-2, lam=1e-4, optimizer="adam",
-                      cloud_scale=20.0)
+    emod = EnetModule(ContractiveAE(enet, Decoder.mirror(enet)), lr=1e-2, lam=1e-4, optimizer="adam", cloud_scale=20.0)
     before = _ae_loss(emod, ae_clouds)
     trainer = _trainer(tmp_path / "enet")
     trainer.fit(emod, CloudDataModule(ae_clouds, batch_size=16, val_fraction=0.25, seed=0))
@@ -384,8 +407,7 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
     with torch.no_grad():
         codes = mod.encode(torch.from_numpy(clouds).float()).numpy()
     by_cloud = MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0)
-    by_code = MPNetDataModule(codes, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0,
-                              features="codes")
+    by_code = MPNetDataModule(codes, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0, features="codes")
     by_cloud.setup("fit")
     by_code.setup("fit")
     (a,), (b,) = list(by_cloud.val_dataloader()), list(by_code.val_dataloader())
@@ -403,8 +425,9 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
 def test_pnet_module_end_to_end_and_checks():
     torch.manual_seed(0)
     enet = Enet(120, (16,), 4)
-    mod = PnetModule(Pnet(4 + 6, 3, (16, 8)), enet, freeze_encoder=False,
-                     state_scale=[20.0, 20.0, math.pi], cloud_scale=20.0)
+    mod = PnetModule(
+        Pnet(4 + 6, 3, (16, 8)), enet, freeze_encoder=False, state_scale=[20.0, 20.0, math.pi], cloud_scale=20.0
+    )
     opt = mod.configure_optimizers()
     n_opt = sum(p.numel() for grp in opt.param_groups for p in grp["params"])
     assert n_opt == sum(p.numel() for p in mod.parameters())
@@ -412,8 +435,7 @@ def test_pnet_module_end_to_end_and_checks():
     batch = (torch.randn(5, 120), torch.randn(5, 3), torch.randn(5, 3), torch.randn(5, 3))
     mod._loss(batch, stochastic=True)[0].backward()
     assert all(p.grad is not None for p in enet.parameters())
-    frozen = PnetModule(Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi],
-                        cloud_scale=20.0)
+    frozen = PnetModule(Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi], cloud_scale=20.0)
     n_opt = sum(p.numel() for grp in frozen.configure_optimizers().param_groups for p in grp["params"])
     assert n_opt == sum(p.numel() for p in frozen.pnet.parameters())
     with pytest.raises(ValueError):
@@ -424,6 +446,8 @@ def test_pnet_module_end_to_end_and_checks():
 
 @pytest.mark.slow
 def test_importing_the_package_does_not_import_lightning():
-    code = ("import sys, mpnet.models, mpnet.models.networks, mpnet.models.checkpoint; "
-            "assert 'lightning' not in sys.modules and 'pytorch_lightning' not in sys.modules")
+    code = (
+        "import sys, mpnet.models, mpnet.models.networks, mpnet.models.checkpoint; "
+        "assert 'lightning' not in sys.modules and 'pytorch_lightning' not in sys.modules"
+    )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

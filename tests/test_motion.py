@@ -1,4 +1,5 @@
 """Motion primitives and the fine re-check."""
+
 import math
 
 import numpy as np
@@ -74,9 +75,11 @@ def test_verify_catches_a_grazing_corner_that_planning_would_refuse():
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10)),
-       st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10)),
-       st.floats(0.01, 1.0))
+@given(
+    st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10)),
+    st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10)),
+    st.floats(0.01, 1.0),
+)
 def test_interpolate_step_bound(a, b, step):
     pts = interpolate(RIGID, a, b, step)
     assert np.allclose(pts[0], a) and np.isclose(pts[-1][:2], b[:2]).all()
@@ -86,13 +89,15 @@ def test_interpolate_step_bound(a, b, step):
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.lists(st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-4, 4)), min_size=2, max_size=6),
-       st.floats(0.05, 2.0))
+@given(
+    st.lists(st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-4, 4)), min_size=2, max_size=6),
+    st.floats(0.05, 2.0),
+)
 def test_interpolate_path_is_interpolate_per_segment(path, step):
     from mpnet.motion import interpolate_path
 
     for spec in (RIGID, get_spec("s2d")):
-        p = np.array(path)[:, :spec.state_dim]
+        p = np.array(path)[:, : spec.state_dim]
         want = np.concatenate([interpolate(spec, a, b, step) for a, b in zip(p[:-1], p[1:])])
         assert np.allclose(interpolate_path(spec, p, step), want)
 

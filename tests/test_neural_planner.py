@@ -1,11 +1,12 @@
 """MPNet's planning machinery (NeuralPlanner, LSC, replanning, HR fallback) driven by
 simple proposal functions in place of a trained Pnet."""
+
 import numpy as np
 import pytest
 
+from mpnet.data.queries import make_queries
 from mpnet.envs import Workspace, get_spec
 from mpnet.envs.generators import make_workspace
-from mpnet.data.queries import make_queries
 from mpnet.motion import verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, Problem
 from mpnet.planners.classical import OmplPlanner
@@ -20,6 +21,7 @@ def straight(step_len=3.0):
         d = goal - x
         n = np.linalg.norm(d[:2])
         return x + d * min(1.0, step_len / max(n, 1e-9)) + rng.normal(0, 0.5, size=x.shape)
+
     return step
 
 
@@ -31,13 +33,21 @@ def random_free(spec, ws):
             q = rng.uniform(spec.lower, spec.upper)
             if checker.is_valid(q.tolist()):
                 return q
+
     return step
 
 
 def make(step, hybrid, seed=0, steer_steps=None):
-    return MPNetPlanner("mpnet_hr" if hybrid else "mpnet_nr", encode=lambda cloud: np.zeros(4), step=step,
-                        cloud=CLOUD, hybrid=hybrid, seed=seed,
-                        fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None, steer_steps=steer_steps)
+    return MPNetPlanner(
+        "mpnet_hr" if hybrid else "mpnet_nr",
+        encode=lambda cloud: np.zeros(4),
+        step=step,
+        cloud=CLOUD,
+        hybrid=hybrid,
+        seed=seed,
+        fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
+        steer_steps=steer_steps,
+    )
 
 
 @pytest.mark.parametrize("hybrid", [False, True])
@@ -76,8 +86,10 @@ def test_invalid_query_fails_fast():
 def test_same_seed_same_path():
     ws = make_workspace(S2D, 4, "seen")
     q = make_queries(S2D, ws, 1, seed=2, split="seen")[0]
-    paths = [make(straight(), False, seed=7).solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal), 5.0).path
-             for _ in range(2)]
+    paths = [
+        make(straight(), False, seed=7).solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal), 5.0).path
+        for _ in range(2)
+    ]
     assert paths[0] == paths[1]
 
 
@@ -119,9 +131,15 @@ def test_ablated_proposals_never_call_pnet(proposal):
     ws = make_workspace(S2D, 4, "seen")
     queries = make_queries(S2D, ws, 8, seed=3, split="seen")
     for hybrid in (False, True):
-        planner = MPNetPlanner("x", encode=lambda cloud: np.zeros(4), step=never, cloud=CLOUD,
-                               hybrid=hybrid, fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
-                               proposal=proposal)
+        planner = MPNetPlanner(
+            "x",
+            encode=lambda cloud: np.zeros(4),
+            step=never,
+            cloud=CLOUD,
+            hybrid=hybrid,
+            fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
+            proposal=proposal,
+        )
         solved = 0
         for q in queries:
             res = planner.solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal), 5.0)
@@ -159,6 +177,7 @@ class FlakyFallback:
         import time
 
         from mpnet.planners import Result
+
         self.budgets.append(budget_s)
         if len(self.budgets) <= self.misses:
             time.sleep(budget_s)
@@ -172,14 +191,28 @@ def test_hybrid_restarts_a_timed_out_fallback_with_doubling_slices():
     p = Problem(S2D, ws, S2D.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
     stuck = lambda z, x, goal, rng: x  # noqa: E731
     fallback = FlakyFallback(misses=2)
-    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=CLOUD,
-                           hybrid=True, fallback=fallback, fallback_restart_s=0.05)
+    planner = MPNetPlanner(
+        "mpnet_hr",
+        encode=lambda cloud: np.zeros(4),
+        step=stuck,
+        cloud=CLOUD,
+        hybrid=True,
+        fallback=fallback,
+        fallback_restart_s=0.05,
+    )
     res = planner.solve(p, 5.0)
     assert res.solved and verify_path(S2D, ws, res.path, p.start, p.goal) is None
     assert fallback.budgets == pytest.approx([0.05, 0.1, 0.2])
     assert res.stats["fallback_calls"] == 3
     once = FlakyFallback(misses=1)
-    planner = MPNetPlanner("mpnet_hr", encode=lambda cloud: np.zeros(4), step=stuck, cloud=CLOUD,
-                           hybrid=True, fallback=once, fallback_restart_s=None)
+    planner = MPNetPlanner(
+        "mpnet_hr",
+        encode=lambda cloud: np.zeros(4),
+        step=stuck,
+        cloud=CLOUD,
+        hybrid=True,
+        fallback=once,
+        fallback_restart_s=None,
+    )
     res = planner.solve(p, 0.5)  # one run with the whole budget left: it times out, nothing is left
     assert not res.solved and len(once.budgets) == 1 and once.budgets[0] > 0.4

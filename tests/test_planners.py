@@ -1,5 +1,6 @@
 """OMPL planners behind the Planner protocol: solutions pass the fine re-check, bad
 endpoints fail fast, budgets and cost targets are honoured."""
+
 import math
 import time
 
@@ -25,10 +26,13 @@ WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
 
 
 @pytest.mark.parametrize("algorithm", sorted(ALGORITHMS))
-@pytest.mark.parametrize("env,start,goal", [
-    ("s2d", (-10.0, 0.0), (10.0, 0.0)),
-    ("rigid", (-10.0, 0.0, 0.0), (10.0, 0.0, 1.5)),
-])
+@pytest.mark.parametrize(
+    "env,start,goal",
+    [
+        ("s2d", (-10.0, 0.0), (10.0, 0.0)),
+        ("rigid", (-10.0, 0.0, 0.0), (10.0, 0.0, 1.5)),
+    ],
+)
 def test_solves_around_a_wall(algorithm, env, start, goal):
     planner = OmplPlanner(algorithm, algorithm)
     assert isinstance(planner, Planner)
@@ -44,6 +48,7 @@ def test_c3d_generated_workspace():
     spec = get_spec("c3d")
     ws = make_workspace(spec, 0, "seen")
     from mpnet.data.queries import make_queries
+
     q = make_queries(spec, ws, 3, seed=0, split="seen")
     for query in q:
         p = problem("c3d", ws, query.start, query.goal)
@@ -96,12 +101,14 @@ def test_bad_planner_config():
         OmplPlanner("x", "prm_star")
     with pytest.raises(ValueError, match="parameter"):
         OmplPlanner("x", "bit_star", params={"no_such_knob": 1}).solve(
-            problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0)), 1.0)
+            problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0)), 1.0
+        )
 
 
 def test_params_are_applied():
     res = OmplPlanner("x", "rrt_star", range=0.5, params={"rewire_factor": 1.2}).solve(
-        problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0)), 5.0)
+        problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0)), 5.0
+    )
     assert res.solved
     seg = [math.dist(a, b) for a, b in zip(res.path[:-1], res.path[1:])]
     assert max(seg) <= 0.5 + 1e-9

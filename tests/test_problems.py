@@ -1,4 +1,5 @@
 """Problem files (DESIGN §6): loading, validation errors, dump/load round trip."""
+
 from __future__ import annotations
 
 import json
@@ -12,12 +13,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.specs import SPECS
 from mpnet.envs.robots import PointRobot
 from mpnet.envs.spaces import EuclideanSpace
 from mpnet.envs.spec import EnvSpec
-from mpnet.envs.workspace import Query, Workspace
 from mpnet.envs.spec import TestSet as TSet  # not "Test*": pytest would try to collect it
+from mpnet.envs.specs import SPECS
+from mpnet.envs.workspace import Query, Workspace
 from mpnet.problems import FORMAT, ProblemFileError, dump_problems, load_problems
 
 DATA = Path(__file__).parent / "data" / "problems"
@@ -91,12 +92,21 @@ def _write(tmp_path: Path, doc_or_text, name: str = "p.json") -> Path:
 
 def _minimal(env: str = "s2d") -> dict:
     spec = SPECS[env]
-    return {"format": FORMAT, "env": env, "workspaces": [{
-        "id": "w", "obstacles": [{"center": [0.0] * spec.workspace_dim, "size": [5.0] * spec.workspace_dim}],
-        "queries": [{"start": [-15.0] * spec.state_dim, "goal": [15.0] * spec.state_dim}]}]}
+    return {
+        "format": FORMAT,
+        "env": env,
+        "workspaces": [
+            {
+                "id": "w",
+                "obstacles": [{"center": [0.0] * spec.workspace_dim, "size": [5.0] * spec.workspace_dim}],
+                "queries": [{"start": [-15.0] * spec.state_dim, "goal": [15.0] * spec.state_dim}],
+            }
+        ],
+    }
 
 
 # --------------------------------------------------------------------------- bad files
+
 
 def test_every_bad_file_is_in_the_table():
     on_disk = {p.name for p in DATA.glob("bad_*.json")}
@@ -195,6 +205,7 @@ def test_huge_integer_literal_is_not_finite(tmp_path):
 
 # --------------------------------------------------------------------------- valid files
 
+
 def _box_distance(p, centers, sizes) -> np.ndarray:
     d = np.maximum(np.abs(np.asarray(p) - centers) - sizes / 2, 0)
     return np.linalg.norm(d, axis=1)
@@ -282,14 +293,23 @@ def test_workspace_without_queries_is_fine_when_others_have_some(tmp_path):
 
 def test_custom_spec_not_in_specs_loads_when_names_match(tmp_path):
     spec = EnvSpec("arm7", EuclideanSpace(((-3.0, 3.0),) * 7), PointRobot(), 3, generator=None)
-    doc = {"format": FORMAT, "env": "arm7", "workspaces": [{
-        "id": "table", "obstacles": [{"center": [0.5, 0, 0.2], "size": [1, 1, 0.4]}],
-        "queries": [{"start": [0.0] * 7, "goal": [0.5] * 7}]}]}
+    doc = {
+        "format": FORMAT,
+        "env": "arm7",
+        "workspaces": [
+            {
+                "id": "table",
+                "obstacles": [{"center": [0.5, 0, 0.2], "size": [1, 1, 0.4]}],
+                "queries": [{"start": [0.0] * 7, "goal": [0.5] * 7}],
+            }
+        ],
+    }
     ts = load_problems(_write(tmp_path, doc), spec)
     assert ts.queries[0].goal.shape == (7,)
 
 
 # --------------------------------------------------------------------------- dump / load
+
 
 def _assert_same(a: TSet, b: TSet):
     assert a.spec == b.spec
@@ -298,7 +318,12 @@ def _assert_same(a: TSet, b: TSet):
         assert np.array_equal(wa.centers, wb.centers) and np.array_equal(wa.sizes, wb.sizes)
     assert len(a.queries) == len(b.queries)
     for qa, qb in zip(a.queries, b.queries):
-        assert (qa.id, qa.workspace_id, qa.split, qa.reference_cost) == (qb.id, qb.workspace_id, qb.split, qb.reference_cost)
+        assert (qa.id, qa.workspace_id, qa.split, qa.reference_cost) == (
+            qb.id,
+            qb.workspace_id,
+            qb.split,
+            qb.reference_cost,
+        )
         assert np.array_equal(qa.start, qb.start) and np.array_equal(qa.goal, qb.goal)
 
 
@@ -317,11 +342,15 @@ def test_fixture_round_trip(env, tmp_path):
 def test_dump_generated_test_set_with_splits(tmp_path):
     spec = SPECS["s2d"]
     box = dict(centers=[[0.0, 0.0]], sizes=[[5.0, 5.0]])
-    ts = TSet(spec, [Workspace("0", "seen", **box), Workspace("100", "unseen", **box)], [
-        Query("0/0", "0", "seen", [-15, 0], [15, 0]),
-        Query("100/0", "100", "unseen", [0, -15], [0, 15], reference_cost=30.0),
-        Query("0/1", "0", "seen", [-15, 1], [15, 1]),
-    ])
+    ts = TSet(
+        spec,
+        [Workspace("0", "seen", **box), Workspace("100", "unseen", **box)],
+        [
+            Query("0/0", "0", "seen", [-15, 0], [15, 0]),
+            Query("100/0", "100", "unseen", [0, -15], [0, 15], reference_cost=30.0),
+            Query("0/1", "0", "seen", [-15, 1], [15, 1]),
+        ],
+    )
     out = tmp_path / "gen.json"
     dump_problems(out, ts)
     back = load_problems(out, spec)
@@ -335,8 +364,11 @@ def test_dump_generated_test_set_with_splits(tmp_path):
 def test_dump_rejects_ambiguous_ids_across_splits(tmp_path):
     spec = SPECS["s2d"]
     box = dict(centers=[[0.0, 0.0]], sizes=[[5.0, 5.0]])
-    ts = TSet(spec, [Workspace("0", "seen", **box), Workspace("0", "unseen", **box)],
-                 [Query("0/0", "0", "seen", [1, 1], [2, 2])])
+    ts = TSet(
+        spec,
+        [Workspace("0", "seen", **box), Workspace("0", "unseen", **box)],
+        [Query("0/0", "0", "seen", [1, 1], [2, 2])],
+    )
     with pytest.raises(ValueError, match="split="):
         dump_problems(tmp_path / "x.json", ts)
     dump_problems(tmp_path / "x.json", ts, split="seen")
@@ -345,8 +377,11 @@ def test_dump_rejects_ambiguous_ids_across_splits(tmp_path):
 
 def test_dump_refuses_what_load_would_reject(tmp_path):
     spec = SPECS["s2d"]
-    ts = TSet(spec, [Workspace("w", "file", [[0.0, 0.0]], [[5.0, 5.0]])],
-                 [Query("w/0", "w", "file", [1.0, math.nan], [2.0, 2.0])])
+    ts = TSet(
+        spec,
+        [Workspace("w", "file", [[0.0, 0.0]], [[5.0, 5.0]])],
+        [Query("w/0", "w", "file", [1.0, math.nan], [2.0, 2.0])],
+    )
     out = tmp_path / "x.json"
     with pytest.raises(ProblemFileError, match=r"workspace 'w' \(#0\), query #0: start\[1\]"):
         dump_problems(out, ts)

@@ -1,5 +1,6 @@
 """Reference path costs: the exact 2D shortest path (known answers, and never above a
 verified planned path) and the planned reference of the other envs."""
+
 import math
 
 import numpy as np
@@ -8,19 +9,23 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mpnet.data.queries import make_queries
-from mpnet.planners.reference import planned_cost, reference_costs, shortest_path_cost_2d, visible
 from mpnet.envs import Workspace, get_spec
 from mpnet.envs.generators import make_workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
 from mpnet.planners import Problem
 from mpnet.planners.classical import OmplPlanner
+from mpnet.planners.reference import planned_cost, reference_costs, shortest_path_cost_2d, visible
 
 S2D = get_spec("s2d")
 
 
 def boxes(*specs):
-    return Workspace("w", "file", np.array([c for c, _ in specs], float).reshape(-1, 2),
-                     np.array([s for _, s in specs], float).reshape(-1, 2))
+    return Workspace(
+        "w",
+        "file",
+        np.array([c for c, _ in specs], float).reshape(-1, 2),
+        np.array([s for _, s in specs], float).reshape(-1, 2),
+    )
 
 
 def test_free_workspace_is_the_straight_line():
@@ -46,10 +51,10 @@ def test_visibility_along_edges_and_through_corners():
     p = np.array([[0.0, 0.0], [-1.0, -1.0], [-1.0, 1.0]])
     q = np.array([[2.0, 0.0], [3.0, 3.0], [3.0, 1.0]])
     seen = visible(p, q, lo, hi)
-    assert seen[0, 0]          # along the bottom edge
-    assert not seen[1, 1]      # the diagonal through the box
-    assert not seen[2, 2]      # straight through the middle
-    assert seen[1, 0]          # (-1,-1) -> (2,0) passes below, touching the corner (2,0)
+    assert seen[0, 0]  # along the bottom edge
+    assert not seen[1, 1]  # the diagonal through the box
+    assert not seen[2, 2]  # straight through the middle
+    assert seen[1, 0]  # (-1,-1) -> (2,0) passes below, touching the corner (2,0)
 
 
 @settings(max_examples=15, deadline=None)
@@ -63,8 +68,7 @@ def test_exact_reference_never_exceeds_a_planned_path(ws_index, seed):
         (q,) = make_queries(spec, ws, 1, seed=seed, split="seen")
         ref = shortest_path_cost_2d(spec, ws, q.start, q.goal)
         checker = spec.make_checker(ws)
-        res = OmplPlanner("bit_star", "bit_star", stop="first").solve(Problem(spec, ws, checker, q.start, q.goal),
-                                                                      2.0)
+        res = OmplPlanner("bit_star", "bit_star", stop="first").solve(Problem(spec, ws, checker, q.start, q.goal), 2.0)
         assert res.solved
         path = lazy_states_contraction(checker, res.path)
         assert verify_path(spec, ws, path, q.start, q.goal) is None

@@ -1,5 +1,6 @@
 """`python -m harness.report` (DESIGN §6 "Report"): statistics from known logs, Table I with
 and without the paper's numbers, figures, the OMPL benchmark database, bad files."""
+
 from __future__ import annotations
 
 import functools
@@ -18,11 +19,18 @@ from mcap.writer import Writer
 
 from harness.log import TrialLog
 from harness.report.__main__ import main
+from harness.report.facts import PlannerFacts, facts_from_config, learn
 from harness.report.figures import pick_example
 from harness.report.load import load, queries_frame
-from harness.report.facts import PlannerFacts, facts_from_config, learn
-from harness.report.names import (BOOT_N, ablation_of, comparator_of, env_rank, equal_quality_of, planner_label,
-                                  planner_rank)
+from harness.report.names import (
+    BOOT_N,
+    ablation_of,
+    comparator_of,
+    env_rank,
+    equal_quality_of,
+    planner_label,
+    planner_rank,
+)
 from harness.report.stats import boot_interval, boot_medians, fisher_p, wilson
 from mpnet.envs.spaces import SE2Space
 from mpnet.envs.specs import SPECS
@@ -31,7 +39,7 @@ from mpnet.envs.workspace import Workspace
 REPO = Path(__file__).resolve().parents[1]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def planner_yaml(planner: str) -> str:
     """The `planner:` section a real run of this planner logs (its composed config), so the
     report reads the planner's facts as it does from real logs; a bare name otherwise."""
@@ -52,15 +60,25 @@ def ws(env: str, wid: str, split: str) -> Workspace:
     return Workspace(wid, split, np.array([[0.0] * wd, [10.0] * wd]), np.array([[4.0] * wd, [3.0] * wd]))
 
 
-def write_log(run_dir: Path, env: str, planner: str, seed, queries: list[dict], config: str | None = None,
-              **run_kw) -> Path:
+def write_log(
+    run_dir: Path, env: str, planner: str, seed, queries: list[dict], config: str | None = None, **run_kw
+) -> Path:
     """A trials.mcap with the given queries: dicts with split, wid, i, ok, t, and optional
     cost, checks and planner stats (any query field); paths run start -> (0, 15) -> goal."""
     spec = SPECS[env]
     d = spec.state_dim
-    run = {"env": env, "planner": planner, "seed": seed, "split": "seen+unseen",
-           "config": config or f"budget_s: 10.0\n{planner_yaml(planner)}", "git_rev": "abc1234",
-           "versions": {"ompl": "2.0.1"}, "host": "testhost", "started_at": "2026-11-21T12:00:00+00:00", **run_kw}
+    run = {
+        "env": env,
+        "planner": planner,
+        "seed": seed,
+        "split": "seen+unseen",
+        "config": config or f"budget_s: 10.0\n{planner_yaml(planner)}",
+        "git_rev": "abc1234",
+        "versions": {"ompl": "2.0.1"},
+        "host": "testhost",
+        "started_at": "2026-11-21T12:00:00+00:00",
+        **run_kw,
+    }
     with TrialLog(run_dir, run, spec, rerun=False) as log:
         for q in queries:
             log.add_workspace(ws(env, q["wid"], q["split"]))
@@ -68,11 +86,22 @@ def write_log(run_dir: Path, env: str, planner: str, seed, queries: list[dict], 
             mid[1] = 15.0
             if isinstance(spec.space, SE2Space):
                 start[2], mid[2], goal[2] = 0.0, 1.0, 0.5
-            rec = dict(query_id=f"{q['wid']}/{q['i']}", workspace_id=q["wid"], split=q["split"], start=start,
-                       goal=goal, success=q["ok"], failure=None if q["ok"] else q.get("failure", "timeout"),
-                       path=[start, mid, goal] if q["ok"] else [], time_s=q["t"], cpu_s=q["t"],
-                       path_cost=q.get("cost", 50.0) if q["ok"] else None, collision_checks=q.get("checks", 100),
-                       state_checks=1, motion_checks=1)
+            rec = dict(
+                query_id=f"{q['wid']}/{q['i']}",
+                workspace_id=q["wid"],
+                split=q["split"],
+                start=start,
+                goal=goal,
+                success=q["ok"],
+                failure=None if q["ok"] else q.get("failure", "timeout"),
+                path=[start, mid, goal] if q["ok"] else [],
+                time_s=q["t"],
+                cpu_s=q["t"],
+                path_cost=q.get("cost", 50.0) if q["ok"] else None,
+                collision_checks=q.get("checks", 100),
+                state_checks=1,
+                motion_checks=1,
+            )
             rec.update(q.get("stats", {}))
             log.add_query(rec)
     return run_dir / "trials.mcap"
@@ -93,18 +122,37 @@ def known(tmp_path):
     """s2d: mpnet_nr seeds 0 and 1, bit_star seed 0 logged twice (two files)."""
     logs = tmp_path / "logs"
     nr = {"pnet_calls": 4, "replans": 1, "fallback_used": False}
-    write_log(logs / "nr0", "s2d", "mpnet_nr", 0, [
-        Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10, stats=nr),
-        Q("seen", "0", 1, True, 0.2, cost=20.0, checks=20, stats={**nr, "pnet_calls": 6, "replans": 0}),
-        Q("seen", "1", 0, True, 0.3, cost=30.0, checks=30, stats={**nr, "fallback_used": True}),
-        Q("seen", "1", 1, False, 9.0, checks=999, stats=nr),
-        Q("unseen", "100", 0, True, 0.5, cost=5.0, stats=nr)])
-    write_log(logs / "nr1", "s2d", "mpnet_nr", 1, [
-        Q("seen", "0", 0, True, 0.4, cost=40.0, checks=40, stats=nr),
-        Q("seen", "0", 1, False, 1.0, failure="no_solution", stats=nr)])
+    write_log(
+        logs / "nr0",
+        "s2d",
+        "mpnet_nr",
+        0,
+        [
+            Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10, stats=nr),
+            Q("seen", "0", 1, True, 0.2, cost=20.0, checks=20, stats={**nr, "pnet_calls": 6, "replans": 0}),
+            Q("seen", "1", 0, True, 0.3, cost=30.0, checks=30, stats={**nr, "fallback_used": True}),
+            Q("seen", "1", 1, False, 9.0, checks=999, stats=nr),
+            Q("unseen", "100", 0, True, 0.5, cost=5.0, stats=nr),
+        ],
+    )
+    write_log(
+        logs / "nr1",
+        "s2d",
+        "mpnet_nr",
+        1,
+        [
+            Q("seen", "0", 0, True, 0.4, cost=40.0, checks=40, stats=nr),
+            Q("seen", "0", 1, False, 1.0, failure="no_solution", stats=nr),
+        ],
+    )
     for k in ("a", "b"):
-        write_log(logs / k / "bit0", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 2.0, cost=12.0),
-                                                            Q("seen", "0", 1, True, 3.0, cost=14.0)])
+        write_log(
+            logs / k / "bit0",
+            "s2d",
+            "bit_star",
+            0,
+            [Q("seen", "0", 0, True, 2.0, cost=12.0), Q("seen", "0", 1, True, 3.0, cost=14.0)],
+        )
     return logs
 
 
@@ -114,29 +162,34 @@ def test_statistics_exact(tmp_path, known, capsys):
     cap = capsys.readouterr()
     assert "read 4 trial logs" in cap.out and "skipped 0" in cap.out
     # bit_star seed 0 is logged twice: counted twice, with one warning naming both files
-    dup = f"warning: s2d bit_star seed 0: 2 queries logged in more than one file, all counted: " \
-          f"{known / 'a' / 'bit0' / 'trials.mcap'}, {known / 'b' / 'bit0' / 'trials.mcap'}"
+    dup = (
+        f"warning: s2d bit_star seed 0: 2 queries logged in more than one file, all counted: "
+        f"{known / 'a' / 'bit0' / 'trials.mcap'}, {known / 'b' / 'bit0' / 'trials.mcap'}"
+    )
     assert cap.err.strip().splitlines() == [dup]
     readme = (out / "README.md").read_text()
     assert "## Warnings" in readme and dup.removeprefix("warning: ") in readme
     res = pd.read_csv(out / "results.csv", keep_default_na=False, na_values=[""])
-    assert list(zip(res["split"], res["planner"])) == [("seen", "mpnet_nr"), ("seen", "bit_star"),
-                                                       ("unseen", "mpnet_nr")]
+    assert list(zip(res["split"], res["planner"])) == [
+        ("seen", "mpnet_nr"),
+        ("seen", "bit_star"),
+        ("unseen", "mpnet_nr"),
+    ]
     nr = res.iloc[0]
     assert (nr["env"], nr["queries"], nr["seeds"], nr["successes"]) == ("s2d", 6, 2, 4)
-    assert nr["success_mean"] == pytest.approx(0.625)                      # seeds: 3/4 and 1/2
-    assert nr["success_std"] == pytest.approx(0.25 / math.sqrt(2))         # ddof=1 over 2 seeds
-    assert nr["time_mean_s"] == pytest.approx(0.25)                        # successes 0.1 .. 0.4
+    assert nr["success_mean"] == pytest.approx(0.625)  # seeds: 3/4 and 1/2
+    assert nr["success_std"] == pytest.approx(0.25 / math.sqrt(2))  # ddof=1 over 2 seeds
+    assert nr["time_mean_s"] == pytest.approx(0.25)  # successes 0.1 .. 0.4
     assert nr["time_std_s"] == pytest.approx(np.std([0.1, 0.2, 0.3, 0.4], ddof=1))
     assert nr["time_median_s"] == pytest.approx(0.25)
     assert nr["time_p90_s"] == pytest.approx(0.37)
     assert nr["cost_mean"] == pytest.approx(25.0)
     assert nr["collision_checks_median"] == pytest.approx(25.0)
-    assert nr["pnet_calls_median"] == pytest.approx(4.0)                    # over all 6 queries
+    assert nr["pnet_calls_median"] == pytest.approx(4.0)  # over all 6 queries
     assert nr["replans_mean"] == pytest.approx(5 / 6)
     assert nr["fallback_rate"] == pytest.approx(1 / 6)
     assert nr["failures"] == "no_solution: 1; timeout: 1"
-    bit = res.iloc[1]                                                       # one seed, two files
+    bit = res.iloc[1]  # one seed, two files
     assert (bit["queries"], bit["seeds"], bit["success_mean"], bit["success_std"]) == (4, 1, 1.0, 0.0)
     assert bit["time_mean_s"] == pytest.approx(2.5) and bit["cost_mean"] == pytest.approx(13.0)
     assert math.isnan(bit["pnet_calls_median"]) and math.isnan(bit["fallback_rate"])
@@ -153,7 +206,7 @@ def test_statistics_exact(tmp_path, known, capsys):
     assert nr["cost_over_bit_star_median"] == pytest.approx((10 / 12 + 20 / 14) / 2)
     assert bit["cost_over_bit_star_n"] == 0 and math.isnan(bit["cost_over_bit_star_median"])
     assert (bit["comparator"], bit["success_diff_significant"]) == ("mpnet_nr", False)
-    assert bit["success_p_vs"] == pytest.approx(0.4666667)                  # Fisher: 4/4 against 4/6
+    assert bit["success_p_vs"] == pytest.approx(0.4666667)  # Fisher: 4/4 against 4/6
     assert bit["time_diff_significant"] and bit["time_ratio_vs"] == pytest.approx(10.0)
     assert isinstance(nr["comparator"], float) and math.isnan(nr["comparator"])  # NR: no comparator
     assert (out / "quality.csv").exists() and not (out / "ablations.md").exists()
@@ -181,8 +234,10 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     write_log(logs / "i", "c2d", "informed_rrt_star", 0, [Q("unseen", "100", 0, False, 10.0)])
     rc, out = report(tmp_path, logs)
     assert rc == 0
-    assert "| Complex 2D | unseen | Informed-RRT* | 0.0 ± 0.0 | 0.0 [0.0, 79.3] |  | 1 | 1 |" in \
-        (out / "success_cost.md").read_text()
+    assert (
+        "| Complex 2D | unseen | Informed-RRT* | 0.0 ± 0.0 | 0.0 [0.0, 79.3] |  | 1 | 1 |"
+        in (out / "success_cost.md").read_text()
+    )
     md = (out / "table1.md").read_text()
     # the paper's layout first (its four planners, the ratio), then the other planners;
     # a planner that ran and solved nothing reads "— (0/N)", one not run is blank
@@ -192,10 +247,21 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     assert "— (0/N)" in md and "blank: the planner was not run" in md
     assert "arXiv:1806.05767" in md and "paper" not in md.split("\n\n")[1]
     assert list(pd.read_csv(out / "table1.csv").columns) == [
-        "env", "split", "source", "mpnet_nr_time_mean_s", "mpnet_nr_time_std_s", "mpnet_hr_time_mean_s",
-        "mpnet_hr_time_std_s", "informed_rrt_star_time_mean_s", "informed_rrt_star_time_std_s",
-        "bit_star_time_mean_s", "bit_star_time_std_s", "bit_star_over_mpnet_nr", "rrt_connect_time_mean_s",
-        "rrt_connect_time_std_s"]
+        "env",
+        "split",
+        "source",
+        "mpnet_nr_time_mean_s",
+        "mpnet_nr_time_std_s",
+        "mpnet_hr_time_mean_s",
+        "mpnet_hr_time_std_s",
+        "informed_rrt_star_time_mean_s",
+        "informed_rrt_star_time_std_s",
+        "bit_star_time_mean_s",
+        "bit_star_time_std_s",
+        "bit_star_over_mpnet_nr",
+        "rrt_connect_time_mean_s",
+        "rrt_connect_time_std_s",
+    ]
     assert "--- (0/1)" in (out / "table1.tex").read_text()
 
     rc, out = report(tmp_path, logs, paper=True)
@@ -229,8 +295,9 @@ def test_paper_numbers_as_printed(tmp_path):
 
 
 def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
-    good = write_log(tmp_path / "logs" / "extra", "s2d", "bit_star", 1,
-                     [Q("seen", "0", k, True, 0.1) for k in range(20)])
+    good = write_log(
+        tmp_path / "logs" / "extra", "s2d", "bit_star", 1, [Q("seen", "0", k, True, 0.1) for k in range(20)]
+    )
     data = good.read_bytes()
     with open(good, "rb") as f:
         chunks = make_reader(f).get_summary().chunk_indexes
@@ -243,7 +310,7 @@ def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
     (bad / "empty").mkdir()
     (bad / "empty" / "trials.mcap").write_bytes(b"")
     (bad / "norun").mkdir()
-    with open(bad / "norun" / "trials.mcap", "wb") as f:   # a valid MCAP file without /run
+    with open(bad / "norun" / "trials.mcap", "wb") as f:  # a valid MCAP file without /run
         w = Writer(f)
         w.start()
         ch = w.register_channel("/query", "json", w.register_schema("x", "jsonschema", b"{}"))
@@ -271,8 +338,14 @@ def test_no_readable_files_exit_1(tmp_path):
     (tmp_path / "junk" / "x").mkdir(parents=True)
     (tmp_path / "junk" / "x" / "trials.mcap").write_bytes(b"not an mcap file")
     for d, n_lines in ((tmp_path / "empty", 1), (tmp_path / "junk", 2)):
-        p = subprocess.run([sys.executable, "-m", "harness.report", str(d), "--out", str(tmp_path / "out")],
-                           cwd=REPO, check=False, capture_output=True, text=True, timeout=120)
+        p = subprocess.run(
+            [sys.executable, "-m", "harness.report", str(d), "--out", str(tmp_path / "out")],
+            cwd=REPO,
+            check=False,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert p.returncode == 1 and "Traceback" not in p.stderr and p.stdout == ""
         lines = p.stderr.strip().splitlines()
         assert len(lines) == n_lines and lines[-1].startswith("error: no readable trials.mcap")
@@ -293,15 +366,29 @@ def test_benchmark_db(tmp_path, known):
     enums = dict(con.execute("SELECT description, value FROM enums WHERE name='status'"))
     cols = [r[1] for r in con.execute("PRAGMA table_info(runs)")]
     assert cols[:3] == ["id", "experimentid", "plannerid"]
-    assert {"time", "memory", "solved", "status", "solution_length", "collision_checks", "seed", "split",
-            "workspace_id", "query_id"} <= set(cols)
-    rows = con.execute("SELECT r.solved, r.status, r.solution_length, r.time, r.failure, r.query_id FROM runs r "
-                       "JOIN plannerConfigs p ON p.id = r.plannerid WHERE p.name = 'geometric_mpnet_nr' "
-                       "AND r.seed = 0 AND r.split = 'seen' ORDER BY r.query_id").fetchall()
-    assert rows == [(1, enums["Exact solution"], 10.0, 0.1, None, "0/0"),
-                    (1, enums["Exact solution"], 20.0, 0.2, None, "0/1"),
-                    (1, enums["Exact solution"], 30.0, 0.3, None, "1/0"),
-                    (0, enums["Timeout"], None, 9.0, "timeout", "1/1")]
+    assert {
+        "time",
+        "memory",
+        "solved",
+        "status",
+        "solution_length",
+        "collision_checks",
+        "seed",
+        "split",
+        "workspace_id",
+        "query_id",
+    } <= set(cols)
+    rows = con.execute(
+        "SELECT r.solved, r.status, r.solution_length, r.time, r.failure, r.query_id FROM runs r "
+        "JOIN plannerConfigs p ON p.id = r.plannerid WHERE p.name = 'geometric_mpnet_nr' "
+        "AND r.seed = 0 AND r.split = 'seen' ORDER BY r.query_id"
+    ).fetchall()
+    assert rows == [
+        (1, enums["Exact solution"], 10.0, 0.1, None, "0/0"),
+        (1, enums["Exact solution"], 20.0, 0.2, None, "0/1"),
+        (1, enums["Exact solution"], 30.0, 0.3, None, "1/0"),
+        (0, enums["Timeout"], None, 9.0, "timeout", "1/1"),
+    ]
     assert con.execute("SELECT status FROM runs WHERE failure = 'no_solution'").fetchone()[0] == enums["Unknown status"]
     assert con.execute("SELECT count(*) FROM progress").fetchone()[0] == 0
     con.close()
@@ -311,8 +398,13 @@ def test_figures_and_example_choice(tmp_path, capsys):
     logs = tmp_path / "logs"
     for env in ("rigid", "c3d"):
         # query 0/0: only BIT* solved it; 0/1: both did (the example); 0/2: both did, later
-        write_log(logs / env / "nr", env, "mpnet_nr", 0, [Q("seen", "0", 0, False, 1.0), Q("seen", "0", 1, True, 0.1),
-                                                          Q("seen", "0", 2, True, 0.1)])
+        write_log(
+            logs / env / "nr",
+            env,
+            "mpnet_nr",
+            0,
+            [Q("seen", "0", 0, False, 1.0), Q("seen", "0", 1, True, 0.1), Q("seen", "0", 2, True, 0.1)],
+        )
         write_log(logs / env / "bit", env, "bit_star", 0, [Q("seen", "0", k, True, 1.0) for k in range(3)])
     rc, out = report(tmp_path, logs)
     assert rc == 0 and capsys.readouterr().err == ""
@@ -329,10 +421,17 @@ def test_figures_and_example_choice(tmp_path, capsys):
 def test_cost_cpu_checks_over_every_success(tmp_path):
     """A success without a logged time is left out of the time statistics only."""
     logs = tmp_path / "logs"
-    write_log(logs / "nr", "s2d", "mpnet_nr", 0, [
-        Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10),
-        Q("seen", "0", 1, True, None, cost=30.0, checks=30, stats={"cpu_s": 0.5}),
-        Q("seen", "0", 2, False, 9.0, checks=999)])
+    write_log(
+        logs / "nr",
+        "s2d",
+        "mpnet_nr",
+        0,
+        [
+            Q("seen", "0", 0, True, 0.1, cost=10.0, checks=10),
+            Q("seen", "0", 1, True, None, cost=30.0, checks=30, stats={"cpu_s": 0.5}),
+            Q("seen", "0", 2, False, 9.0, checks=999),
+        ],
+    )
     rc, out = report(tmp_path, logs)
     assert rc == 0
     r = pd.read_csv(out / "results.csv").iloc[0]
@@ -358,29 +457,49 @@ def test_stale_figures_are_removed(tmp_path):
 
 def test_benchmark_db_configs_segments_versions(tmp_path):
     logs = tmp_path / "logs"
-    write_log(logs / "b0", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0), Q("seen", "0", 1, False, 9.0),
-                                                  Q("seen", "0", 2, True, 1.0, stats={"path": []})])
-    write_log(logs / "b1", "s2d", "bit_star", 1, [Q("seen", "0", 0, True, 1.0)],
-              config="budget_s: 10.0\nplanner:\n  name: bit_star\n  range: 2.0\n")
+    write_log(
+        logs / "b0",
+        "s2d",
+        "bit_star",
+        0,
+        [Q("seen", "0", 0, True, 1.0), Q("seen", "0", 1, False, 9.0), Q("seen", "0", 2, True, 1.0, stats={"path": []})],
+    )
+    write_log(
+        logs / "b1",
+        "s2d",
+        "bit_star",
+        1,
+        [Q("seen", "0", 0, True, 1.0)],
+        config="budget_s: 10.0\nplanner:\n  name: bit_star\n  range: 2.0\n",
+    )
     write_log(logs / "b2", "s2d", "bit_star", 2, [Q("seen", "0", 0, True, 1.0)])
     write_log(logs / "c", "c2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)], versions={"ompl": "1.6.0"})
     rc, out = report(tmp_path, logs)
     assert rc == 0
     con = sqlite3.connect(out / "benchmark.db")
     configs = con.execute("SELECT id, name, settings FROM plannerConfigs ORDER BY id").fetchall()
-    assert [(n, "range: 2.0" in st) for _, n, st in configs] == [("geometric_bit_star", False),
-                                                                 ("geometric_bit_star", True)]
-    seeds_of = dict(con.execute("SELECT p.settings, group_concat(DISTINCT r.seed) FROM runs r "
-                                "JOIN plannerConfigs p ON p.id = r.plannerid GROUP BY p.id"))
+    assert [(n, "range: 2.0" in st) for _, n, st in configs] == [
+        ("geometric_bit_star", False),
+        ("geometric_bit_star", True),
+    ]
+    seeds_of = dict(
+        con.execute(
+            "SELECT p.settings, group_concat(DISTINCT r.seed) FROM runs r "
+            "JOIN plannerConfigs p ON p.id = r.plannerid GROUP BY p.id"
+        )
+    )
     assert sorted(seeds_of.values()) == ["0,2", "1"]
-    rows = con.execute("SELECT r.query_id, r.solved, r.solution_segments, r.memory FROM runs r "
-                       "JOIN experiments e ON e.id = r.experimentid WHERE e.name = 's2d seen' AND r.seed = 0 "
-                       "ORDER BY r.query_id").fetchall()
+    rows = con.execute(
+        "SELECT r.query_id, r.solved, r.solution_segments, r.memory FROM runs r "
+        "JOIN experiments e ON e.id = r.experimentid WHERE e.name = 's2d seen' AND r.seed = 0 "
+        "ORDER BY r.query_id"
+    ).fetchall()
     assert rows == [("0/0", 1, 2, None), ("0/1", 0, None, None), ("0/2", 1, None, None)]
-    assert con.execute("SELECT count(*) FROM runs WHERE memory IS NOT NULL OR solution_segments < 0").fetchone() \
-        == (0,)
-    assert dict(con.execute("SELECT name, version FROM experiments")) == {"s2d seen": "OMPL 2.0.1",
-                                                                         "c2d seen": "OMPL 1.6.0"}
+    assert con.execute("SELECT count(*) FROM runs WHERE memory IS NOT NULL OR solution_segments < 0").fetchone() == (0,)
+    assert dict(con.execute("SELECT name, version FROM experiments")) == {
+        "s2d seen": "OMPL 2.0.1",
+        "c2d seen": "OMPL 1.6.0",
+    }
     con.close()
 
 
@@ -420,21 +539,37 @@ def test_files_without_an_integer_seed_are_seeds_of_their_own(tmp_path, capsys):
 
 def test_readme_scales_and_no_warnings(tmp_path, capsys):
     logs = tmp_path / "logs"
-    quick = ("budget_s: 10.0\nscale:\n  name: quick\n  test:\n    seen: {workspaces: 20, queries: 10}\n"
-             "    unseen: {workspaces: 10, queries: 20}\n  train: {workspaces: 100, paths: 40}\n"
-             "  model: {pnet_hidden: [512, 256, 128, 64]}\nplanner:\n  name: bit_star\n")
+    quick = (
+        "budget_s: 10.0\nscale:\n  name: quick\n  test:\n    seen: {workspaces: 20, queries: 10}\n"
+        "    unseen: {workspaces: 10, queries: 20}\n  train: {workspaces: 100, paths: 40}\n"
+        "  model: {pnet_hidden: [512, 256, 128, 64]}\nplanner:\n  name: bit_star\n"
+    )
     write_log(logs / "q", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)], config=quick)
-    write_log(logs / "p", "s2d", "mpnet_nr", 0, [Q("seen", "0", 0, True, 1.0)],
-              config="budget_s: 10.0\nscale:\n  name: paper\nplanner:\n  name: mpnet_nr\n")
-    write_log(logs / "o", "s2d", "rrt_star", 0, [Q("seen", "0", 0, True, 1.0)],
-              config="budget_s: 10.0\nscale:\n  name: mine\nplanner:\n  name: rrt_star\n")
+    write_log(
+        logs / "p",
+        "s2d",
+        "mpnet_nr",
+        0,
+        [Q("seen", "0", 0, True, 1.0)],
+        config="budget_s: 10.0\nscale:\n  name: paper\nplanner:\n  name: mpnet_nr\n",
+    )
+    write_log(
+        logs / "o",
+        "s2d",
+        "rrt_star",
+        0,
+        [Q("seen", "0", 0, True, 1.0)],
+        config="budget_s: 10.0\nscale:\n  name: mine\nplanner:\n  name: rrt_star\n",
+    )
     rc, out = report(tmp_path, logs)
     assert rc == 0 and capsys.readouterr().err == ""
     readme = (out / "README.md").read_text()
     assert "## Warnings" in readme and readme.split("## Warnings")[1].split("##")[0].strip().endswith("none")
-    assert ("- Our `quick` scale trains smaller networks on 100 workspaces × 40 expert paths and tests on "
-            "200 seen + 200 unseen queries per seed; the paper: 100 × 4000 paths; 100 × 200 seen, "
-            "10 × 2000 unseen.") in readme
+    assert (
+        "- Our `quick` scale trains smaller networks on 100 workspaces × 40 expert paths and tests on "
+        "200 seen + 200 unseen queries per seed; the paper: 100 × 4000 paths; 100 × 200 seen, "
+        "10 × 2000 unseen."
+    ) in readme
     assert "- Scale `paper`: the paper's sizes." in readme
     assert "- Scale `mine`: smaller than the paper's." in readme
 
@@ -461,7 +596,7 @@ def test_wilson_fisher_bootstrap_known_values():
         assert len(fast) == BOOT_N and set(fast) <= set(slow) | {np.inf}
         for v in sorted(set(slow)):
             assert np.mean(fast == v) == pytest.approx(np.mean(slow == v), abs=0.02)
-        assert np.array_equal(fast, boot_medians(x, ("test", len(x))))   # seeded: reproducible
+        assert np.array_equal(fast, boot_medians(x, ("test", len(x))))  # seeded: reproducible
     assert boot_interval(boot_medians([0.5] * 5, ("c",))) == (0.5, 0.5)
     assert boot_medians([], ("e",)) is None and all(math.isnan(v) for v in boot_interval(None))
     lo, hi = boot_interval(boot_medians([1.0, np.inf, np.inf], ("inf",)))
@@ -473,25 +608,57 @@ def _run(planner: str, config: str | None = None) -> dict:
 
 
 def test_planner_names():
-    learn(_run(p) for p in ("mpnet_nr", "mpnet_hr", "mpnet_nr_zeros", "mpnet_hr_zeros", "mpnet_hr_nodropout",
-                            "informed_rrt_star_to_nr_x1.1", "bit_star_to_nr", "mpnet_hr_random", "mpnet_nr_random",
-                            "rrt_star", "bit_star"))
+    learn(
+        _run(p)
+        for p in (
+            "mpnet_nr",
+            "mpnet_hr",
+            "mpnet_nr_zeros",
+            "mpnet_hr_zeros",
+            "mpnet_hr_nodropout",
+            "informed_rrt_star_to_nr_x1.1",
+            "bit_star_to_nr",
+            "mpnet_hr_random",
+            "mpnet_nr_random",
+            "rrt_star",
+            "bit_star",
+        )
+    )
     assert comparator_of("mpnet_nr") is None and comparator_of("mpnet_hr") == "mpnet_nr"
     assert comparator_of("mpnet_nr_zeros") == "mpnet_nr" and comparator_of("mpnet_hr_zeros") == "mpnet_hr"
     assert comparator_of("bit_star") == "mpnet_nr"
     assert planner_label("mpnet_hr_nodropout") == "MPNet (HR): nodropout"
     assert planner_label("informed_rrt_star_to_nr_x1.1") == "Informed-RRT* to NR ×1.1"
-    names = ["bit_star_to_nr", "mpnet_hr_random", "mpnet_nr_zeros", "mpnet_nr_random", "rrt_star", "bit_star",
-             "mpnet_nr"]
-    assert sorted(names, key=planner_rank) == ["mpnet_nr", "bit_star", "rrt_star", "mpnet_nr_random",
-                                               "mpnet_nr_zeros", "mpnet_hr_random", "bit_star_to_nr"]
+    names = [
+        "bit_star_to_nr",
+        "mpnet_hr_random",
+        "mpnet_nr_zeros",
+        "mpnet_nr_random",
+        "rrt_star",
+        "bit_star",
+        "mpnet_nr",
+    ]
+    assert sorted(names, key=planner_rank) == [
+        "mpnet_nr",
+        "bit_star",
+        "rrt_star",
+        "mpnet_nr_random",
+        "mpnet_nr_zeros",
+        "mpnet_hr_random",
+        "bit_star_to_nr",
+    ]
 
 
 def test_facts_come_from_the_config_not_the_name():
     """A planner's kind is what its run's config says, whatever it is called."""
     nr_random = planner_yaml("mpnet_nr_random").replace("name: mpnet_nr_random", "name: my_planner")
-    learn([_run("my_planner", nr_random), _run("mpnet_nr_lookalike", planner_yaml("mpnet_nr")),
-           _run("to_target", planner_yaml("informed_rrt_star_to_nr_x1.1"))])
+    learn(
+        [
+            _run("my_planner", nr_random),
+            _run("mpnet_nr_lookalike", planner_yaml("mpnet_nr")),
+            _run("to_target", planner_yaml("informed_rrt_star_to_nr_x1.1")),
+        ]
+    )
     assert ablation_of("my_planner") == ("mpnet_nr", "random") and comparator_of("my_planner") == "mpnet_nr"
     assert ablation_of("mpnet_nr_lookalike") is None
     assert equal_quality_of("to_target") == ("informed_rrt_star", "nr", 1.1)
@@ -502,8 +669,10 @@ def test_facts_come_from_the_config_not_the_name():
 def eq_config(name: str, factor: float | None = None) -> str:
     """A time-to-equal-quality run's config: a cost target (MPNet-NR) and its factor."""
     extra = "" if factor is None else f"  stop: cost\n  cost_factor: {factor}\n"
-    return (f"budget_s: 10.0\nplanner:\n  name: {name}\n  algorithm: bit_star\n{extra}"
-            f"  cost_target:\n    name: mpnet_nr\n    hybrid: false\n")
+    return (
+        f"budget_s: 10.0\nplanner:\n  name: {name}\n  algorithm: bit_star\n{extra}"
+        f"  cost_target:\n    name: mpnet_nr\n    hybrid: false\n"
+    )
 
 
 @pytest.fixture()
@@ -515,40 +684,87 @@ def quality_logs(tmp_path):
     def ref(r):
         return {"reference_cost": r}
 
-    write_log(logs / "nr", "s2d", "mpnet_nr", 0, [
-        Q("seen", "0", 0, True, 0.1, cost=11.0, stats=ref(10.0)),          # quality 1.1
-        Q("seen", "0", 1, True, 0.2, cost=26.0, stats=ref(20.0)),          # 1.3
-        Q("seen", "0", 2, True, 0.3, cost=48.0, stats=ref(30.0)),          # 1.6
-        Q("seen", "0", 3, False, 9.0, stats=ref(40.0)),
-        Q("seen", "0", 4, True, 0.2, cost=5.0)])                           # no reference: not in quality
-    write_log(logs / "bit0", "s2d", "bit_star", 0, [
-        Q("seen", "0", 0, True, 0.1, cost=10.0), Q("seen", "0", 1, True, 0.2, cost=20.0),
-        Q("seen", "0", 2, False, 9.0), Q("seen", "0", 3, True, 0.3, cost=5.0), Q("seen", "0", 4, False, 9.0)])
+    write_log(
+        logs / "nr",
+        "s2d",
+        "mpnet_nr",
+        0,
+        [
+            Q("seen", "0", 0, True, 0.1, cost=11.0, stats=ref(10.0)),  # quality 1.1
+            Q("seen", "0", 1, True, 0.2, cost=26.0, stats=ref(20.0)),  # 1.3
+            Q("seen", "0", 2, True, 0.3, cost=48.0, stats=ref(30.0)),  # 1.6
+            Q("seen", "0", 3, False, 9.0, stats=ref(40.0)),
+            Q("seen", "0", 4, True, 0.2, cost=5.0),
+        ],
+    )  # no reference: not in quality
+    write_log(
+        logs / "bit0",
+        "s2d",
+        "bit_star",
+        0,
+        [
+            Q("seen", "0", 0, True, 0.1, cost=10.0),
+            Q("seen", "0", 1, True, 0.2, cost=20.0),
+            Q("seen", "0", 2, False, 9.0),
+            Q("seen", "0", 3, True, 0.3, cost=5.0),
+            Q("seen", "0", 4, False, 9.0),
+        ],
+    )
     write_log(logs / "bit1", "s2d", "bit_star", 1, [Q("seen", "0", 0, True, 0.2, cost=100.0)])  # no NR seed 1
     write_log(logs / "irrt", "s2d", "informed_rrt_star", 0, [Q("seen", "0", i, True, 5.0 + i) for i in range(5)])
     write_log(logs / "hr", "s2d", "mpnet_hr", 0, [Q("seen", "0", i, True, 0.5) for i in range(5)])
     write_log(logs / "hr_zeros", "s2d", "mpnet_hr_zeros", 0, [Q("seen", "0", i, True, 0.5) for i in range(5)])
-    write_log(logs / "nr_random", "s2d", "mpnet_nr_random", 0,
-              [Q("seen", "0", 0, True, 1.0, cost=10.0, stats=ref(10.0))] + [Q("seen", "0", i, False, 9.0)
-                                                                           for i in range(1, 5)])
+    write_log(
+        logs / "nr_random",
+        "s2d",
+        "mpnet_nr_random",
+        0,
+        [Q("seen", "0", 0, True, 1.0, cost=10.0, stats=ref(10.0))]
+        + [Q("seen", "0", i, False, 9.0) for i in range(1, 5)],
+    )
 
     def target(cost, t):
         return {"target_planner": "mpnet_nr", "target_cost": cost, "target_time_s": t}
 
     no_target = Q("seen", "0", 3, False, 0.0, failure="no_target", stats=target(None, 0.5))
-    write_log(logs / "to_nr", "s2d", "bit_star_to_nr", 0, [   # factor from the name: 1.0
-        Q("seen", "0", 0, True, 1.0, cost=9.9, stats=target(10.0, 0.1)),
-        Q("seen", "0", 1, True, 2.0, cost=20.0, stats=target(20.0, 0.3)),
-        Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)), no_target], config=eq_config("bit_star_to_nr"))
-    write_log(logs / "to_nr_x", "s2d", "bit_star_to_nr_x1.1", 0, [  # factor from the config: 1.1
-        Q("seen", "0", 0, True, 0.5, cost=10.9, stats=target(10.0, 0.1)),
-        Q("seen", "0", 1, True, 9.0, cost=25.0, stats=target(20.0, 0.3)),   # above 1.1 x 20: a miss
-        Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)), no_target],
-        config=eq_config("bit_star_to_nr_x1.1", 1.1))
-    rigid_cfg = ("budget_s: 10.0\nenv:\n  name: rigid\n  expert: {iterations: 2000}\n  reference: {bit_star_s: 1.0}\n"
-                 "planner:\n  name: bit_star\n")
-    write_log(logs / "rigid", "rigid", "bit_star", 0, [Q("seen", "0", 0, True, 0.1, cost=9.0, stats=ref(10.0))],
-              config=rigid_cfg)
+    write_log(
+        logs / "to_nr",
+        "s2d",
+        "bit_star_to_nr",
+        0,
+        [  # factor from the name: 1.0
+            Q("seen", "0", 0, True, 1.0, cost=9.9, stats=target(10.0, 0.1)),
+            Q("seen", "0", 1, True, 2.0, cost=20.0, stats=target(20.0, 0.3)),
+            Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)),
+            no_target,
+        ],
+        config=eq_config("bit_star_to_nr"),
+    )
+    write_log(
+        logs / "to_nr_x",
+        "s2d",
+        "bit_star_to_nr_x1.1",
+        0,
+        [  # factor from the config: 1.1
+            Q("seen", "0", 0, True, 0.5, cost=10.9, stats=target(10.0, 0.1)),
+            Q("seen", "0", 1, True, 9.0, cost=25.0, stats=target(20.0, 0.3)),  # above 1.1 x 20: a miss
+            Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)),
+            no_target,
+        ],
+        config=eq_config("bit_star_to_nr_x1.1", 1.1),
+    )
+    rigid_cfg = (
+        "budget_s: 10.0\nenv:\n  name: rigid\n  expert: {iterations: 2000}\n  reference: {bit_star_s: 1.0}\n"
+        "planner:\n  name: bit_star\n"
+    )
+    write_log(
+        logs / "rigid",
+        "rigid",
+        "bit_star",
+        0,
+        [Q("seen", "0", 0, True, 0.1, cost=9.0, stats=ref(10.0))],
+        config=rigid_cfg,
+    )
     return logs
 
 
@@ -556,19 +772,32 @@ def test_quality_ablations_equal_quality(tmp_path, quality_logs, capsys):
     rc, out = report(tmp_path, quality_logs)
     assert rc == 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [("warning: bit_star_to_nr_x1.1: 1 of its logged successes have a path cost above factor x "
-                    "target cost: counted as not reaching the target")]
+    assert err == [
+        (
+            "warning: bit_star_to_nr_x1.1: 1 of its logged successes have a path cost above factor x "
+            "target cost: counted as not reaching the target"
+        )
+    ]
     res = pd.read_csv(out / "results.csv")
     s2d = res[res["env"] == "s2d"].set_index("planner")
     # the time-to-equal-quality runs are not rows of results.csv; the ablations are, after the others
-    assert list(s2d.index) == ["mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star", "mpnet_nr_random",
-                               "mpnet_hr_zeros"]
+    assert list(s2d.index) == [
+        "mpnet_nr",
+        "mpnet_hr",
+        "informed_rrt_star",
+        "bit_star",
+        "mpnet_nr_random",
+        "mpnet_hr_zeros",
+    ]
     nr, bit, rnd, hrz = s2d.loc["mpnet_nr"], s2d.loc["bit_star"], s2d.loc["mpnet_nr_random"], s2d.loc["mpnet_hr_zeros"]
-    for r in s2d.itertuples():   # every success rate has its interval
+    for r in s2d.itertuples():  # every success rate has its interval
         assert (r.success_ci_low, r.success_ci_high) == pytest.approx(wilson_by_hand(r.successes, r.queries))
     assert (nr["successes"], nr["queries"]) == (4, 5) and (bit["successes"], bit["queries"]) == (4, 6)
-    assert (nr["quality_n"], nr["quality_median"], nr["quality_p90"]) == (3, pytest.approx(1.3),
-                                                                         pytest.approx(1.3 + 0.8 * 0.3))
+    assert (nr["quality_n"], nr["quality_median"], nr["quality_p90"]) == (
+        3,
+        pytest.approx(1.3),
+        pytest.approx(1.3 + 0.8 * 0.3),
+    )
     assert (nr["cost_over_bit_star_n"], nr["cost_over_bit_star_median"]) == (2, pytest.approx(1.2))
     assert (rnd["quality_n"], rnd["quality_median"], rnd["cost_over_bit_star_median"]) == (1, 1.0, 1.0)
     assert bit["quality_n"] == 0 and math.isnan(bit["cost_over_bit_star_median"])
@@ -577,18 +806,25 @@ def test_quality_ablations_equal_quality(tmp_path, quality_logs, capsys):
     assert rnd["comparator"] == "mpnet_nr" and rnd["success_p_vs"] == pytest.approx(52 / 252)
     assert not rnd["success_diff_significant"] and rnd["time_diff_significant"]
     assert rnd["time_ratio_vs"] == pytest.approx(5.0) and rnd["time_ratio_vs_ci_low"] > 1
-    assert hrz["comparator"] == "mpnet_hr" and (hrz["time_ratio_vs"], hrz["time_ratio_vs_ci_low"],
-                                                hrz["time_ratio_vs_ci_high"]) == (1.0, 1.0, 1.0)
+    assert hrz["comparator"] == "mpnet_hr" and (
+        hrz["time_ratio_vs"],
+        hrz["time_ratio_vs_ci_low"],
+        hrz["time_ratio_vs_ci_high"],
+    ) == (1.0, 1.0, 1.0)
     assert not hrz["time_diff_significant"] and (hrz["time_median_ci_low"], hrz["time_median_ci_high"]) == (0.5, 0.5)
     assert not bit["time_diff_significant"] and bit["time_ratio_vs_ci_low"] < 1 < bit["time_ratio_vs_ci_high"]
     assert s2d.loc["informed_rrt_star", "time_diff_significant"] and s2d.loc["mpnet_hr", "comparator"] == "mpnet_nr"
 
-    md = (out / "table1.md").read_text()   # BIT*'s median time and the ratio: not significant
+    md = (out / "table1.md").read_text()  # BIT*'s median time and the ratio: not significant
     assert "| Simple 2D | seen | 0.200 ± 0.082 | 0.500 ± 0.000 | 7.00 ± 1.58 | ≈ 0.200 ± 0.082 | ≈ 1.00 |" in md
     assert "random" not in md and "to NR" not in md and "≈ before a time" in md
     assert r"$\approx$ 1.00" in (out / "table1.tex").read_text()
-    assert set(pd.read_csv(out / "success_cost.csv")["planner"]) == {"mpnet_nr", "mpnet_hr", "informed_rrt_star",
-                                                                      "bit_star"}
+    assert set(pd.read_csv(out / "success_cost.csv")["planner"]) == {
+        "mpnet_nr",
+        "mpnet_hr",
+        "informed_rrt_star",
+        "bit_star",
+    }
     sc = (out / "success_cost.md").read_text()
     assert "|  |  | Informed-RRT* | ≈ 100.0 ± 0.0 | 100.0 [56.6, 100.0] | 50.0 | 5 | 1 |" in sc
     assert "Fisher exact" in sc
@@ -602,13 +838,17 @@ def test_quality_ablations_equal_quality(tmp_path, quality_logs, capsys):
     ab = pd.read_csv(out / "ablations.csv")
     assert list(ab["planner"]) == ["mpnet_nr", "mpnet_nr_random", "mpnet_hr", "mpnet_hr_zeros"]
     assert list(ab["base"]) == ["mpnet_nr", "mpnet_nr", "mpnet_hr", "mpnet_hr"]
-    assert ab["success_p_vs"].isna().tolist() == [True, False, True, False]   # bases are not compared
+    assert ab["success_p_vs"].isna().tolist() == [True, False, True, False]  # bases are not compared
     amd = (out / "ablations.md").read_text()
     lo, hi = wilson_by_hand(1, 5)
-    assert f"| MPNet (NR): random | a uniformly random valid state instead of Pnet's proposal | " \
-           f"≈ 20.0 [{100 * lo:.1f}, {100 * hi:.1f}] | 1.00 [1.00, 1.00] | 5.00 [" in amd
-    assert "| MPNet (HR): zeros | Pnet given a zero workspace code | ≈ 100.0 [56.6, 100.0] | " \
-           "≈ 0.500 [0.500, 0.500] | 1.00 [1.00, 1.00] |" in amd
+    assert (
+        f"| MPNet (NR): random | a uniformly random valid state instead of Pnet's proposal | "
+        f"≈ 20.0 [{100 * lo:.1f}, {100 * hi:.1f}] | 1.00 [1.00, 1.00] | 5.00 [" in amd
+    )
+    assert (
+        "| MPNet (HR): zeros | Pnet given a zero workspace code | ≈ 100.0 [56.6, 100.0] | "
+        "≈ 0.500 [0.500, 0.500] | 1.00 [1.00, 1.00] |" in amd
+    )
 
     eq = pd.read_csv(out / "equal_quality.csv")
     assert list(zip(eq["algorithm"], eq["factor"])) == [("bit_star", 1.0), ("bit_star", 1.1)]
@@ -625,16 +865,30 @@ def test_quality_ablations_equal_quality(tmp_path, quality_logs, capsys):
     assert "|  |  | BIT* | cost ≤ 1.1 × MPNet (NR)'s | 1 | 3 | 33.3 [6.1, 79.2] | > budget (10.0 s) [" in emd
     assert "| > 50.0 |" in emd
     readme = (out / "README.md").read_text()
-    for name in ("quality.md", "ablations.md", "equal_quality.md", "Wilson", "Fisher", f"{BOOT_N} resamples",
-                 "rigid (Rigid body): path cost = OMPL's SE(2) metric"):
+    for name in (
+        "quality.md",
+        "ablations.md",
+        "equal_quality.md",
+        "Wilson",
+        "Fisher",
+        f"{BOOT_N} resamples",
+        "rigid (Rigid body): path cost = OMPL's SE(2) metric",
+    ):
         assert name in readme
 
     # a later report without those runs removes their tables
     rc, out = report(tmp_path, quality_logs / "bit0")
-    assert rc == 0 and not any((out / f"{n}.{e}").exists() for n in ("quality", "ablations", "equal_quality")
-                               for e in ("md", "csv"))
+    assert rc == 0 and not any(
+        (out / f"{n}.{e}").exists() for n in ("quality", "ablations", "equal_quality") for e in ("md", "csv")
+    )
 
 
 def test_env_order():
-    assert sorted(["zeta", "rigid", "arm7", "s2d", "c3d", "c2d"], key=env_rank) == \
-        ["s2d", "c2d", "c3d", "rigid", "arm7", "zeta"]
+    assert sorted(["zeta", "rigid", "arm7", "s2d", "c3d", "c2d"], key=env_rank) == [
+        "s2d",
+        "c2d",
+        "c3d",
+        "rigid",
+        "arm7",
+        "zeta",
+    ]

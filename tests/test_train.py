@@ -1,5 +1,6 @@
 """The training stage at tiny scale: Lightning trains Enet then Pnet into the cache,
 reproducibly, and the planner-side reader loads the result without Lightning."""
+
 import json
 
 import numpy as np
@@ -10,8 +11,16 @@ pytestmark = pytest.mark.slow  # the training CLI in subprocesses
 
 
 def train(run_cli, cache, *extra):
-    p = run_cli("harness.train", "+env=rigid", "scale=tiny", "progress=false", f"cache_dir={cache}",
-                f"hydra.run.dir={cache / 'run'}", *extra, timeout=900)
+    p = run_cli(
+        "harness.train",
+        "+env=rigid",
+        "scale=tiny",
+        "progress=false",
+        f"cache_dir={cache}",
+        f"hydra.run.dir={cache / 'run'}",
+        *extra,
+        timeout=900,
+    )
     return next(line for line in p.stdout.splitlines() if line.startswith(("trained:", "cached:")))
 
 

@@ -1,5 +1,6 @@
 """The per-run trial log (DESIGN §6, §8, §9): MCAP topics and schemas, Foxglove scenes,
 crash safety, resume without duplicates, the Rerun recording and queries.csv."""
+
 from __future__ import annotations
 
 import csv
@@ -20,14 +21,27 @@ from mcap.reader import make_reader
 from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
 
-from harness.log import (CSV_FIXED, QUERY_FIELDS, TrialLog, judge, painter_for, plain, read_log, rect_outlines,
-                         scene_update_schema)
+from harness.log import (
+    CSV_FIXED,
+    QUERY_FIELDS,
+    TrialLog,
+    judge,
+    painter_for,
+    plain,
+    read_log,
+    rect_outlines,
+    scene_update_schema,
+)
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 
 REPO = Path(__file__).resolve().parents[1]
-TOPIC_SCHEMAS = {"/run": "mpnet_bench.Run", "/workspace": "mpnet_bench.Workspace",
-                 "/query": "mpnet_bench.Query", "/scene": "foxglove.SceneUpdate"}
+TOPIC_SCHEMAS = {
+    "/run": "mpnet_bench.Run",
+    "/workspace": "mpnet_bench.Workspace",
+    "/query": "mpnet_bench.Query",
+    "/scene": "foxglove.SceneUpdate",
+}
 
 
 def is_rect(spec):
@@ -35,9 +49,17 @@ def is_rect(spec):
 
 
 def make_run(env="s2d", seed=0, **kw):
-    run = dict(env=env, planner="mpnet_nr", seed=seed, split="seen+unseen", config="env: s2d\nseed: 0\n",
-               git_rev="0123abc", versions={"numpy": np.__version__, "mcap": "1.6.0"}, host="testhost",
-               started_at="2026-11-21T12:00:00+00:00")
+    run = dict(
+        env=env,
+        planner="mpnet_nr",
+        seed=seed,
+        split="seen+unseen",
+        config="env: s2d\nseed: 0\n",
+        git_rev="0123abc",
+        versions={"numpy": np.__version__, "mcap": "1.6.0"},
+        host="testhost",
+        started_at="2026-11-21T12:00:00+00:00",
+    )
     run.update(kw)
     return run
 
@@ -59,11 +81,26 @@ def make_rec(env, qid, wid="ws0", split="seen", success=True, n=4, **extra):
     if is_rect(spec):
         start[2] = 0.0
     path = np.linspace(start, goal, n) if success else []
-    rec = dict(query_id=qid, workspace_id=wid, split=split, start=start, goal=goal, success=np.bool_(success),
-               failure=None if success else "timeout", path=path, time_s=np.float64(0.0042), cpu_s=0.0041,
-               path_cost=float(np.linalg.norm(goal[:2] - start[:2])) if success else float("inf"),
-               collision_checks=np.int64(321), state_checks=np.int32(200), motion_checks=121, pnet_calls=7,
-               replans=0, fallback_used=False, planner_status="exact")
+    rec = dict(
+        query_id=qid,
+        workspace_id=wid,
+        split=split,
+        start=start,
+        goal=goal,
+        success=np.bool_(success),
+        failure=None if success else "timeout",
+        path=path,
+        time_s=np.float64(0.0042),
+        cpu_s=0.0041,
+        path_cost=float(np.linalg.norm(goal[:2] - start[:2])) if success else float("inf"),
+        collision_checks=np.int64(321),
+        state_checks=np.int32(200),
+        motion_checks=121,
+        pnet_calls=7,
+        replans=0,
+        fallback_used=False,
+        planner_status="exact",
+    )
     rec.update(extra)
     return rec
 
@@ -98,12 +135,16 @@ def log_some(run_dir, env="s2d", n=3, rerun=False, **kw):
 
 # ----------------------------------------------------------------------------- MCAP
 
+
 def test_round_trip_all_topics_and_schemas(tmp_path):
     env = "s2d"
     spec = SPECS[env]
     run = make_run(env)
-    recs = [make_rec(env, "ws0-0"), make_rec(env, "ws0-1", success=False),
-            make_rec(env, "ws1-0", wid="ws1", split="unseen", extra_stat=np.float32(0.5))]
+    recs = [
+        make_rec(env, "ws0-0"),
+        make_rec(env, "ws0-1", success=False),
+        make_rec(env, "ws1-0", wid="ws1", split="unseen", extra_stat=np.float32(0.5)),
+    ]
     with TrialLog(tmp_path, run, spec, rerun=False) as log:
         log.add_workspace(make_ws(env))
         log.add_workspace(make_ws(env))  # same key: a no-op
@@ -130,7 +171,9 @@ def test_round_trip_all_topics_and_schemas(tmp_path):
     jsonschema.Draft7Validator.check_schema(qs)
     assert set(QUERY_FIELDS) <= set(qs["required"])
     rs = json.loads(schemas["/run"].data)
-    assert {"env", "planner", "seed", "split", "config", "git_rev", "versions", "host", "started_at"} <= set(rs["required"])
+    assert {"env", "planner", "seed", "split", "config", "git_rev", "versions", "host", "started_at"} <= set(
+        rs["required"]
+    )
     ws_s = json.loads(schemas["/workspace"].data)
     assert {"workspace_id", "split", "bounds", "obstacles", "robot"} <= set(ws_s["required"])
     with pytest.raises(jsonschema.ValidationError):
@@ -263,13 +306,37 @@ def test_scene_schema_is_ours_and_matches_foxglove_field_names():
     # Field names as in Foxglove's message-schema docs.
     assert set(s["properties"]) == {"deletions", "entities"}
     assert set(defs["SceneEntity"]["properties"]) == {
-        "timestamp", "frame_id", "id", "lifetime", "frame_locked", "metadata", "arrows", "cubes",
-        "spheres", "cylinders", "lines", "triangles", "texts", "models"}
+        "timestamp",
+        "frame_id",
+        "id",
+        "lifetime",
+        "frame_locked",
+        "metadata",
+        "arrows",
+        "cubes",
+        "spheres",
+        "cylinders",
+        "lines",
+        "triangles",
+        "texts",
+        "models",
+    }
     assert set(defs["SceneEntityDeletion"]["properties"]) == {"timestamp", "type", "id"}
     assert set(defs["LinePrimitive"]["properties"]) == {
-        "type", "pose", "thickness", "scale_invariant", "points", "color", "colors", "indices"}
+        "type",
+        "pose",
+        "thickness",
+        "scale_invariant",
+        "points",
+        "color",
+        "colors",
+        "indices",
+    }
     assert [o["title"] for o in defs["LinePrimitive"]["properties"]["type"]["oneOf"]] == [
-        "LINE_STRIP", "LINE_LOOP", "LINE_LIST"]
+        "LINE_STRIP",
+        "LINE_LOOP",
+        "LINE_LIST",
+    ]
     assert set(defs["CubePrimitive"]["properties"]) == {"pose", "size", "color"}
     assert set(defs["Color"]["properties"]) == {"r", "g", "b", "a"}
     # The form written to MCAP has no $ref and is one Foxglove's reader can parse.
@@ -310,7 +377,8 @@ def test_malformed_scene_is_rejected(tmp_path):
         "misspelt field": _broken(q_scene, lambda m: m["entities"][0].update(frameid="world")),
         "entity without frame_id": _broken(q_scene, lambda m: m["entities"][0].pop("frame_id")),
         "metadata value not a string": _broken(
-            q_scene, lambda m: m["entities"][0]["metadata"].append({"key": "k", "value": 1})),
+            q_scene, lambda m: m["entities"][0]["metadata"].append({"key": "k", "value": 1})
+        ),
         "no deletions": _broken(q_scene, lambda m: m.pop("deletions")),
         "bare entity": {"deletions": [], "entities": [{"id": "x"}]},
     }
@@ -334,10 +402,18 @@ def test_rect_outlines_match_design_geometry():
 
 # ------------------------------------------------------------------------ painters
 
-WS2 = {"workspace_id": "w", "split": "seen", "bounds": [[-20.0, 20.0], [-10.0, 10.0], [-math.pi, math.pi]],
-       "obstacles": [{"center": [1.0, 2.0], "size": [3.0, 4.0]}]}
-WS3 = {"workspace_id": "w", "split": "seen", "bounds": [[-20.0, 20.0]] * 3,
-       "obstacles": [{"center": [1.0, 2.0, 3.0], "size": [3.0, 4.0, 5.0]}]}
+WS2 = {
+    "workspace_id": "w",
+    "split": "seen",
+    "bounds": [[-20.0, 20.0], [-10.0, 10.0], [-math.pi, math.pi]],
+    "obstacles": [{"center": [1.0, 2.0], "size": [3.0, 4.0]}],
+}
+WS3 = {
+    "workspace_id": "w",
+    "split": "seen",
+    "bounds": [[-20.0, 20.0]] * 3,
+    "obstacles": [{"center": [1.0, 2.0, 3.0], "size": [3.0, 4.0, 5.0]}],
+}
 
 
 def scene_entity(painter, msg):
@@ -371,19 +447,31 @@ def test_rectangle_painter_known_answer():
     p = painter_for({"kind": "rectangle", "size": [2, 5]}, 2)
     (o,) = p.footprints([[1.0, 2.0, 0.0]])
     assert o.tolist() == [[0.0, -0.5], [2.0, -0.5], [2.0, 4.5], [0.0, 4.5], [0.0, -0.5]]
-    msg = {"query_id": "q", "split": "seen", "start": [1.0, 2.0, 0.0], "goal": [3.0, 4.0, math.pi],
-           "path": [[1.0, 2.0, 0.0], [3.0, 4.0, math.pi]], "success": True, "failure": None}
+    msg = {
+        "query_id": "q",
+        "split": "seen",
+        "start": [1.0, 2.0, 0.0],
+        "goal": [3.0, 4.0, math.pi],
+        "path": [[1.0, 2.0, 0.0], [3.0, 4.0, math.pi]],
+        "success": True,
+        "failure": None,
+    }
     e = scene_entity(p, msg)
-    assert [c["pose"]["position"] for c in e["cubes"]] == [{"x": 1.0, "y": 2.0, "z": 0.01},
-                                                           {"x": 3.0, "y": 4.0, "z": 0.01}]
+    assert [c["pose"]["position"] for c in e["cubes"]] == [
+        {"x": 1.0, "y": 2.0, "z": 0.01},
+        {"x": 3.0, "y": 4.0, "z": 0.01},
+    ]
     q0, q1 = (c["pose"]["orientation"] for c in e["cubes"])
     assert (q0["z"], q0["w"]) == (0.0, 1.0) and q1["z"] == 1.0 and abs(q1["w"]) < 1e-12  # yaw 0, yaw pi
     assert all(c["size"] == {"x": 2.0, "y": 5.0, "z": 0.02} for c in e["cubes"])
     assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [(1.0, 2.0, 0.0), (3.0, 4.0, 0.0)]
     no_path = scene_entity(p, {**msg, "path": [], "success": False, "failure": "timeout"})
     assert len(no_path["cubes"]) == 2  # the body at start and goal
-    assert [e for e, _ in p.rerun_queries(rr, [msg])] == ["scene/world/path", "scene/world/endpoints",
-                                                           "scene/world/robot"]
+    assert [e for e, _ in p.rerun_queries(rr, [msg])] == [
+        "scene/world/path",
+        "scene/world/endpoints",
+        "scene/world/robot",
+    ]
     cubes, _ = p.foxglove_workspace(WS2)
     assert cubes[0]["pose"]["position"] == {"x": 1.0, "y": 2.0, "z": -0.05}
     assert cubes[0]["size"] == {"x": 3.0, "y": 4.0, "z": 0.1}
@@ -393,17 +481,33 @@ def test_point_painter_2d_draws_a_plane():
     import rerun as rr
 
     p = painter_for({"kind": "point"}, 2)
-    msg = {"query_id": "q", "split": "seen", "start": [-1.0, -2.0], "goal": [3.0, 4.0],
-           "path": [[-1.0, -2.0], [0.5, 1.5], [3.0, 4.0]], "success": True, "failure": None}
+    msg = {
+        "query_id": "q",
+        "split": "seen",
+        "start": [-1.0, -2.0],
+        "goal": [3.0, 4.0],
+        "path": [[-1.0, -2.0], [0.5, 1.5], [3.0, 4.0]],
+        "success": True,
+        "failure": None,
+    }
     e = scene_entity(p, msg)
     assert e["cubes"] == [] and p.footprints(msg["path"]).shape[0] == 0
-    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [(-1.0, -2.0, 0.0), (0.5, 1.5, 0.0),
-                                                                            (3.0, 4.0, 0.0)]
-    assert [s["pose"]["position"] for s in e["spheres"]] == [{"x": -1.0, "y": -2.0, "z": 0.0},
-                                                             {"x": 3.0, "y": 4.0, "z": 0.0}]
+    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [
+        (-1.0, -2.0, 0.0),
+        (0.5, 1.5, 0.0),
+        (3.0, 4.0, 0.0),
+    ]
+    assert [s["pose"]["position"] for s in e["spheres"]] == [
+        {"x": -1.0, "y": -2.0, "z": 0.0},
+        {"x": 3.0, "y": 4.0, "z": 0.0},
+    ]
     _, (bounds,) = p.foxglove_workspace(WS2)
-    assert {(q["x"], q["y"], q["z"]) for q in bounds["points"]} == {(-20.0, -10.0, 0.0), (20.0, -10.0, 0.0),
-                                                                    (20.0, 10.0, 0.0), (-20.0, 10.0, 0.0)}
+    assert {(q["x"], q["y"], q["z"]) for q in bounds["points"]} == {
+        (-20.0, -10.0, 0.0),
+        (20.0, -10.0, 0.0),
+        (20.0, 10.0, 0.0),
+        (-20.0, 10.0, 0.0),
+    }
     assert len(bounds["points"]) == 8  # 4 edges as a line list
     assert isinstance(p.rerun_obstacles(rr, WS2), rr.Boxes2D)
     assert [e for e, _ in p.rerun_queries(rr, [msg])] == ["scene/world/path", "scene/world/endpoints"]
@@ -413,12 +517,21 @@ def test_point_painter_3d_draws_a_3d_path_as_3d_points():
     import rerun as rr
 
     p = painter_for({"kind": "point"}, 3)
-    msg = {"query_id": "q", "split": "seen", "start": [-1.0, -2.0, -3.0], "goal": [3.0, 4.0, 5.0],
-           "path": [[-1.0, -2.0, -3.0], [0.5, 1.5, 2.5], [3.0, 4.0, 5.0]], "success": False,
-           "failure": "recheck_collision"}
+    msg = {
+        "query_id": "q",
+        "split": "seen",
+        "start": [-1.0, -2.0, -3.0],
+        "goal": [3.0, 4.0, 5.0],
+        "path": [[-1.0, -2.0, -3.0], [0.5, 1.5, 2.5], [3.0, 4.0, 5.0]],
+        "success": False,
+        "failure": "recheck_collision",
+    }
     e = scene_entity(p, msg)
-    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [(-1.0, -2.0, -3.0), (0.5, 1.5, 2.5),
-                                                                            (3.0, 4.0, 5.0)]
+    assert [(q["x"], q["y"], q["z"]) for q in e["lines"][0]["points"]] == [
+        (-1.0, -2.0, -3.0),
+        (0.5, 1.5, 2.5),
+        (3.0, 4.0, 5.0),
+    ]
     assert e["lines"][0]["color"]["r"] > e["lines"][0]["color"]["g"]  # a failure is red
     assert [s["pose"]["position"]["z"] for s in e["spheres"]] == [-3.0, 5.0]
     assert e["cubes"] == []
@@ -432,19 +545,29 @@ def test_point_painter_3d_draws_a_3d_path_as_3d_points():
 
 # --------------------------------------------------------------------------- judge
 
+
 def planner_rec(path, start, goal, failure=None):
     """A record as the bench hands it to the log process: no `success`, the planner's `failure`."""
-    return {"query_id": "q", "workspace_id": "ws0", "split": "seen", "start": start, "goal": goal,
-            "failure": failure, "path": path, "time_s": 0.01, "cpu_s": 0.01, "collision_checks": 5,
-            "planner_status": "exact" if failure is None else failure}
+    return {
+        "query_id": "q",
+        "workspace_id": "ws0",
+        "split": "seen",
+        "start": start,
+        "goal": goal,
+        "failure": failure,
+        "path": path,
+        "time_s": 0.01,
+        "cpu_s": 0.01,
+        "collision_checks": 5,
+        "planner_status": "exact" if failure is None else failure,
+    }
 
 
 def test_judge_decides_success():
     spec, ws = SPECS["s2d"], make_ws("s2d")  # an obstacle fills [7.5, 12.5] x [7.5, 12.5]
     through = judge(spec, ws, planner_rec([[10.0, 0.0], [10.0, 20.0]], [10.0, 0.0], [10.0, 20.0]), 0.01)
     assert through["success"] is False and through["failure"] == "recheck_collision"
-    free = judge(spec, ws, planner_rec(np.array([[-15.0, -15.0], [15.0, -15.0]]), [-15.0, -15.0], [15.0, -15.0]),
-                 0.01)
+    free = judge(spec, ws, planner_rec(np.array([[-15.0, -15.0], [15.0, -15.0]]), [-15.0, -15.0], [15.0, -15.0]), 0.01)
     assert free["success"] is True and free["failure"] is None and free["path_cost"] == pytest.approx(30.0)
     assert free["path"] == [[-15.0, -15.0], [15.0, -15.0]] and type(free["path"][0][0]) is float
     keys = list(free)
@@ -456,6 +579,7 @@ def test_judge_decides_success():
 
 
 # ------------------------------------------------------------- check_trials structure
+
 
 def test_structure_independent_checker_relies_on(tmp_path):
     """What ../shared/tools/check_trials.py reads, asserted directly: a finalised file whose
@@ -508,7 +632,7 @@ def run_and_kill(run_dir: Path, rerun=False):
 def test_sigkill_leaves_every_finished_query(tmp_path, rerun):
     path = run_and_kill(tmp_path, rerun)
     # Not finalised: the indexed reader refuses it ...
-    with pytest.raises(Exception):
+    with pytest.raises(Exception):  # noqa: B017  (whatever the indexed reader raises)
         with open(path, "rb") as f:
             list(make_reader(f).iter_messages())
     # ... but mcap's StreamReader reads every finished query (as check_trials.py does).
@@ -571,12 +695,14 @@ def test_unclosed_log_is_finalised_at_exit(tmp_path):
     assert read_log(tmp_path / "trials.mcap")[1] is True
     from rerun.chunk import RrdReader
 
-    rows = sum(c.num_rows for c in RrdReader(tmp_path / "trials.rrd").stream()
-               if str(c.entity_path) == "/scene/world/path")
+    rows = sum(
+        c.num_rows for c in RrdReader(tmp_path / "trials.rrd").stream() if str(c.entity_path) == "/scene/world/path"
+    )
     assert rows == 1  # the buffered query was sent before the recording closed
 
 
 # ----------------------------------------------------------------- validation, dups
+
 
 def test_bad_records_are_refused(tmp_path):
     with TrialLog(tmp_path, make_run(), SPECS["s2d"], rerun=False) as log:
@@ -607,6 +733,7 @@ def test_existing_log_needs_resume(tmp_path):
 
 # ----------------------------------------------------------------------- resume
 
+
 def check_resumed(tmp_path, expect_ids):
     schemas, msgs = read_all(tmp_path / "trials.mcap")
     assert len(by_topic(msgs, "/run")) == 1
@@ -614,7 +741,9 @@ def check_resumed(tmp_path, expect_ids):
     keys = [(q["split"], q["query_id"]) for q in qs]
     assert len(keys) == len(set(keys))
     assert sorted(q for _, q in keys) == sorted(expect_ids)
-    assert len(by_topic(msgs, "/workspace")) == len({(w["split"], w["workspace_id"]) for w in by_topic(msgs, "/workspace")})
+    assert len(by_topic(msgs, "/workspace")) == len(
+        {(w["split"], w["workspace_id"]) for w in by_topic(msgs, "/workspace")}
+    )
     for s in by_topic(msgs, "/scene"):
         jsonschema.validate(s, scene_update_schema())
     assert not list(tmp_path.glob("trials.mcap.resume-*"))  # moved-aside files are gone
@@ -641,8 +770,12 @@ def test_resume_after_close_skips_done_and_never_duplicates(tmp_path):
     (run,) = by_topic(msgs, "/run")
     assert run["started_at"] == "later" and run["resumed_from"]["queries"] == 3
     assert by_topic(msgs, "/query")[:3] == old_q  # re-written unchanged
-    assert subprocess.run(rerun_cli() + ["rrd", "verify", str(tmp_path / "trials.rrd")],
-                          capture_output=True, timeout=120).returncode == 0
+    assert (
+        subprocess.run(
+            rerun_cli() + ["rrd", "verify", str(tmp_path / "trials.rrd")], capture_output=True, timeout=120
+        ).returncode
+        == 0
+    )
 
 
 @pytest.mark.slow  # a subprocess
@@ -688,6 +821,7 @@ def test_resume_refuses_another_runs_log(tmp_path):
 
 # ------------------------------------------------------------------------ Rerun
 
+
 def rerun_cli():
     exe = shutil.which("rerun")
     return [exe] if exe else [sys.executable, "-m", "rerun"]
@@ -715,9 +849,15 @@ def test_rrd_verifies_and_reads_back(tmp_path, env):
     chunks = [c for c in reader.stream() if not c.is_empty]  # a property in 0.41
     assert chunks
     paths = {str(c.entity_path) for c in chunks}
-    for e in ("/scene/world/path", "/scene/world/endpoints", "/scene/world/obstacles",
-              "/stats/time_s", "/stats/collision_checks", "/workspaces/seen/ws0/obstacles",
-              "/workspaces/unseen/ws1/obstacles"):
+    for e in (
+        "/scene/world/path",
+        "/scene/world/endpoints",
+        "/scene/world/obstacles",
+        "/stats/time_s",
+        "/stats/collision_checks",
+        "/workspaces/seen/ws0/obstacles",
+        "/workspaces/unseen/ws1/obstacles",
+    ):
         assert e in paths, (e, paths)
     assert ("/scene/world/robot" in paths) == is_rect(SPECS[env])
     rows = {}
@@ -734,6 +874,7 @@ def test_rerun_off_writes_no_rrd(tmp_path):
 
 
 # -------------------------------------------------------------------------- CSV
+
 
 def test_csv_columns_and_late_keys(tmp_path):
     with TrialLog(tmp_path, make_run(), SPECS["s2d"], rerun=False, extra_fields=["pnet_calls"]) as log:
@@ -758,12 +899,32 @@ def test_csv_columns_and_late_keys(tmp_path):
 
 # ------------------------------------------------------------------------ helpers
 
+
 def test_plain_converts_numpy_and_non_finite():
-    v = plain({"a": np.float32(1.5), "b": np.int64(3), "c": np.bool_(True), "d": np.arange(3),
-               "e": (np.float64(2.0), float("nan")), "f": np.array([[1.0, np.inf]]), "g": None,
-               "h": [np.int8(1)], "i": Path("x")})
-    assert v == {"a": 1.5, "b": 3, "c": True, "d": [0, 1, 2], "e": [2.0, None], "f": [[1.0, None]],
-                 "g": None, "h": [1], "i": "x"}
+    v = plain(
+        {
+            "a": np.float32(1.5),
+            "b": np.int64(3),
+            "c": np.bool_(True),
+            "d": np.arange(3),
+            "e": (np.float64(2.0), float("nan")),
+            "f": np.array([[1.0, np.inf]]),
+            "g": None,
+            "h": [np.int8(1)],
+            "i": Path("x"),
+        }
+    )
+    assert v == {
+        "a": 1.5,
+        "b": 3,
+        "c": True,
+        "d": [0, 1, 2],
+        "e": [2.0, None],
+        "f": [[1.0, None]],
+        "g": None,
+        "h": [1],
+        "i": "x",
+    }
     assert type(v["b"]) is int and type(v["c"]) is bool and type(v["a"]) is float
     json.dumps(v, allow_nan=False)
 

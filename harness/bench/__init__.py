@@ -5,5 +5,17 @@ from harness.bench.loop import CostTarget, QueryTiming, plan_query, run_bench
 from harness.bench.run import bench, bench_in_child, bench_or_exit, make_planner, ompl_seeded, seed_everything
 from harness.bench.summary import format_summary, summarize
 
-__all__ = ["CostTarget", "QueryTiming", "plan_query", "run_bench", "bench", "bench_in_child", "bench_or_exit",
-           "make_planner", "ompl_seeded", "seed_everything", "format_summary", "summarize"]
+__all__ = [
+    "CostTarget",
+    "QueryTiming",
+    "plan_query",
+    "run_bench",
+    "bench",
+    "bench_in_child",
+    "bench_or_exit",
+    "make_planner",
+    "ompl_seeded",
+    "seed_everything",
+    "format_summary",
+    "summarize",
+]

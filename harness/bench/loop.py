@@ -66,8 +66,14 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
 
 def unplanned(problem: Problem, reason: str) -> dict:
     """The record of a query that was not planned (e.g. no cost target)."""
-    return {"failure": reason, "path": [], "time_s": 0.0, "cpu_s": 0.0, **problem.checker.counts(),
-            "planner_status": reason}
+    return {
+        "failure": reason,
+        "path": [],
+        "time_s": 0.0,
+        "cpu_s": 0.0,
+        **problem.checker.counts(),
+        "planner_status": reason,
+    }
 
 
 class CostTarget:
@@ -80,11 +86,19 @@ class CostTarget:
 
     def __call__(self, problem: Problem, budget_s: float) -> tuple[Problem | None, dict]:
         rec = plan_query(self.target, problem, budget_s)
-        ok = rec["failure"] is None and verify_path(problem.spec, problem.workspace, rec["path"], problem.start,
-                                                    problem.goal, problem.spec.validation_step) is None
+        ok = (
+            rec["failure"] is None
+            and verify_path(
+                problem.spec, problem.workspace, rec["path"], problem.start, problem.goal, problem.spec.validation_step
+            )
+            is None
+        )
         cost = path_cost(problem.spec, rec["path"]) if ok else None
-        fields = {"target_planner": self.target.name, "target_cost": cost if cost else None,
-                  "target_time_s": rec["time_s"]}
+        fields = {
+            "target_planner": self.target.name,
+            "target_cost": cost if cost else None,
+            "target_time_s": rec["time_s"],
+        }
         problem.checker.reset_counts()
         if fields["target_cost"] is None:
             return None, fields
@@ -94,8 +108,17 @@ class CostTarget:
 PreQuery = Callable[[Problem, float], tuple[Problem | None, dict]]
 
 
-def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, collision: str = "native",
-              progress: bool = True, timing: QueryTiming | None = None, pre_query: PreQuery | None = None) -> None:
+def run_bench(
+    testset: TestSet,
+    planner: Planner,
+    log,
+    *,
+    budget_s: float,
+    collision: str = "native",
+    progress: bool = True,
+    timing: QueryTiming | None = None,
+    pre_query: PreQuery | None = None,
+) -> None:
     """Plan every query of the test set not already in the log, handing each to the log.
 
     pre_query(problem, budget_s) -> (problem to plan or None, fields for the record) runs
@@ -108,8 +131,14 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, colli
     for q in testset.queries:
         if (q.split, q.id) not in log.done:
             by_ws.setdefault((q.split, q.workspace_id), []).append(q)
-    bar = tqdm(total=sum(map(len, by_ws.values())), disable=not progress, desc=f"{spec.name} {planner.name}",
-               unit="query", file=sys.stderr, dynamic_ncols=True)
+    bar = tqdm(
+        total=sum(map(len, by_ws.values())),
+        disable=not progress,
+        desc=f"{spec.name} {planner.name}",
+        unit="query",
+        file=sys.stderr,
+        dynamic_ncols=True,
+    )
     # A query's matmuls are tiny (batch 1): BLAS threads only contend with the log process
     # and the other jobs (s2d MPNet-NR median 1.3 ms single-threaded, 1.6 ms with two).
     limits = threadpool_limits(1, user_api="blas")
@@ -124,13 +153,21 @@ def run_bench(testset: TestSet, planner: Planner, log, *, budget_s: float, colli
                 t0 = time.perf_counter()
                 checker.reset_counts()
                 problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost)
-                rec = {"query_id": q.id, "workspace_id": ws.id, "split": q.split,
-                       "start": q.start.tolist(), "goal": q.goal.tolist()}
+                rec = {
+                    "query_id": q.id,
+                    "workspace_id": ws.id,
+                    "split": q.split,
+                    "start": q.start.tolist(),
+                    "goal": q.goal.tolist(),
+                }
                 if pre_query is not None:
                     target_problem, fields = pre_query(problem, budget_s)
                     rec.update(fields)
-                    rec.update(unplanned(problem, "no_target") if target_problem is None
-                               else plan_query(planner, target_problem, budget_s))
+                    rec.update(
+                        unplanned(problem, "no_target")
+                        if target_problem is None
+                        else plan_query(planner, target_problem, budget_s)
+                    )
                 else:
                     rec.update(plan_query(planner, problem, budget_s))
                 if q.reference_cost is not None:

@@ -71,7 +71,8 @@ def runtime_objects(cfg: DictConfig, spec) -> dict:
     seed, the trained networks' folder (built on first use) and the workspace cloud."""
     points, data_seed = int(cfg.env.points_per_block), int(cfg.env.data_seed)
     return {
-        "env": spec, "seed": int(cfg.seed),
+        "env": spec,
+        "seed": int(cfg.seed),
         "models_dir": lambda: ensure_models(cfg, progress=bool(cfg.progress))[0],
         "cloud": lambda ws: spec.cloud(ws, points, data_seed),
     }
@@ -82,8 +83,14 @@ def build_testset(cfg: DictConfig, spec):
     if cfg.problems:
         testset = load_problems(str(cfg.problems), spec)
         if spec.exact_reference:  # exact references cost microseconds: fill the ones the file lacks
-            reference_costs(spec, testset.workspaces, [q for q in testset.queries if q.reference_cost is None],
-                            iterations=0, expert_s=0.0, bit_star_s=0.0)
+            reference_costs(
+                spec,
+                testset.workspaces,
+                [q for q in testset.queries if q.reference_cost is None],
+                iterations=0,
+                expert_s=0.0,
+                bit_star_s=0.0,
+            )
         return testset, "file"
     return ensure_testset(cfg, bool(cfg.progress)), "+".join(cfg.splits)
 
@@ -100,23 +107,39 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     target_cfg = cfg.planner.get("cost_target")
     pre_query = None if target_cfg is None else CostTarget(make_planner(target_cfg, "planner.cost_target", runtime))
     testset, split = build_testset(cfg, spec)
-    if pre_query is None and cfg.planner.get("stop") == "cost" \
-            and any(q.reference_cost is None for q in testset.queries):
-        raise UsageError("planner.stop=cost needs a reference cost for every query "
-                         "(give `reference_cost` per query in a problem file)")
+    if (
+        pre_query is None
+        and cfg.planner.get("stop") == "cost"
+        and any(q.reference_cost is None for q in testset.queries)
+    ):
+        raise UsageError(
+            "planner.stop=cost needs a reference cost for every query "
+            "(give `reference_cost` per query in a problem file)"
+        )
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
-    with LogProcess(run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun),
-                    resume=bool(cfg.resume)) as log:
+    with LogProcess(
+        run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun), resume=bool(cfg.resume)
+    ) as log:
         for ws in testset.workspaces:
             logged = log.logged_obstacles.get((ws.split, ws.id))
             if logged is not None and logged != ws.obstacles_json():
-                raise UsageError(f"resume=true: workspace {ws.id!r} ({ws.split}) in {run_dir} was logged with "
-                                 f"other obstacles; resume only the same test set or problem file")
+                raise UsageError(
+                    f"resume=true: workspace {ws.id!r} ({ws.split}) in {run_dir} was logged with "
+                    f"other obstacles; resume only the same test set or problem file"
+                )
         if log.done:
             print(f"resuming: {len(log.done)} queries already logged in {run_dir}", file=sys.stderr)
         try:
-            run_bench(testset, planner, log, budget_s=float(cfg.budget_s), collision=str(cfg.env.collision),
-                      progress=bool(cfg.progress), timing=timing, pre_query=pre_query)
+            run_bench(
+                testset,
+                planner,
+                log,
+                budget_s=float(cfg.budget_s),
+                collision=str(cfg.env.collision),
+                progress=bool(cfg.progress),
+                timing=timing,
+                pre_query=pre_query,
+            )
         except KeyboardInterrupt:
             log.close()
             print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)

@@ -7,6 +7,7 @@
 - writer: `TrialLog`, the three files together, resume and finalisation
 - process: `LogProcess`, the log in a child process that `judge`s each query
 """
+
 from __future__ import annotations
 
 from harness.log.csv import CSV_FIXED, CSV_NAME
@@ -17,6 +18,25 @@ from harness.log.rerun import RRD_NAME
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_schema
 from harness.log.writer import TrialLog
 
-__all__ = ["CSV_FIXED", "CSV_NAME", "FORMAT", "MCAP_NAME", "QUERY_FIELDS", "RRD_NAME", "RUN_FIELDS",
-           "SUMMARY_FIELDS", "LogProcess", "LoggedMessage", "Painter", "TrialLog", "judge", "painter_for", "plain",
-           "read_log", "rect_outlines", "register", "scene_update_schema", "spawn_context"]
+__all__ = [
+    "CSV_FIXED",
+    "CSV_NAME",
+    "FORMAT",
+    "MCAP_NAME",
+    "QUERY_FIELDS",
+    "RRD_NAME",
+    "RUN_FIELDS",
+    "SUMMARY_FIELDS",
+    "LogProcess",
+    "LoggedMessage",
+    "Painter",
+    "TrialLog",
+    "judge",
+    "painter_for",
+    "plain",
+    "read_log",
+    "rect_outlines",
+    "register",
+    "scene_update_schema",
+    "spawn_context",
+]

@@ -1,15 +1,25 @@
 """queries.csv: the scalar fields of each query, a flat table beside the MCAP record."""
+
 from __future__ import annotations
 
 import csv
 import os
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 CSV_NAME = "queries.csv"
 # Scalar columns of queries.csv that always come first, in this order.
-CSV_FIXED = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "cpu_s",
-             "path_cost", "collision_checks")
+CSV_FIXED = (
+    "query_id",
+    "workspace_id",
+    "split",
+    "success",
+    "failure",
+    "time_s",
+    "cpu_s",
+    "path_cost",
+    "collision_checks",
+)
 _NON_CSV = frozenset(("start", "goal", "path"))
 
 

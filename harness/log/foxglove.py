@@ -1,6 +1,7 @@
 """`/scene`: Foxglove `foxglove.SceneUpdate` messages, one per workspace shown and one per
 query. This module knows the message's layout; what is drawn comes from the painter
 (harness.log.painters), so nothing here depends on the robot."""
+
 from __future__ import annotations
 
 import json
@@ -29,14 +30,35 @@ def cube(position: dict, size: dict, color, orientation: dict = ID_QUAT) -> dict
 
 
 def line(kind: int, points: list, color, thickness: float) -> dict:
-    return {"type": kind, "pose": ORIGIN_POSE, "thickness": thickness, "scale_invariant": False,
-            "points": [p3(p) for p in points], "color": rgba(color), "colors": [], "indices": []}
+    return {
+        "type": kind,
+        "pose": ORIGIN_POSE,
+        "thickness": thickness,
+        "scale_invariant": False,
+        "points": [p3(p) for p in points],
+        "color": rgba(color),
+        "colors": [],
+        "indices": [],
+    }
 
 
 def entity(eid: str, stamp: dict, **prims) -> dict:
-    e = {"timestamp": stamp, "frame_id": FRAME_ID, "id": eid, "lifetime": _ZERO_DURATION,
-         "frame_locked": False, "metadata": prims.pop("metadata", []), "arrows": [], "cubes": [],
-         "spheres": [], "cylinders": [], "lines": [], "triangles": [], "texts": [], "models": []}
+    e = {
+        "timestamp": stamp,
+        "frame_id": FRAME_ID,
+        "id": eid,
+        "lifetime": _ZERO_DURATION,
+        "frame_locked": False,
+        "metadata": prims.pop("metadata", []),
+        "arrows": [],
+        "cubes": [],
+        "spheres": [],
+        "cylinders": [],
+        "lines": [],
+        "triangles": [],
+        "texts": [],
+        "models": [],
+    }
     e.update(prims)
     return e
 
@@ -46,8 +68,13 @@ def workspace_scene(painter, msg: dict, t: int) -> bytes:
     st = stamp(t)
     split, wid = msg["split"], msg["workspace_id"]
     cubes, lines = painter.foxglove_workspace(msg)
-    ent = entity(f"workspace/{split}/{wid}", st, cubes=cubes, lines=lines,
-                 metadata=[{"key": "workspace_id", "value": wid}, {"key": "split", "value": split}])
+    ent = entity(
+        f"workspace/{split}/{wid}",
+        st,
+        cubes=cubes,
+        lines=lines,
+        metadata=[{"key": "workspace_id", "value": wid}, {"key": "split", "value": split}],
+    )
     return dumps({"deletions": [{"timestamp": st, "type": 1, "id": ""}], "entities": [ent]})
 
 
@@ -62,14 +89,25 @@ def query_scene(painter, msg: dict, t: int) -> bytes:
     ok = bool(msg.get("success"))
     trace, start, goal = painter.trace(msg)
     pts = ",".join([P3 % (fx(p[0]), fx(p[1]), fx(p[2]) if len(p) > 2 else "0.0") for p in trace])
-    spheres = ",".join([_SPHERE % (fx(p[0]), fx(p[1]), fx(p[2]) if len(p) > 2 else "0.0", c)
-                        for p, c in ((start, _J_START), (goal, _J_GOAL)) if p is not None])
+    spheres = ",".join(
+        [
+            _SPHERE % (fx(p[0]), fx(p[1]), fx(p[2]) if len(p) > 2 else "0.0", c)
+            for p, c in ((start, _J_START), (goal, _J_GOAL))
+            if p is not None
+        ]
+    )
     cubes = painter.foxglove_bodies(msg)
     meta = json.dumps([{"key": k, "value": str(msg.get(k))} for k in _SCENE_META], separators=(",", ":"))
-    ent = _ENTITY % (t // 1_000_000_000, t % 1_000_000_000,
-                     json.dumps(f"query/{msg['split']}/{msg['query_id']}"), meta, cubes, spheres,
-                     _STRIP % (pts, _J_SUCCESS if ok else _J_FAILURE))
-    return ('{"deletions":[],"entities":[%s]}' % ent).encode()
+    ent = _ENTITY % (
+        t // 1_000_000_000,
+        t % 1_000_000_000,
+        json.dumps(f"query/{msg['split']}/{msg['query_id']}"),
+        meta,
+        cubes,
+        spheres,
+        _STRIP % (pts, _J_SUCCESS if ok else _J_FAILURE),
+    )
+    return ('{"deletions":[],"entities":[%s]}' % ent).encode()  # noqa: UP031  (the templates above are %-style)
 
 
 def fx(x) -> str:
@@ -86,13 +124,18 @@ _J_SUCCESS, _J_FAILURE, _J_START, _J_GOAL = map(jcolor, (C_SUCCESS, C_FAILURE, C
 _J_ID_QUAT = json.dumps(ID_QUAT, separators=(",", ":"))
 P3 = '{"x":%s,"y":%s,"z":%s}'
 # A cube turned about z: position x, y, z, quaternion z, w, size x, y, z (JSON number texts), color (JSON).
-YAW_CUBE = ('{"pose":{"position":' + P3 + ',"orientation":{"x":0.0,"y":0.0,"z":%s,"w":%s}},'
-            '"size":' + P3 + ',"color":%s}')
-_SPHERE = ('{"pose":{"position":' + P3 + ',"orientation":' + _J_ID_QUAT
-           + '},"size":{"x":0.8,"y":0.8,"z":0.8},"color":%s}')
-_STRIP = ('{"type":0,"pose":' + json.dumps(ORIGIN_POSE, separators=(",", ":"))
-          + ',"thickness":0.15,"scale_invariant":false,"points":[%s],"color":%s,"colors":[],"indices":[]}')
-_ENTITY = ('{"timestamp":{"sec":%d,"nsec":%d},"frame_id":"' + FRAME_ID + '","id":%s,'
-           '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":%s,"arrows":[],"cubes":[%s],'
-           '"spheres":[%s],"cylinders":[],"lines":[%s],"triangles":[],"texts":[],"models":[]}')
+YAW_CUBE = '{"pose":{"position":' + P3 + ',"orientation":{"x":0.0,"y":0.0,"z":%s,"w":%s}},"size":' + P3 + ',"color":%s}'
+_SPHERE = (
+    '{"pose":{"position":' + P3 + ',"orientation":' + _J_ID_QUAT + '},"size":{"x":0.8,"y":0.8,"z":0.8},"color":%s}'
+)
+_STRIP = (
+    '{"type":0,"pose":'
+    + json.dumps(ORIGIN_POSE, separators=(",", ":"))
+    + ',"thickness":0.15,"scale_invariant":false,"points":[%s],"color":%s,"colors":[],"indices":[]}'
+)
+_ENTITY = (
+    '{"timestamp":{"sec":%d,"nsec":%d},"frame_id":"' + FRAME_ID + '","id":%s,'
+    '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":%s,"arrows":[],"cubes":[%s],'
+    '"spheres":[%s],"cylinders":[],"lines":[%s],"triangles":[],"texts":[],"models":[]}'
+)
 _SCENE_META = ("query_id", "workspace_id", "success", "failure", "time_s", "path_cost", "collision_checks")

@@ -1,12 +1,14 @@
 """`trials.mcap` at the byte level: plain JSON values, the writer's channels, and the reader
 that also reads a file whose writer was killed (DESIGN §6, §9)."""
+
 from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO, Iterable
+from typing import Any, BinaryIO
 
 import numpy as np
 from mcap.reader import make_reader
@@ -97,8 +99,10 @@ def read_log(path: str | Path, topics: Iterable[str] | None = None) -> tuple[lis
     topics = None if topics is None else set(topics)
     try:
         with open(path, "rb") as f:
-            out = [LoggedMessage(c.topic, json.loads(m.data), m.log_time, m.publish_time)
-                   for _, c, m in make_reader(f).iter_messages(topics=topics, log_time_order=False)]
+            out = [
+                LoggedMessage(c.topic, json.loads(m.data), m.log_time, m.publish_time)
+                for _, c, m in make_reader(f).iter_messages(topics=topics, log_time_order=False)
+            ]
         return out, True
     except Exception:  # noqa: BLE001 - any failure means: not a finalised file
         pass

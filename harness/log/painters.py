@@ -7,6 +7,7 @@ painter class registered here, and nothing else changes.
 
     painter = painter_for(ws_msg["robot"], workspace_dim)
 """
+
 from __future__ import annotations
 
 import math
@@ -104,14 +105,22 @@ class Painter:
         n = len(msgs)
         ok = np.array([bool(m.get("success")) for m in msgs])
         colors = np.where(ok[:, None], np.array(rgba8(C_SUCCESS), np.uint8), np.array(rgba8(C_FAILURE), np.uint8))
-        strips = [np.asarray(m.get("path") or np.zeros((0, d)), float).reshape(-1, max(len(m["start"]), d))[:, :d]
-                  for m in msgs]
+        strips = [
+            np.asarray(m.get("path") or np.zeros((0, d)), float).reshape(-1, max(len(m["start"]), d))[:, :d]
+            for m in msgs
+        ]
         labels = [f"{m['query_id']}: " + ("ok" if m.get("success") else str(m.get("failure"))) for m in msgs]
         ends = np.array([[m["start"][:d], m["goal"][:d]] for m in msgs], float).reshape(2 * n, d)
         end_colors = np.tile(np.array([rgba8(C_START), rgba8(C_GOAL)], np.uint8), (n, 1))
-        return [("scene/world/path", strips_t.columns(strips=strips, colors=colors, labels=labels)),
-                ("scene/world/endpoints", points_t.columns(
-                    positions=ends, colors=end_colors, radii=np.full(2 * n, 0.4, np.float32)).partition([2] * n))]
+        return [
+            ("scene/world/path", strips_t.columns(strips=strips, colors=colors, labels=labels)),
+            (
+                "scene/world/endpoints",
+                points_t.columns(positions=ends, colors=end_colors, radii=np.full(2 * n, 0.4, np.float32)).partition(
+                    [2] * n
+                ),
+            ),
+        ]
 
 
 class _Planar(Painter):
@@ -121,8 +130,14 @@ class _Planar(Painter):
     workspace_dim = 2
 
     def foxglove_workspace(self, msg):
-        cubes = [cube({"x": o["center"][0], "y": o["center"][1], "z": -THIN_Z / 2},
-                      {"x": o["size"][0], "y": o["size"][1], "z": THIN_Z}, C_OBSTACLE) for o in msg["obstacles"]]
+        cubes = [
+            cube(
+                {"x": o["center"][0], "y": o["center"][1], "z": -THIN_Z / 2},
+                {"x": o["size"][0], "y": o["size"][1], "z": THIN_Z},
+                C_OBSTACLE,
+            )
+            for o in msg["obstacles"]
+        ]
         (x0, x1), (y0, y1) = msg["bounds"][0], msg["bounds"][1]
         c = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
         edges = [p for i in range(4) for p in (c[i], c[(i + 1) % 4])]
@@ -134,15 +149,22 @@ class _Planar(Painter):
     def rerun_static(self, rr, bounds):
         lo, hi = _lo_hi(bounds, 2)
         # Rerun's 2D views draw y down; flip the world so y points up as in the paper.
-        return [("scene/world", rr.Transform3D(scale=[1.0, -1.0, 1.0])),
-                ("scene/world/bounds", rr.LineStrips2D([[lo, [hi[0], lo[1]], hi, [lo[0], hi[1]], lo]],
-                                                       colors=[rgba8(C_BOUNDS)]))]
+        return [
+            ("scene/world", rr.Transform3D(scale=[1.0, -1.0, 1.0])),
+            (
+                "scene/world/bounds",
+                rr.LineStrips2D([[lo, [hi[0], lo[1]], hi, [lo[0], hi[1]], lo]], colors=[rgba8(C_BOUNDS)]),
+            ),
+        ]
 
     def rerun_view(self, rrb, bounds):
         lo, hi = _lo_hi(bounds, 2)
         pad = 0.05 * float(max(hi - lo))
-        return rrb.Spatial2DView(name="scene", origin="/scene", visual_bounds=rrb.VisualBounds2D(
-            x_range=[lo[0] - pad, hi[0] + pad], y_range=[-hi[1] - pad, -lo[1] + pad]))
+        return rrb.Spatial2DView(
+            name="scene",
+            origin="/scene",
+            visual_bounds=rrb.VisualBounds2D(x_range=[lo[0] - pad, hi[0] + pad], y_range=[-hi[1] - pad, -lo[1] + pad]),
+        )
 
 
 class _Spatial(Painter):
@@ -213,16 +235,37 @@ class RectanglePainter(_Planar):
     def foxglove_bodies(self, msg):
         states = msg.get("path") or [msg["start"], msg["goal"]]
         sx, sy = repr(self.size[0]), repr(self.size[1])
-        return ",".join([YAW_CUBE % (fx(q[0]), fx(q[1]), "0.01", repr(math.sin(_f(q[2]) / 2)),
-                                     repr(math.cos(_f(q[2]) / 2)), sx, sy, "0.02", _J_ROBOT) for q in states])
+        return ",".join(
+            [
+                YAW_CUBE
+                % (
+                    fx(q[0]),
+                    fx(q[1]),
+                    "0.01",
+                    repr(math.sin(_f(q[2]) / 2)),
+                    repr(math.cos(_f(q[2]) / 2)),
+                    sx,
+                    sy,
+                    "0.02",
+                    _J_ROBOT,
+                )
+                for q in states
+            ]
+        )
 
     def rerun_queries(self, rr, msgs):
         out = super().rerun_queries(rr, msgs)
         outl = [self.footprints(np.asarray(m.get("path") or [m["start"], m["goal"]], float)) for m in msgs]
         lens = [len(o) for o in outl]
         outl = np.concatenate(outl)
-        out.append(("scene/world/robot", rr.LineStrips2D.columns(
-            strips=outl, colors=np.tile(np.array(rgba8(C_ROBOT), np.uint8), (len(outl), 1))).partition(lens)))
+        out.append(
+            (
+                "scene/world/robot",
+                rr.LineStrips2D.columns(
+                    strips=outl, colors=np.tile(np.array(rgba8(C_ROBOT), np.uint8), (len(outl), 1))
+                ).partition(lens),
+            )
+        )
         return out
 
 

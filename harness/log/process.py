@@ -10,6 +10,7 @@ Crash safety holds: the child ignores Ctrl-C and SIGTERM and finalises when the 
 closes the log, raises, is interrupted, or dies (the pipe ends); every query it received
 is logged.
 """
+
 from __future__ import annotations
 
 import multiprocessing as mp
@@ -19,8 +20,7 @@ from pathlib import Path
 
 from mpnet.motion import path_cost, verify_path
 
-SUMMARY_FIELDS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "path_cost",
-                  "collision_checks")
+SUMMARY_FIELDS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "path_cost", "collision_checks")
 
 
 def judge(spec, ws, rec: dict, validation_step: float) -> dict:
@@ -59,7 +59,7 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     try:
         log = TrialLog(run_dir, run, spec, **log_kwargs)
-    except Exception as e:  # reported to the parent, which raises it
+    except Exception as e:  # noqa: BLE001  (reported to the parent, which raises it)
         conn.send(("error", e))
         return
     conn.send(("ready", (log.done, log.logged_obstacles())))
@@ -76,8 +76,7 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
                 workspaces[(payload.split, payload.id)] = payload
                 log.add_workspace(payload)
             elif kind == "query":
-                rec = judge(spec, workspaces[(payload["split"], payload["workspace_id"])], payload,
-                            validation_step)
+                rec = judge(spec, workspaces[(payload["split"], payload["workspace_id"])], payload, validation_step)
                 log.add_query(rec)
                 records.append({k: rec.get(k) for k in SUMMARY_FIELDS})
             elif kind == "close":
@@ -107,16 +106,21 @@ class LogProcess:
     """TrialLog's interface (add_workspace, add_query, done, context manager), served by
     a child process that also judges each query. close() returns the judged records."""
 
-    def __init__(self, run_dir: str | Path, run: dict, spec, *, validation_step: float,
-                 rerun: bool = True, resume: bool = False):
+    def __init__(
+        self, run_dir: str | Path, run: dict, spec, *, validation_step: float, rerun: bool = True, resume: bool = False
+    ):
         ctx = spawn_context()  # never fork a process that has started OMPL's threads
         # Queries go down a one-way pipe widened to hold hundreds of them, so the loop never
         # waits on a burst of slow writes (a Rerun batch); replies come up a second pipe.
         inbox, self._outbox = ctx.Pipe(duplex=False)
         self._conn, reply = ctx.Pipe(duplex=False)
         _widen(self._outbox)
-        self._proc = ctx.Process(target=_serve, name="trial-log", daemon=True, args=(
-            inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}))
+        self._proc = ctx.Process(
+            target=_serve,
+            name="trial-log",
+            daemon=True,
+            args=(inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}),
+        )
         self._proc.start()
         inbox.close()
         reply.close()
@@ -153,7 +157,7 @@ class LogProcess:
         self.records, self.child_cpu_s = payload["records"], payload["cpu_s"]
         return self.records
 
-    def __enter__(self) -> "LogProcess":
+    def __enter__(self) -> LogProcess:
         return self
 
     def __exit__(self, *exc) -> None:

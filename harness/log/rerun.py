@@ -1,6 +1,7 @@
 """trials.rrd: the run as a Rerun recording. Each workspace's obstacles, and on the `query`
 timeline each query's path, start and goal over the obstacles of its workspace, with
 time and collision-check plots. What is drawn comes from the painter."""
+
 from __future__ import annotations
 
 import time
@@ -38,14 +39,20 @@ class RerunSink:
 
     def _blueprint(self, rrb, bounds: list):
         scene = self.painter.rerun_view(rrb, bounds)
-        plots = rrb.Vertical(rrb.TimeSeriesView(name="planning time [s]", origin="/stats/time_s"),
-                             rrb.TimeSeriesView(name="collision checks", origin="/stats/collision_checks"))
-        return rrb.Blueprint(rrb.Horizontal(scene, plots, column_shares=[2, 1]),
-                             rrb.TimePanel(timeline="query"), collapse_panels=True)
+        plots = rrb.Vertical(
+            rrb.TimeSeriesView(name="planning time [s]", origin="/stats/time_s"),
+            rrb.TimeSeriesView(name="collision checks", origin="/stats/collision_checks"),
+        )
+        return rrb.Blueprint(
+            rrb.Horizontal(scene, plots, column_shares=[2, 1]), rrb.TimePanel(timeline="query"), collapse_panels=True
+        )
 
     def workspace(self, ws_msg: dict):
-        self.rec.log(["workspaces", ws_msg["split"], ws_msg["workspace_id"], "obstacles"],
-                     self.painter.rerun_obstacles(self.rr, ws_msg), static=True)
+        self.rec.log(
+            ["workspaces", ws_msg["split"], ws_msg["workspace_id"], "obstacles"],
+            self.painter.rerun_obstacles(self.rr, ws_msg),
+            static=True,
+        )
 
     def query(self, i: int, msg: dict, ws_msg: dict):
         self.pending.append((i, msg, ws_msg))
@@ -61,13 +68,14 @@ class RerunSink:
         try:
             self._send(items)
         except Exception as e:  # noqa: BLE001 - the MCAP file is the record, the rrd a view of it
-            warnings.warn(f"trial log: {len(items)} queries missing from trials.rrd: {e!r}",
-                          RuntimeWarning, stacklevel=3)
+            warnings.warn(
+                f"trial log: {len(items)} queries missing from trials.rrd: {e!r}", RuntimeWarning, stacklevel=3
+            )
 
     def _send(self, items):
         """Columns, one row per query on the `query` timeline."""
         rr, rec = self.rr, self.rec
-        for i, msg, ws in items:  # obstacles of the workspace on screen, when it changes
+        for i, _msg, ws in items:  # obstacles of the workspace on screen, when it changes
             key = (ws["split"], ws["workspace_id"])
             if key != self.shown_ws:
                 rec.set_time("query", sequence=i)
@@ -75,10 +83,16 @@ class RerunSink:
                 self.shown_ws = key
         idx = [rr.TimeColumn("query", sequence=[i for i, _, _ in items])]
         msgs = [m for _, m, _ in items]
-        rec.send_columns("stats/time_s", indexes=idx, columns=rr.Scalars.columns(
-            scalars=np.array([_num(m.get("time_s")) for m in msgs], float)))
-        rec.send_columns("stats/collision_checks", indexes=idx, columns=rr.Scalars.columns(
-            scalars=np.array([_num(m.get("collision_checks")) for m in msgs], float)))
+        rec.send_columns(
+            "stats/time_s",
+            indexes=idx,
+            columns=rr.Scalars.columns(scalars=np.array([_num(m.get("time_s")) for m in msgs], float)),
+        )
+        rec.send_columns(
+            "stats/collision_checks",
+            indexes=idx,
+            columns=rr.Scalars.columns(scalars=np.array([_num(m.get("collision_checks")) for m in msgs], float)),
+        )
         for entity, columns in self.painter.rerun_queries(rr, msgs):
             rec.send_columns(entity, indexes=idx, columns=columns)
 

@@ -9,6 +9,7 @@ links); its field names are Foxglove's. Foxglove recognises the data by the sche
 file has every `$ref` inlined, since Foxglove's JSON Schema reader expects each field to give
 its own `type`.
 """
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,20 @@ FORMAT = "mpnet-bench/trials@1"
 SCHEMA_DIR = Path(__file__).resolve().parent.parent / "schemas"
 
 RUN_FIELDS = ("env", "planner", "seed", "split", "config", "git_rev", "versions", "host", "started_at")
-QUERY_FIELDS = ("query_id", "workspace_id", "split", "start", "goal", "success", "failure",
-                "path", "time_s", "cpu_s", "path_cost", "collision_checks")
+QUERY_FIELDS = (
+    "query_id",
+    "workspace_id",
+    "split",
+    "start",
+    "goal",
+    "success",
+    "failure",
+    "path",
+    "time_s",
+    "cpu_s",
+    "path_cost",
+    "collision_checks",
+)
 
 _NUM = {"type": "number"}
 _VEC = {"type": "array", "items": _NUM}
@@ -54,14 +67,19 @@ WORKSPACE_SCHEMA = {
     "properties": {
         "workspace_id": {"type": "string"},
         "split": {"type": "string", "description": "seen, unseen or file"},
-        "bounds": {"type": "array", "items": {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2},
-                   "description": "[lo, hi] per state dimension"},
-        "obstacles": {"type": "array", "items": {
-            "type": "object",
-            "properties": {"center": _VEC, "size": _VEC},
-            "required": ["center", "size"]}},
-        "robot": {"type": ["object", "string"],
-                  "description": '{"kind": "point"}, {"kind": "rectangle", "size": [w, h]} or the arm\'s name'},
+        "bounds": {
+            "type": "array",
+            "items": {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2},
+            "description": "[lo, hi] per state dimension",
+        },
+        "obstacles": {
+            "type": "array",
+            "items": {"type": "object", "properties": {"center": _VEC, "size": _VEC}, "required": ["center", "size"]},
+        },
+        "robot": {
+            "type": ["object", "string"],
+            "description": '{"kind": "point"}, {"kind": "rectangle", "size": [w, h]} or the arm\'s name',
+        },
     },
     "required": ["workspace_id", "split", "bounds", "obstacles", "robot"],
 }
@@ -115,9 +133,9 @@ def _inline_refs(node: Any, defs: dict) -> Any:
     ref = node.get("$ref")
     if ref is not None:
         prefix = "#/$defs/"
-        if not ref.startswith(prefix) or ref[len(prefix):] not in defs:
+        if not ref.startswith(prefix) or ref[len(prefix) :] not in defs:
             raise ValueError(f"unsupported $ref {ref!r}")
-        out.update(_inline_refs(defs[ref[len(prefix):]], defs))
+        out.update(_inline_refs(defs[ref[len(prefix) :]], defs))
     for k, v in node.items():
         if k not in ("$ref", "$defs"):
             out[k] = _inline_refs(v, defs)
@@ -140,7 +158,9 @@ def scene_schema_bytes() -> bytes:
 
 def topic_schemas() -> tuple[tuple[str, str, bytes], ...]:
     """(topic, schema name, schema) of every channel, in the order the writer registers them."""
-    return (("/run", "mpnet_bench.Run", schema_bytes(RUN_SCHEMA)),
-            ("/workspace", "mpnet_bench.Workspace", schema_bytes(WORKSPACE_SCHEMA)),
-            ("/query", "mpnet_bench.Query", schema_bytes(QUERY_SCHEMA)),
-            ("/scene", "foxglove.SceneUpdate", scene_schema_bytes()))
+    return (
+        ("/run", "mpnet_bench.Run", schema_bytes(RUN_SCHEMA)),
+        ("/workspace", "mpnet_bench.Workspace", schema_bytes(WORKSPACE_SCHEMA)),
+        ("/query", "mpnet_bench.Query", schema_bytes(QUERY_SCHEMA)),
+        ("/scene", "foxglove.SceneUpdate", scene_schema_bytes()),
+    )

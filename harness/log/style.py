@@ -1,5 +1,6 @@
 """Colours and sizes shared by the Foxglove scenes and the Rerun recording, so both views
 of a run look alike."""
+
 from __future__ import annotations
 
 C_OBSTACLE = (0.55, 0.55, 0.6, 0.85)

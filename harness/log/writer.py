@@ -15,19 +15,29 @@ Why it is shaped this way:
 - What the scenes show of the robot is the painter's (harness.log.painters), chosen from
   the robot JSON this log writes to /workspace.
 """
+
 from __future__ import annotations
 
 import os
 import time
 import warnings
 import weakref
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 from harness.log.csv import CSV_NAME, QueryCsv
 from harness.log.foxglove import query_scene, workspace_scene
-from harness.log.mcap_io import (MCAP_NAME, RESUME_SUFFIX, LoggedMessage, aside_index, dumps, new_writer, plain,
-                                 read_log, start_channels)
+from harness.log.mcap_io import (
+    MCAP_NAME,
+    RESUME_SUFFIX,
+    LoggedMessage,
+    aside_index,
+    dumps,
+    new_writer,
+    plain,
+    read_log,
+    start_channels,
+)
 from harness.log.painters import painter_for
 from harness.log.rerun import RRD_NAME, RerunSink
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, topic_schemas
@@ -44,9 +54,19 @@ class TrialLog:
     a killed process loses nothing flushed, only a machine crash needs the sync.
     """
 
-    def __init__(self, run_dir: str | Path, run: dict, spec, *, rerun: bool = True,
-                 resume: bool = False, extra_fields: Iterable[str] = (), rerun_batch: int = 64,
-                 rerun_every_s: float = 2.0, fsync_every_s: float = 1.0):
+    def __init__(
+        self,
+        run_dir: str | Path,
+        run: dict,
+        spec,
+        *,
+        rerun: bool = True,
+        resume: bool = False,
+        extra_fields: Iterable[str] = (),
+        rerun_batch: int = 64,
+        rerun_every_s: float = 2.0,
+        fsync_every_s: float = 1.0,
+    ):
         missing = [k for k in RUN_FIELDS if k not in run]
         if missing:
             raise ValueError(f"run is missing {', '.join(missing)}")
@@ -72,12 +92,15 @@ class TrialLog:
         old, self._asides = self._take_previous(run, resume)
         run_msg = {"format": FORMAT, **plain(dict(run))}
         if old is not None:
-            run_msg["resumed_from"] = {"files": [p.name for p in self._asides],
-                                       "queries": sum(m.topic == "/query" for m in old)}
+            run_msg["resumed_from"] = {
+                "files": [p.name for p in self._asides],
+                "queries": sum(m.topic == "/query" for m in old),
+            }
 
         topics = topic_schemas()  # read before any file is opened: a bad schema file fails here
-        self._rr = RerunSink(self.rrd_path, run, self.painter, self.bounds, rerun_batch, rerun_every_s) \
-            if rerun else None
+        self._rr = (
+            RerunSink(self.rrd_path, run, self.painter, self.bounds, rerun_batch, rerun_every_s) if rerun else None
+        )
         self._f = open(self.mcap_path, "wb")
         self._w = new_writer(self._f)
         self._csv = QueryCsv(self.csv_path, extra_fields)
@@ -100,12 +123,19 @@ class TrialLog:
         obstacles = plain(ws.obstacles_json())
         if key in self._workspaces:
             if self._workspaces[key]["obstacles"] != obstacles:
-                raise ValueError(f"workspace {key[1]!r} of split {key[0]!r} is already logged with other "
-                                 f"obstacles; a resumed run must plan the same workspaces")
+                raise ValueError(
+                    f"workspace {key[1]!r} of split {key[0]!r} is already logged with other "
+                    f"obstacles; a resumed run must plan the same workspaces"
+                )
             return
         self._check_open()
-        msg = {"workspace_id": key[1], "split": key[0], "bounds": self.spec.bounds_json(),
-               "obstacles": obstacles, "robot": self.spec.robot_json()}
+        msg = {
+            "workspace_id": key[1],
+            "split": key[0],
+            "bounds": self.spec.bounds_json(),
+            "obstacles": obstacles,
+            "robot": self.spec.robot_json(),
+        }
         self._emit_workspace(msg, self._now())
         self._flush()
 
@@ -123,8 +153,10 @@ class TrialLog:
         if key in self._logged:
             raise ValueError(f"query {key[1]!r} of split {key[0]!r} is already logged")
         if (msg["split"], msg["workspace_id"]) not in self._workspaces:
-            raise ValueError(f"query {key[1]!r}: workspace {msg['workspace_id']!r} of split "
-                             f"{msg['split']!r} was not added (add_workspace first)")
+            raise ValueError(
+                f"query {key[1]!r}: workspace {msg['workspace_id']!r} of split "
+                f"{msg['split']!r} was not added (add_workspace first)"
+            )
         self._emit_query(msg, self._now())
         self._flush()
 
@@ -142,7 +174,7 @@ class TrialLog:
                 except OSError:
                     pass
 
-    def __enter__(self) -> "TrialLog":
+    def __enter__(self) -> TrialLog:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -191,8 +223,7 @@ class TrialLog:
                 if m.topic == "/run":
                     for k in ("env", "planner", "seed"):
                         if k in m.data and plain(run[k]) != m.data[k]:
-                            raise ValueError(f"cannot resume {p}: it logged {k}={m.data[k]!r}, "
-                                             f"this run has {run[k]!r}")
+                            raise ValueError(f"cannot resume {p}: it logged {k}={m.data[k]!r}, this run has {run[k]!r}")
             old += msgs
         if self.mcap_path.exists():
             k = 1 + max(map(aside_index, asides), default=0)
@@ -223,8 +254,11 @@ class TrialLog:
             self._last_t = max(self._last_t, m.log_time)
         self._last_t = max(self._last_t, time.time_ns())
         if orphans:
-            warnings.warn(f"trial log: {orphans} earlier queries had no /workspace message; "
-                          "they will be planned again", RuntimeWarning, stacklevel=3)
+            warnings.warn(
+                f"trial log: {orphans} earlier queries had no /workspace message; they will be planned again",
+                RuntimeWarning,
+                stacklevel=3,
+            )
 
     def _emit_workspace(self, msg: dict, t: int):
         key = (msg["split"], msg["workspace_id"])

@@ -10,8 +10,9 @@ from harness.report.write import write_report
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m harness.report",
-                                 description="Table I, figures and an OMPL benchmark database from trial logs.")
+    ap = argparse.ArgumentParser(
+        prog="python -m harness.report", description="Table I, figures and an OMPL benchmark database from trial logs."
+    )
     ap.add_argument("dirs", nargs="+", metavar="DIR", help="directories searched recursively for trials.mcap")
     ap.add_argument("--out", default="reports", help="output directory (default: reports/)")
     ap.add_argument("--paper", action="store_true", help="put the paper's Table I numbers beside ours")
@@ -27,15 +28,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: no readable trials.mcap under {', '.join(args.dirs)}", file=sys.stderr)
         return 1
     if not s["queries"]:
-        print(f"error: no queries in the {s['files']} readable trials.mcap under {', '.join(args.dirs)}",
-              file=sys.stderr)
+        print(
+            f"error: no queries in the {s['files']} readable trials.mcap under {', '.join(args.dirs)}", file=sys.stderr
+        )
         return 1
     out = Path(args.out)
     print(f"read {s['files']} trial logs ({s['queries']} queries), skipped {s['skipped']}")
-    tables = "".join(f", {n}.{{md,csv}}" for n in ("quality", "ablations", "equal_quality")
-                     if out / f"{n}.csv" in s["outputs"])
-    print(f"wrote {out}/: results.csv, table1.{{md,tex,csv}}, success_cost.{{md,tex,csv}}{tables}, benchmark.db, "
-          f"README.md, figures/ ({len(s['figures']) // 2} figures)")
+    tables = "".join(
+        f", {n}.{{md,csv}}" for n in ("quality", "ablations", "equal_quality") if out / f"{n}.csv" in s["outputs"]
+    )
+    print(
+        f"wrote {out}/: results.csv, table1.{{md,tex,csv}}, success_cost.{{md,tex,csv}}{tables}, benchmark.db, "
+        f"README.md, figures/ ({len(s['figures']) // 2} figures)"
+    )
     return 0
 
 

@@ -23,12 +23,26 @@ from harness.report.names import (
 )
 
 _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
-    ("time", "REAL"), ("memory", "REAL"), ("solved", "BOOLEAN"), ("status", "ENUM"),
-    ("approximate_solution", "BOOLEAN"), ("correct_solution", "BOOLEAN"), ("solution_length", "REAL"),
-    ("solution_segments", "INTEGER"), ("cpu_time", "REAL"), ("collision_checks", "INTEGER"),
-    ("state_checks", "INTEGER"), ("motion_checks", "INTEGER"), ("pnet_calls", "INTEGER"),
-    ("replans", "INTEGER"), ("fallback_used", "BOOLEAN"), ("seed", "INTEGER"), ("split", "VARCHAR(64)"),
-    ("workspace_id", "VARCHAR(256)"), ("query_id", "VARCHAR(256)"), ("failure", "VARCHAR(256)"),
+    ("time", "REAL"),
+    ("memory", "REAL"),
+    ("solved", "BOOLEAN"),
+    ("status", "ENUM"),
+    ("approximate_solution", "BOOLEAN"),
+    ("correct_solution", "BOOLEAN"),
+    ("solution_length", "REAL"),
+    ("solution_segments", "INTEGER"),
+    ("cpu_time", "REAL"),
+    ("collision_checks", "INTEGER"),
+    ("state_checks", "INTEGER"),
+    ("motion_checks", "INTEGER"),
+    ("pnet_calls", "INTEGER"),
+    ("replans", "INTEGER"),
+    ("fallback_used", "BOOLEAN"),
+    ("seed", "INTEGER"),
+    ("split", "VARCHAR(64)"),
+    ("workspace_id", "VARCHAR(256)"),
+    ("query_id", "VARCHAR(256)"),
+    ("failure", "VARCHAR(256)"),
 )
 
 _SCHEMA = """
@@ -141,44 +155,86 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
         for env, split in zip(order["env"], order["split"]):
             d = q[(q["env"] == env) & (q["split"] == split)]
             fruns = [files[i].run for i in sorted(d["file"].unique())]
-            ompl = sorted({str(r["versions"]["ompl"]) for r in fruns
-                           if isinstance(r.get("versions"), dict) and r["versions"].get("ompl") is not None})
+            ompl = sorted(
+                {
+                    str(r["versions"]["ompl"])
+                    for r in fruns
+                    if isinstance(r.get("versions"), dict) and r["versions"].get("ompl") is not None
+                }
+            )
             logged_seed = np.array([run_seed(files[f].run) is not None for f in d["file"]], bool)
             budgets = {b for b in (budget_of(r.get("config")) for r in fruns) if b is not None}
             started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
             hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
             git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})
-            c.execute("INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
-                      " cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
-                      (f"{env} {split}", float(np.nansum(d["time_s"])), max(budgets) if budgets else None, 0.0,
-                       int(d.groupby("planner").size().max()), "OMPL " + (",".join(ompl) or "unknown"),
-                       ", ".join(hosts), None, started[0] if started else None,
-                       ",".join(str(s) for s in sorted(d.loc[logged_seed, "seed"].unique())),
-                       f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}"))
+            c.execute(
+                "INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
+                " cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                (
+                    f"{env} {split}",
+                    float(np.nansum(d["time_s"])),
+                    max(budgets) if budgets else None,
+                    0.0,
+                    int(d.groupby("planner").size().max()),
+                    "OMPL " + (",".join(ompl) or "unknown"),
+                    ", ".join(hosts),
+                    None,
+                    started[0] if started else None,
+                    ",".join(str(s) for s in sorted(d.loc[logged_seed, "seed"].unique())),
+                    f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}",
+                ),
+            )
             exp_id = c.lastrowid
             ok = d["success"].to_numpy(bool)
             status = ompl_status(d["success"], d["failure"])
             plen = np.array([_path_len(files[f].queries[i].get("path")) for f, i in zip(d["file"], d["qidx"])], int)
             cols = {
-                "time": d["time_s"], "memory": np.full(len(d), np.nan), "solved": ok.astype(int),
-                "status": status, "approximate_solution": np.zeros(len(d), int), "correct_solution": ok.astype(int),
+                "time": d["time_s"],
+                "memory": np.full(len(d), np.nan),
+                "solved": ok.astype(int),
+                "status": status,
+                "approximate_solution": np.zeros(len(d), int),
+                "correct_solution": ok.astype(int),
                 "solution_length": d["path_cost"].where(ok),
                 "solution_segments": np.where(ok & (plen > 0), np.maximum(plen - 1, 0), np.nan),
-                "cpu_time": d["cpu_s"], "collision_checks": d["collision_checks"], "state_checks": d["state_checks"],
-                "motion_checks": d["motion_checks"], "pnet_calls": d["pnet_calls"], "replans": d["replans"],
-                "fallback_used": d["fallback_used"], "seed": d["seed"].where(logged_seed), "split": d["split"],
-                "workspace_id": d["workspace_id"], "query_id": d["query_id"], "failure": d["failure"],
+                "cpu_time": d["cpu_s"],
+                "collision_checks": d["collision_checks"],
+                "state_checks": d["state_checks"],
+                "motion_checks": d["motion_checks"],
+                "pnet_calls": d["pnet_calls"],
+                "replans": d["replans"],
+                "fallback_used": d["fallback_used"],
+                "seed": d["seed"].where(logged_seed),
+                "split": d["split"],
+                "workspace_id": d["workspace_id"],
+                "query_id": d["query_id"],
+                "failure": d["failure"],
             }
-            ints = {"solution_segments", "collision_checks", "state_checks", "motion_checks", "pnet_calls",
-                    "replans", "fallback_used", "seed"}
+            ints = {
+                "solution_segments",
+                "collision_checks",
+                "state_checks",
+                "motion_checks",
+                "pnet_calls",
+                "replans",
+                "fallback_used",
+                "seed",
+            }
             data = [[exp_id] * len(d), [file_config[f] for f in d["file"]]]
             for name, _ in _RUN_COLUMNS:
                 v = np.asarray(cols[name], dtype=object)
-                data.append([None if x is None or (isinstance(x, float) and not math.isfinite(x))
-                             else (int(x) if name in ints else _none(x)) for x in v])
+                data.append(
+                    [
+                        None
+                        if x is None or (isinstance(x, float) and not math.isfinite(x))
+                        else (int(x) if name in ints else _none(x))
+                        for x in v
+                    ]
+                )
             names = ["experimentid", "plannerid"] + [n for n, _ in _RUN_COLUMNS]
-            c.executemany(f"INSERT INTO runs ({','.join(names)}) VALUES ({','.join('?' * len(names))})",
-                          list(zip(*data)))
+            c.executemany(
+                f"INSERT INTO runs ({','.join(names)}) VALUES ({','.join('?' * len(names))})", list(zip(*data))
+            )
             n += len(d)
         c.executescript(_VIEWS)
         conn.commit()

@@ -71,8 +71,13 @@ def facts_from_config(planner) -> PlannerFacts:
     target = planner.get("cost_target")
     if isinstance(target, dict):
         factor = finite_number(planner.get("cost_factor"))
-        return PlannerFacts(equal_quality=(str(planner.get("algorithm")), "hr" if target.get("hybrid") else "nr",
-                                           None if factor in (None, 1.0) else factor))
+        return PlannerFacts(
+            equal_quality=(
+                str(planner.get("algorithm")),
+                "hr" if target.get("hybrid") else "nr",
+                None if factor in (None, 1.0) else factor,
+            )
+        )
     if "hybrid" not in planner:
         return PLAIN
     variants = []

@@ -61,8 +61,16 @@ def _grouped_bars(res: pd.DataFrame, value: str, err: str, scale: float, ylabel:
             m = dp[value].to_numpy(float) * scale
             s = np.nan_to_num(dp[err].to_numpy(float) * scale)
             lower = np.minimum(s, 0.9 * m) if log else s  # a log axis has no zero: clip the lower bar
-            ax.bar(x - 0.4 + width * (k + 0.5), m, width, yerr=np.vstack([lower, s]), capsize=2,
-                   color=PLANNER_COLORS.get(p), label=planner_label(p), error_kw={"elinewidth": 0.8})
+            ax.bar(
+                x - 0.4 + width * (k + 0.5),
+                m,
+                width,
+                yerr=np.vstack([lower, s]),
+                capsize=2,
+                color=PLANNER_COLORS.get(p),
+                label=planner_label(p),
+                error_kw={"elinewidth": 0.8},
+            )
         ax.set_xticks(x, splits)
         ax.set_title(env_label(env))
         ax.set_ylabel(ylabel)
@@ -79,15 +87,17 @@ def fig_time_per_planner(res: pd.DataFrame):
     d = res[np.isfinite(res["time_mean_s"].astype(float))] if len(res) else res
     if d.empty:
         return None
-    return _grouped_bars(d, "time_mean_s", "time_std_s", 1.0, "planning time [s]", True,
-                         "Mean planning time ± std (successful queries)")
+    return _grouped_bars(
+        d, "time_mean_s", "time_std_s", 1.0, "planning time [s]", True, "Mean planning time ± std (successful queries)"
+    )
 
 
 def fig_success(res: pd.DataFrame):
     if res.empty:
         return None
-    return _grouped_bars(res, "success_mean", "success_std", 100.0, "success [%]", False,
-                         "Success rate, mean ± std over seeds")
+    return _grouped_bars(
+        res, "success_mean", "success_std", 100.0, "success [%]", False, "Success rate, mean ± std over seeds"
+    )
 
 
 def fig_time_boxplot(q: pd.DataFrame):
@@ -100,8 +110,14 @@ def fig_time_boxplot(q: pd.DataFrame):
         d = ok[ok["env"] == env]
         planners = sorted(d["planner"].unique(), key=planner_rank)
         data = [d.loc[d["planner"] == p, "time_s"].to_numpy() for p in planners]
-        bp = ax.boxplot(data, tick_labels=[planner_label(p) for p in planners], whis=(5, 95), showfliers=False,
-                        patch_artist=True, medianprops={"color": "black"})
+        bp = ax.boxplot(
+            data,
+            tick_labels=[planner_label(p) for p in planners],
+            whis=(5, 95),
+            showfliers=False,
+            patch_artist=True,
+            medianprops={"color": "black"},
+        )
         for box, p in zip(bp["boxes"], planners):
             box.set_facecolor(PLANNER_COLORS.get(p, "#bbbbbb"))
         ax.set_yscale("log")
@@ -121,12 +137,18 @@ def pick_example(q: pd.DataFrame, env: str) -> tuple[dict[str, int], int] | None
     d = q[(q["env"] == env) & q["success"]]
     if d.empty:
         return None
-    keys = [(split_rank(s), natural_key(w), natural_key(i), seed) for s, w, i, seed in
-            zip(d["split"].tolist(), d["workspace_id"].tolist(), d["query_id"].tolist(), d["seed"].tolist())]
+    keys = [
+        (split_rank(s), natural_key(w), natural_key(i), seed)
+        for s, w, i, seed in zip(
+            d["split"].tolist(), d["workspace_id"].tolist(), d["query_id"].tolist(), d["seed"].tolist()
+        )
+    ]
     d = d.iloc[sorted(range(len(d)), key=keys.__getitem__)]
     d = d.drop_duplicates(["planner", "split", "workspace_id", "query_id"])  # each planner's first seed
-    solved = {p: dict(zip(zip(g["split"], g["workspace_id"], g["query_id"]), g.index))
-              for p, g in d.groupby("planner", sort=False)}
+    solved = {
+        p: dict(zip(zip(g["split"], g["workspace_id"], g["query_id"]), g.index))
+        for p, g in d.groupby("planner", sort=False)
+    }
     bit = solved.get("bit_star", {})
     for mp in ("mpnet_nr", "mpnet_hr"):
         for key, r in solved.get(mp, {}).items():  # in the sorted order
@@ -159,8 +181,17 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
     bounds = ws.get("bounds") or [[-20, 20], [-20, 20]]
     for o in ws.get("obstacles", []):
         c, s = np.asarray(o["center"], float), np.asarray(o["size"], float)
-        ax.add_patch(Rectangle(tuple(c[:2] - s[:2] / 2), s[0], s[1], facecolor="0.55",
-                               alpha=0.85 if wd == 2 else 0.35, edgecolor="0.3", lw=0.5))
+        ax.add_patch(
+            Rectangle(
+                tuple(c[:2] - s[:2] / 2),
+                s[0],
+                s[1],
+                facecolor="0.55",
+                alpha=0.85 if wd == 2 else 0.35,
+                edgecolor="0.3",
+                lw=0.5,
+            )
+        )
     for p in sorted(chosen, key=planner_rank):
         r = chosen[p]
         m = files[int(q.at[r, "file"])].queries[int(q.at[r, "qidx"])]
@@ -168,8 +199,15 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
         if path.ndim != 2 or len(path) < 2:
             continue
         color = PLANNER_COLORS.get(p, "black")
-        ax.plot(path[:, 0], path[:, 1], "-o", color=color, ms=3, lw=1.8,
-                label=f"{planner_label(p)} (cost {fmt_g(q.at[r, 'path_cost'])}, {fmt_g(q.at[r, 'time_s'])} s)")
+        ax.plot(
+            path[:, 0],
+            path[:, 1],
+            "-o",
+            color=color,
+            ms=3,
+            lw=1.8,
+            label=f"{planner_label(p)} (cost {fmt_g(q.at[r, 'path_cost'])}, {fmt_g(q.at[r, 'time_s'])} s)",
+        )
         for o in painter.footprints(path):
             ax.plot(o[:, 0], o[:, 1], color=color, lw=0.7, alpha=0.6)
     start, goal = np.asarray(msg["start"], float), np.asarray(msg["goal"], float)
@@ -179,14 +217,17 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
     ax.set_ylim(*bounds[1])
     ax.set_aspect("equal")
     proj = ", x-y projection" if wd == 3 else ""
-    ax.set_title(f"{env_label(env)}: {msg.get('split')} workspace {msg.get('workspace_id')}, "
-                 f"query {msg.get('query_id')}{proj}", fontsize=10)
+    ax.set_title(
+        f"{env_label(env)}: {msg.get('split')} workspace {msg.get('workspace_id')}, query {msg.get('query_id')}{proj}",
+        fontsize=10,
+    )
     fig.legend(loc="outside lower center", ncols=2, fontsize=8, frameon=False)
     return fig
 
 
-def write_figures(res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], out: Path
-                  ) -> tuple[list[Path], list[str]]:
+def write_figures(
+    res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], out: Path
+) -> tuple[list[Path], list[str]]:
     """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
     whose data is malformed is left out with a warning line. The PNG and SVG files of an
     earlier report in out are removed first, so none outlives the data it was drawn from."""
@@ -194,10 +235,15 @@ def write_figures(res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], ou
     for old in out.iterdir():
         if old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
             old.unlink()
-    makers = [("time_per_planner", lambda: fig_time_per_planner(res)), ("success", lambda: fig_success(res)),
-              ("time_boxplot", lambda: fig_time_boxplot(q))]
-    makers += [(f"example_{env}", lambda env=env: fig_example(q, files, env))
-               for env in sorted(q["env"].unique(), key=env_rank)]
+    makers = [
+        ("time_per_planner", lambda: fig_time_per_planner(res)),
+        ("success", lambda: fig_success(res)),
+        ("time_boxplot", lambda: fig_time_boxplot(q)),
+    ]
+    makers += [
+        (f"example_{env}", lambda env=env: fig_example(q, files, env))
+        for env in sorted(q["env"].unique(), key=env_rank)
+    ]
     written, warns = [], []
     for name, make in makers:
         try:

@@ -1,4 +1,5 @@
-"""Reading the trial logs: every readable trials.mcap under the given folders, its /run, workspaces and queries, into one queries frame."""
+"""Reading the trial logs: every readable trials.mcap under the given folders (its /run,
+workspaces and queries), into one queries frame."""
 
 from __future__ import annotations
 
@@ -67,8 +68,9 @@ def read_trials(path: Path) -> tuple[TrialFile | None, str | None]:
         why = "no /run message" if msgs else "empty file" if _size(path) == 0 else "not a readable MCAP trial log"
         return None, f"warning: skipped {path}: {why}"
     if not finalised:
-        return out, (f"warning: {path} was not finalised (cut short?): read its {len(out.queries)} "
-                     "queries up to where it breaks")
+        return out, (
+            f"warning: {path} was not finalised (cut short?): read its {len(out.queries)} queries up to where it breaks"
+        )
     if not out.queries:
         return out, f"warning: {path}: no queries"
     return out, None
@@ -100,8 +102,10 @@ def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
             continue
         files.append(tf)
         if tf.queries and run_seed(tf.run) is None:
-            warns.append(f"warning: {p}: its /run has no integer seed ({tf.run.get('seed')!r}): "
-                         "its queries count as a seed of their own")
+            warns.append(
+                f"warning: {p}: its /run has no integer seed ({tf.run.get('seed')!r}): "
+                "its queries count as a seed of their own"
+            )
     learn(tf.run for tf in files)
     return files, warns, skipped
 
@@ -132,8 +136,19 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
         df = pd.DataFrame.from_records(tf.queries, columns=list(QUERY_COLS))
         df["success"] = [_flag(v) == 1.0 for v in df["success"]]
         df["fallback_used"] = [_flag(v) for v in df["fallback_used"]]
-        for c in ("time_s", "cpu_s", "path_cost", "collision_checks", "state_checks", "motion_checks",
-                  "pnet_calls", "replans", "reference_cost", "target_cost", "target_time_s"):
+        for c in (
+            "time_s",
+            "cpu_s",
+            "path_cost",
+            "collision_checks",
+            "state_checks",
+            "motion_checks",
+            "pnet_calls",
+            "replans",
+            "reference_cost",
+            "target_cost",
+            "target_time_s",
+        ):
             df[c] = _numbers(df[c])
         df["target_planner"] = [v if isinstance(v, str) else None for v in df["target_planner"]]
         for c in ("query_id", "workspace_id", "split"):

@@ -14,38 +14,99 @@ ENV_LABELS = {"s2d": "Simple 2D", "c2d": "Complex 2D", "c3d": "Complex 3D", "rig
 SPLIT_ORDER = ("seen", "unseen")
 PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
 KNOWN_EXTRAS = ("rrt_star", "rrt_connect")
-PLANNER_LABELS = {"mpnet_nr": "MPNet (NR)", "mpnet_hr": "MPNet (HR)", "informed_rrt_star": "Informed-RRT*",
-                  "bit_star": "BIT*", "rrt_star": "RRT*", "rrt_connect": "RRT-Connect"}
-PLANNER_COLORS = {"mpnet_nr": "#1f77b4", "mpnet_hr": "#17becf", "informed_rrt_star": "#d62728",
-                  "bit_star": "#ff7f0e", "rrt_star": "#9467bd", "rrt_connect": "#2ca02c"}
+PLANNER_LABELS = {
+    "mpnet_nr": "MPNet (NR)",
+    "mpnet_hr": "MPNet (HR)",
+    "informed_rrt_star": "Informed-RRT*",
+    "bit_star": "BIT*",
+    "rrt_star": "RRT*",
+    "rrt_connect": "RRT-Connect",
+}
+PLANNER_COLORS = {
+    "mpnet_nr": "#1f77b4",
+    "mpnet_hr": "#17becf",
+    "informed_rrt_star": "#d62728",
+    "bit_star": "#ff7f0e",
+    "rrt_star": "#9467bd",
+    "rrt_connect": "#2ca02c",
+}
 RATIO_COL = "bit_star_over_mpnet_nr"
 RATIO_LABEL = "BIT*/MPNet (NR)"
 PAPER = 'Qureshi, Simeonov, Bency, Yip, "Motion Planning Networks", ICRA 2019, arXiv:1806.05767'
-CITATION = (PAPER + ", Table I; their Informed-RRT* and BIT* were Python implementations, MPNet's times are "
-            "CPU time on an i7 with a GTX 1080")
+CITATION = (
+    PAPER + ", Table I; their Informed-RRT* and BIT* were Python implementations, MPNet's times are "
+    "CPU time on an i7 with a GTX 1080"
+)
 # The paper's sizes: train workspaces x expert paths, then seen and unseen test workspaces x
 # queries per workspace; and its Pnet's hidden layers (to tell a smaller network).
 PAPER_SCALE = (100, 4000, 100, 200, 10, 2000)
 PAPER_SCALE_TEXT = "100 × 4000 paths; 100 × 200 seen, 10 × 2000 unseen"
 PAPER_PNET_HIDDEN = (1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32)
-QUERY_COLS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "cpu_s", "path_cost",
-              "collision_checks", "state_checks", "motion_checks", "pnet_calls", "replans", "fallback_used",
-              "reference_cost", "target_planner", "target_cost", "target_time_s")
+QUERY_COLS = (
+    "query_id",
+    "workspace_id",
+    "split",
+    "success",
+    "failure",
+    "time_s",
+    "cpu_s",
+    "path_cost",
+    "collision_checks",
+    "state_checks",
+    "motion_checks",
+    "pnet_calls",
+    "replans",
+    "fallback_used",
+    "reference_cost",
+    "target_planner",
+    "target_cost",
+    "target_time_s",
+)
 KEYS = ["env", "split", "planner"]
-RESULT_COLS = KEYS + ["queries", "seeds", "successes", "success_mean", "success_std", "success_rate",
-                      "success_ci_low", "success_ci_high", "time_mean_s", "time_std_s", "time_median_s",
-                      "time_median_ci_low", "time_median_ci_high", "time_p90_s", "cpu_mean_s", "cost_mean",
-                      "quality_n", "quality_median", "quality_p90", "cost_over_bit_star_n",
-                      "cost_over_bit_star_median", "collision_checks_median", "pnet_calls_median", "replans_mean",
-                      "fallback_rate", "comparator", "success_p_vs", "success_diff_significant", "time_ratio_vs",
-                      "time_ratio_vs_ci_low", "time_ratio_vs_ci_high", "time_diff_significant", "failures"]
+RESULT_COLS = KEYS + [
+    "queries",
+    "seeds",
+    "successes",
+    "success_mean",
+    "success_std",
+    "success_rate",
+    "success_ci_low",
+    "success_ci_high",
+    "time_mean_s",
+    "time_std_s",
+    "time_median_s",
+    "time_median_ci_low",
+    "time_median_ci_high",
+    "time_p90_s",
+    "cpu_mean_s",
+    "cost_mean",
+    "quality_n",
+    "quality_median",
+    "quality_p90",
+    "cost_over_bit_star_n",
+    "cost_over_bit_star_median",
+    "collision_checks_median",
+    "pnet_calls_median",
+    "replans_mean",
+    "fallback_rate",
+    "comparator",
+    "success_p_vs",
+    "success_diff_significant",
+    "time_ratio_vs",
+    "time_ratio_vs_ci_low",
+    "time_ratio_vs_ci_high",
+    "time_diff_significant",
+    "failures",
+]
 
 # Ablations of MPNet: `<base>_<variant>`, each logged under its own planner name.
 ABLATION_BASES = ("mpnet_nr", "mpnet_hr")
-ABLATIONS = {"random": "a uniformly random valid state instead of Pnet's proposal",
-             "straight": "a fixed-length step toward the other tree's end instead of Pnet's proposal",
-             "zeros": "Pnet given a zero workspace code",
-             "nodropout": "Pnet deterministic (no dropout) at planning time"}
+ABLATIONS = {
+    "random": "a uniformly random valid state instead of Pnet's proposal",
+    "straight": "a fixed-length step toward the other tree's end instead of Pnet's proposal",
+    "zeros": "Pnet given a zero workspace code",
+    "nodropout": "Pnet deterministic (no dropout) at planning time",
+}
 # Time to equal quality: `<algorithm>_to_<target>[_x<factor>]`, e.g. bit_star_to_nr_x1.1.
 # Statistics: 95% intervals; bootstrap resamples and their fixed seed (the report is reproducible).
 ALPHA = 0.05
@@ -57,8 +118,18 @@ APPROX = "≈"
 REACH_RTOL = 1e-6
 
 # OMPL's PlannerStatus, in the order its Benchmark writes the `status` enum.
-OMPL_STATUS = ("Unknown status", "Invalid start", "Invalid goal", "Unrecognized goal type", "Timeout",
-               "Approximate solution", "Exact solution", "Crash", "Abort", "Infeasible")
+OMPL_STATUS = (
+    "Unknown status",
+    "Invalid start",
+    "Invalid goal",
+    "Unrecognized goal type",
+    "Timeout",
+    "Approximate solution",
+    "Exact solution",
+    "Crash",
+    "Abort",
+    "Infeasible",
+)
 ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH = 0, 1, 4, 6, 7
 
 

@@ -28,9 +28,14 @@ from harness.report.names import (
 def scale_sizes(scale) -> tuple[int, ...] | None:
     """A config's `scale:` section as PAPER_SCALE's six sizes, None when any is missing."""
     try:
-        sizes = (scale["train"]["workspaces"], scale["train"]["paths"], scale["test"]["seen"]["workspaces"],
-                 scale["test"]["seen"]["queries"], scale["test"]["unseen"]["workspaces"],
-                 scale["test"]["unseen"]["queries"])
+        sizes = (
+            scale["train"]["workspaces"],
+            scale["train"]["paths"],
+            scale["test"]["seen"]["workspaces"],
+            scale["test"]["seen"]["queries"],
+            scale["test"]["unseen"]["workspaces"],
+            scale["test"]["unseen"]["queries"],
+        )
     except (KeyError, TypeError, IndexError):
         return None
     return sizes if all(isinstance(v, int) and not isinstance(v, bool) for v in sizes) else None
@@ -50,15 +55,19 @@ def scale_bullet(name: str, sizes: tuple[int, ...] | None, smaller_net: bool = F
     if sizes is None:
         if name == "unknown":
             return f"The logs do not say at which scale they ran; the paper: {PAPER_SCALE_TEXT}."
-        return f"Scale `{name}`: the paper's sizes." if name == "paper" else \
-            f"Scale `{name}`: smaller than the paper's."
+        return (
+            f"Scale `{name}`: the paper's sizes." if name == "paper" else f"Scale `{name}`: smaller than the paper's."
+        )
     nets = "smaller networks " if smaller_net else ""
     if tuple(sizes) == PAPER_SCALE:
-        return f"Our `{name}` scale has the paper's sizes ({PAPER_SCALE_TEXT})" + \
-            (", with smaller networks." if smaller_net else ".")
+        return f"Our `{name}` scale has the paper's sizes ({PAPER_SCALE_TEXT})" + (
+            ", with smaller networks." if smaller_net else "."
+        )
     tw, tp, sw, sq, uw, uq = sizes
-    return (f"Our `{name}` scale trains {nets}on {tw} workspaces × {tp} expert paths and tests on "
-            f"{sw * sq} seen + {uw * uq} unseen queries per seed; the paper: {PAPER_SCALE_TEXT}.")
+    return (
+        f"Our `{name}` scale trains {nets}on {tw} workspaces × {tp} expert paths and tests on "
+        f"{sw * sq} seen + {uw * uq} unseen queries per seed; the paper: {PAPER_SCALE_TEXT}."
+    )
 
 
 def provenance(files: list[TrialFile]) -> dict:
@@ -75,7 +84,7 @@ def provenance(files: list[TrialFile]) -> dict:
         if r.get("started_at"):
             starts.append(str(r["started_at"]))
         vers = r.get("versions")
-        for k, v in (vers.items() if isinstance(vers, dict) else ()):
+        for k, v in vers.items() if isinstance(vers, dict) else ():
             versions.setdefault(k, set()).add(str(v))
         try:
             cfg = yaml.safe_load(r.get("config") or "") or {}
@@ -87,10 +96,16 @@ def provenance(files: list[TrialFile]) -> dict:
         scale_rows.add((name, scale_sizes(scale), _smaller_net(scale)))
         if isinstance(cfg, dict) and cfg.get("budget_s") is not None:
             budgets.add(str(cfg["budget_s"]))
-    return {"git_rev": sorted(revs), "host": sorted(hosts), "scale": sorted(scales), "budget_s": sorted(budgets),
-            "scales": sorted(scale_rows, key=lambda t: (t[0], t[1] or (), t[2])),
-            "from": min(starts) if starts else "unknown", "to": max(starts) if starts else "unknown",
-            "versions": {k: sorted(v) for k, v in sorted(versions.items())}}
+    return {
+        "git_rev": sorted(revs),
+        "host": sorted(hosts),
+        "scale": sorted(scales),
+        "budget_s": sorted(budgets),
+        "scales": sorted(scale_rows, key=lambda t: (t[0], t[1] or (), t[2])),
+        "from": min(starts) if starts else "unknown",
+        "to": max(starts) if starts else "unknown",
+        "versions": {k: sorted(v) for k, v in sorted(versions.items())},
+    }
 
 
 def _painter(ws):
@@ -116,68 +131,91 @@ def reference_notes(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
         painter = _painter(ws)
         metric = painter.cost_metric if painter else "the env's path cost"
         if painter is not None and painter.exact_reference:
-            ref = ("the exact shortest path (Dijkstra on the visibility graph of start, goal and the box corners); "
-                   "it may touch obstacles, so it is a lower bound and quality >= 1")
+            ref = (
+                "the exact shortest path (Dijkstra on the visibility graph of start, goal and the box corners); "
+                "it may touch obstacles, so it is a lower bound and quality >= 1"
+            )
         else:
             cfgs = [run_config(files[int(i)].run) for i in fidx]
             its = sorted({str(v) for v in (cfg_get(c, "env", "expert", "iterations") for c in cfgs) if v is not None})
-            bit = sorted({str(v) for v in (cfg_get(c, "env", "reference", "bit_star_s") for c in cfgs)
-                          if v is not None})
-            ref = (f"the better of the expert's RRT* path ({'/'.join(its) or 'unknown'} iterations, "
-                   f"`env.expert.iterations`) and BIT* run for {'/'.join(bit) or 'unknown'} s "
-                   "(`env.reference.bit_star_s`), each shortened by lazy states contraction and kept only if it "
-                   "passes the fine re-check; a planner can beat it (quality < 1)")
+            bit = sorted(
+                {str(v) for v in (cfg_get(c, "env", "reference", "bit_star_s") for c in cfgs) if v is not None}
+            )
+            ref = (
+                f"the better of the expert's RRT* path ({'/'.join(its) or 'unknown'} iterations, "
+                f"`env.expert.iterations`) and BIT* run for {'/'.join(bit) or 'unknown'} s "
+                "(`env.reference.bit_star_s`), each shortened by lazy states contraction and kept only if it "
+                "passes the fine re-check; a planner can beat it (quality < 1)"
+            )
         if (de["split"] == "file").any():
             ref += "; queries of a problem file: its own `reference_cost` where given"
         out.append(f"{env} ({env_label(env)}): path cost = {metric}; reference = {ref}.")
     return out
 
 
-def readme_text(n_files: int, n_queries: int, with_paper: bool, prov: dict | None = None,
-                dirs: Iterable[str] = (), warnings: Iterable[str] = (), extra: dict | None = None) -> str:
+def readme_text(
+    n_files: int,
+    n_queries: int,
+    with_paper: bool,
+    prov: dict | None = None,
+    dirs: Iterable[str] = (),
+    warnings: Iterable[str] = (),
+    extra: dict | None = None,
+) -> str:
     """OUT/README.md: where the logs came from, what went wrong reading them, what each
     output is, how its numbers are computed, and how they compare with the paper's. `extra`:
     which of quality, ablations, equal_quality were written, and reference_notes."""
     paper_rows = " (and the paper's rows)" if with_paper else ""
     extra = extra or {}
     refs = extra.get("reference_notes") or []
-    ref_text = "\n".join(textwrap.fill(n, 95, initial_indent="  - ", subsequent_indent="    ")
-                         for n in refs or ["no query in the logs has a reference cost."])
-    files_extra = "".join(textwrap.fill(line, 95, subsequent_indent="  ") + "\n" for line in [
-        "- `quality.md`, `quality.csv`: path quality per env × split × planner (ablations included): median "
-        "and p90 of path cost / reference cost, and the median ratio to BIT*'s path cost on the same queries."
-        if extra.get("quality") else
-        "- `quality.*`: not written: the logs have no reference costs and no queries solved by BIT* and another "
-        "planner.",
-        "- `ablations.md`, `ablations.csv`: MPNet (NR) and (HR) against their ablations (success with its "
-        "interval, median time with its interval, quality, cost / BIT*), with the not-significant marks."
-        if extra.get("ablations") else "- `ablations.*`: not written: no ablation runs in the logs.",
-        "- `equal_quality.md`, `equal_quality.csv`: time to equal quality: BIT* / Informed-RRT* run until their "
-        "path cost is within a factor (1.0, 1.1) of MPNet (NR)'s on the same query, beside MPNet (NR)'s time."
-        if extra.get("equal_quality") else
-        "- `equal_quality.*`: not written: no time-to-equal-quality runs (`*_to_nr*`) in the logs."])
+    ref_text = "\n".join(
+        textwrap.fill(n, 95, initial_indent="  - ", subsequent_indent="    ")
+        for n in refs or ["no query in the logs has a reference cost."]
+    )
+    files_extra = "".join(
+        textwrap.fill(line, 95, subsequent_indent="  ") + "\n"
+        for line in [
+            "- `quality.md`, `quality.csv`: path quality per env × split × planner (ablations included): median "
+            "and p90 of path cost / reference cost, and the median ratio to BIT*'s path cost on the same queries."
+            if extra.get("quality")
+            else "- `quality.*`: not written: the logs have no reference costs and no queries solved by BIT* "
+            "and another planner.",
+            "- `ablations.md`, `ablations.csv`: MPNet (NR) and (HR) against their ablations (success with its "
+            "interval, median time with its interval, quality, cost / BIT*), with the not-significant marks."
+            if extra.get("ablations")
+            else "- `ablations.*`: not written: no ablation runs in the logs.",
+            "- `equal_quality.md`, `equal_quality.csv`: time to equal quality: BIT* / Informed-RRT* run until their "
+            "path cost is within a factor (1.0, 1.1) of MPNet (NR)'s on the same query, beside MPNet (NR)'s time."
+            if extra.get("equal_quality")
+            else "- `equal_quality.*`: not written: no time-to-equal-quality runs (`*_to_nr*`) in the logs.",
+        ]
+    )
     prov = prov or provenance([])
     vers = ", ".join(f"{k} {'/'.join(v)}" for k, v in prov["versions"].items()) or "unknown"
     scale_text = "\n".join("- " + scale_bullet(*row) for row in prov.get("scales") or [("unknown", None, False)])
     warn_text = "\n".join(f"- {w.removeprefix('warning: ')}" for w in warnings) or "none"
     if extra.get("ablations") or extra.get("equal_quality"):
-        regen = ("python -m harness -m +experiment=findings [scale=quick]   # Table I planners + NR ablations, 5 seeds\n"
-                 "python -m harness -m +experiment=equal_quality            # time to equal quality\n"
-                 "python -m harness.report multirun/<date>/<time> multirun/<date>/<time> --paper")
+        regen = (
+            "python -m harness -m +experiment=findings [scale=quick]   # Table I planners + NR ablations, 5 seeds\n"
+            "python -m harness -m +experiment=equal_quality            # time to equal quality\n"
+            "python -m harness.report multirun/<date>/<time> multirun/<date>/<time> --paper"
+        )
     else:
-        regen = ("python -m harness -m +experiment=table1 [scale=quick]     # 4 envs x 4 planners x 5 seeds\n"
-                 "python -m harness.report multirun/<date>/<time> --paper")
+        regen = (
+            "python -m harness -m +experiment=table1 [scale=quick]     # 4 envs x 4 planners x 5 seeds\n"
+            "python -m harness.report multirun/<date>/<time> --paper"
+        )
     return f"""# mpnet-bench report
 
-Regenerated by `python -m harness.report {' '.join(map(str, dirs))}{' --paper' if with_paper else ''}`
+Regenerated by `python -m harness.report {" ".join(map(str, dirs))}{" --paper" if with_paper else ""}`
 from {n_files} trial logs ({n_queries} queries); do not edit by hand.
 
 ## Where the numbers come from
 
-- Git revision of the runs: {', '.join(prov["git_rev"])}
-- Machine: {', '.join(prov["host"])}
+- Git revision of the runs: {", ".join(prov["git_rev"])}
+- Machine: {", ".join(prov["host"])}
 - Runs started between {prov["from"]} and {prov["to"]} (UTC)
-- Scale: {', '.join(prov["scale"]) or "unknown"}; budget per query: {', '.join(prov["budget_s"]) or "unknown"} s
+- Scale: {", ".join(prov["scale"]) or "unknown"}; budget per query: {", ".join(prov["budget_s"]) or "unknown"} s
 - Versions: {vers}
 
 To regenerate them (the logs are not in git):

@@ -52,13 +52,21 @@ def _md_table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
-def _tex_table(header: list[str], rows: list[list[str]], groups: list, caption: str, notes: list[str],
-               n_text: int = 2) -> str:
+def _tex_table(
+    header: list[str], rows: list[list[str]], groups: list, caption: str, notes: list[str], n_text: int = 2
+) -> str:
     """A booktabs table, its first n_text columns left-aligned, the rest right; `groups` gives
     each row's group so a \\midrule separates groups."""
     spec = "l" * n_text + "r" * (len(header) - n_text)
-    out = [r"\begin{table}[t]", r"\centering", r"\caption{" + caption + "}", r"\begin{tabular}{" + spec + "}",
-           r"\toprule", " & ".join(header) + r" \\", r"\midrule"]
+    out = [
+        r"\begin{table}[t]",
+        r"\centering",
+        r"\caption{" + caption + "}",
+        r"\begin{tabular}{" + spec + "}",
+        r"\toprule",
+        " & ".join(header) + r" \\",
+        r"\midrule",
+    ]
     last = None
     for g, r in zip(groups, rows):
         if last is not None and g != last:
@@ -71,25 +79,53 @@ def _tex_table(header: list[str], rows: list[list[str]], groups: list, caption: 
     return "\n".join(out) + "\n"
 
 
-def render_table1(t: pd.DataFrame, planners: list[str], with_paper: bool, res: pd.DataFrame | None = None,
-                  paper: pd.DataFrame | None = None) -> tuple[str, str]:
+def render_table1(
+    t: pd.DataFrame,
+    planners: list[str],
+    with_paper: bool,
+    res: pd.DataFrame | None = None,
+    paper: pd.DataFrame | None = None,
+) -> tuple[str, str]:
     """Table I as (Markdown, LaTeX), columns in t's order (the paper's planners, the ratio, the
     others). A planner of res that ran but has no time to show reads "— (successes/queries)"
     rather than blank, which is kept for a planner not run; the paper's rows are its numbers
     as printed (load_paper's text columns)."""
-    counts = {} if res is None else {
-        (e, s, p): (int(k), int(n)) for e, s, p, k, n in
-        zip(res["env"], res["split"], res["planner"], res["successes"], res["queries"])}
-    same_time = set() if res is None or "time_diff_significant" not in res else {
-        (e, s, p) for e, s, p, sig in zip(res["env"], res["split"], res["planner"], res["time_diff_significant"])
-        if _is_false(sig)}
-    printed = {} if paper is None or "time_mean_text" not in paper else {
-        (e, s, p): (m, sd) for e, s, p, m, sd in
-        zip(paper["env"], paper["split"], paper["planner"], paper["time_mean_text"], paper["time_std_text"])}
+    counts = (
+        {}
+        if res is None
+        else {
+            (e, s, p): (int(k), int(n))
+            for e, s, p, k, n in zip(res["env"], res["split"], res["planner"], res["successes"], res["queries"])
+        }
+    )
+    same_time = (
+        set()
+        if res is None or "time_diff_significant" not in res
+        else {
+            (e, s, p)
+            for e, s, p, sig in zip(res["env"], res["split"], res["planner"], res["time_diff_significant"])
+            if _is_false(sig)
+        }
+    )
+    printed = (
+        {}
+        if paper is None or "time_mean_text" not in paper
+        else {
+            (e, s, p): (m, sd)
+            for e, s, p, m, sd in zip(
+                paper["env"], paper["split"], paper["planner"], paper["time_mean_text"], paper["time_std_text"]
+            )
+        }
+    )
     main = [p for p in planners if p in PAPER_PLANNERS]
     extra = [p for p in planners if p not in PAPER_PLANNERS]
-    head = (["Env", "Split"] + (["Source"] if with_paper else []) + [planner_label(p) for p in main]
-            + [RATIO_LABEL] + [planner_label(p) for p in extra])
+    head = (
+        ["Env", "Split"]
+        + (["Source"] if with_paper else [])
+        + [planner_label(p) for p in main]
+        + [RATIO_LABEL]
+        + [planner_label(p) for p in extra]
+    )
 
     def cell(r: dict, p: str, sep: str, dash: str) -> str:
         key = (r["env"], r["split"], p)
@@ -117,37 +153,69 @@ def render_table1(t: pd.DataFrame, planners: list[str], with_paper: bool, res: p
         prev = (r["env"], r["split"])
         lead = [env_label(r["env"]) if first else "", r["split"] if first else ""]
         src = [r["source"]] if with_paper else []
-        md_rows.append(lead + src + [cell(r, p, " ± ", "—") for p in main] + [ratio_cell(r, False)]
-                       + [cell(r, p, " ± ", "—") for p in extra])
-        tex_rows.append([_tex_escape(x) for x in lead + src] + [cell(r, p, r" $\pm$ ", "---") for p in main]
-                        + [ratio_cell(r, True)] + [cell(r, p, r" $\pm$ ", "---") for p in extra])
+        md_rows.append(
+            lead
+            + src
+            + [cell(r, p, " ± ", "—") for p in main]
+            + [ratio_cell(r, False)]
+            + [cell(r, p, " ± ", "—") for p in extra]
+        )
+        tex_rows.append(
+            [_tex_escape(x) for x in lead + src]
+            + [cell(r, p, r" $\pm$ ", "---") for p in main]
+            + [ratio_cell(r, True)]
+            + [cell(r, p, r" $\pm$ ", "---") for p in extra]
+        )
         groups.append(r["env"])
-    what = ("Planning time in seconds, mean ± std over the successful queries of all seeds; "
-            f"{RATIO_LABEL}: ratio of mean times. — (0/N): the planner ran N queries here and solved none "
-            "(— (k/N): k solved, none with a logged time); blank: the planner was not run.")
-    mark = (f"{APPROX} before a time: that planner's median time does not differ significantly (5%) from MPNet "
-            f"(NR)'s in the same row (the 95% bootstrap interval of the ratio of median times contains 1); "
-            f"{APPROX} before {RATIO_LABEL}: the same for BIT* against MPNet (NR). The test is on median times "
-            "(results.csv: time_ratio_vs, time_diff_significant); the cells show means.")
+    what = (
+        "Planning time in seconds, mean ± std over the successful queries of all seeds; "
+        f"{RATIO_LABEL}: ratio of mean times. — (0/N): the planner ran N queries here and solved none "
+        "(— (k/N): k solved, none with a logged time); blank: the planner was not run."
+    )
+    mark = (
+        f"{APPROX} before a time: that planner's median time does not differ significantly (5%) from MPNet "
+        f"(NR)'s in the same row (the 95% bootstrap interval of the ratio of median times contains 1); "
+        f"{APPROX} before {RATIO_LABEL}: the same for BIT* against MPNet (NR). The test is on median times "
+        "(results.csv: time_ratio_vs, time_diff_significant); the cells show means."
+    )
     notes = [f"Layout of Table I of {CITATION}.", mark]
     if with_paper:
-        notes.append("Rows 'paper' are the paper's own numbers as printed; their BIT*/MPNet (NR) is the ratio of "
-                     "the paper's mean times, computed here. Our baselines are OMPL's C++ planners, so ratios "
-                     "are expected to differ.")
-    md = "# Table I: planning time [s]\n\n" + _md_table(head, md_rows) + "\n\n" + what + "\n\n" + \
-        "\n".join(f"Note: {n}" for n in notes) + "\n"
-    tex = _tex_table([_tex_escape(h) for h in head], tex_rows, groups,
-                     r"Planning time [s], mean $\pm$ std over successful queries; " + _tex_escape(RATIO_LABEL)
-                     + r": ratio of mean times. --- (0/$N$): ran $N$ queries, solved none; blank: not run.",
-                     [_tex_escape(n) for n in notes], 3 if with_paper else 2)
+        notes.append(
+            "Rows 'paper' are the paper's own numbers as printed; their BIT*/MPNet (NR) is the ratio of "
+            "the paper's mean times, computed here. Our baselines are OMPL's C++ planners, so ratios "
+            "are expected to differ."
+        )
+    md = (
+        "# Table I: planning time [s]\n\n"
+        + _md_table(head, md_rows)
+        + "\n\n"
+        + what
+        + "\n\n"
+        + "\n".join(f"Note: {n}" for n in notes)
+        + "\n"
+    )
+    tex = _tex_table(
+        [_tex_escape(h) for h in head],
+        tex_rows,
+        groups,
+        r"Planning time [s], mean $\pm$ std over successful queries; "
+        + _tex_escape(RATIO_LABEL)
+        + r": ratio of mean times. --- (0/$N$): ran $N$ queries, solved none; blank: not run.",
+        [_tex_escape(n) for n in notes],
+        3 if with_paper else 2,
+    )
     return md, tex
 
 
 def _ci(lo, hi, fmt=None) -> str:
     """'[lo, hi]' (3 significant digits, or fmt), +inf as ∞; blank when missing."""
     fmt = fmt or fmt_g
-    if lo is None or hi is None or (isinstance(lo, float) and math.isnan(lo)) or \
-            (isinstance(hi, float) and math.isnan(hi)):
+    if (
+        lo is None
+        or hi is None
+        or (isinstance(lo, float) and math.isnan(lo))
+        or (isinstance(hi, float) and math.isnan(hi))
+    ):
         return ""
     a, b = ("∞" if np.isposinf(x) else fmt(x) for x in (lo, hi))
     return f"[{a}, {b}]"
@@ -175,9 +243,11 @@ def _is_true(v) -> bool:
 
 
 def _comparator_note(what: str, test: str) -> str:
-    return (f"{APPROX}: the planner's {what} does not differ significantly (5%) from its comparator's in the same "
-            "env and split: MPNet (NR) for every planner but MPNet (NR) itself (not marked) and the MPNet (HR) "
-            f"ablations, which are compared with MPNet (HR); {test}.")
+    return (
+        f"{APPROX}: the planner's {what} does not differ significantly (5%) from its comparator's in the same "
+        "env and split: MPNet (NR) for every planner but MPNet (NR) itself (not marked) and the MPNet (HR) "
+        f"ablations, which are compared with MPNet (HR); {test}."
+    )
 
 
 def render_success_cost(sc: pd.DataFrame, with_paper: bool) -> tuple[str, str]:
@@ -194,23 +264,42 @@ def render_success_cost(sc: pd.DataFrame, with_paper: bool) -> tuple[str, str]:
         pooled = _with_ci(_g1(r.success_rate_pct), r.success_ci_low_pct, r.success_ci_high_pct, _g1)
         rest = [planner_label(r.planner), succ, pooled, fmt_g(r.cost_mean), str(r.queries), str(r.seeds)]
         md_rows.append(lead + rest)
-        tex_rows.append([_tex_escape(x) for x in lead + rest[:1]]
-                        + [(r"$\approx$ " if same else "")
-                           + _pm(r.success_mean_pct, r.success_std_pct, 1, sep=r" $\pm$ ")] + rest[2:])
+        tex_rows.append(
+            [_tex_escape(x) for x in lead + rest[:1]]
+            + [(r"$\approx$ " if same else "") + _pm(r.success_mean_pct, r.success_std_pct, 1, sep=r" $\pm$ ")]
+            + rest[2:]
+        )
         groups.append(r.env)
-    what = ("Success: mean ± std over seeds of the per-seed success rate (std: ddof=1 with two seeds or "
-            "more, else 0). Pooled: successes / queries of all seeds, with its Wilson score 95% interval. "
-            "Path cost: mean over successful queries.")
-    notes = [_comparator_note("success rate", "two-sided Fisher exact test on the pooled successes / queries, "
-                              "p >= 0.05 (results.csv: success_p_vs)")]
+    what = (
+        "Success: mean ± std over seeds of the per-seed success rate (std: ddof=1 with two seeds or "
+        "more, else 0). Pooled: successes / queries of all seeds, with its Wilson score 95% interval. "
+        "Path cost: mean over successful queries."
+    )
+    notes = [
+        _comparator_note(
+            "success rate",
+            "two-sided Fisher exact test on the pooled successes / queries, p >= 0.05 (results.csv: success_p_vs)",
+        )
+    ]
     if with_paper:
         notes.append(f"The paper reports MPNet (NR) succeeding about 97% and MPNet (HR) 100% of the time ({PAPER}).")
-    md = "# Success rate and path cost\n\n" + _md_table(head, md_rows) + "\n\n" + what + "\n" + \
-        "".join(f"\nNote: {n}\n" for n in notes)
-    tex = _tex_table([_tex_escape(h) for h in head], tex_rows, groups,
-                     r"Success rate [\%], mean $\pm$ std over seeds and pooled with its Wilson 95\% interval, "
-                     r"and mean path cost of successful queries.",
-                     [_tex_escape(n) for n in notes], 3)
+    md = (
+        "# Success rate and path cost\n\n"
+        + _md_table(head, md_rows)
+        + "\n\n"
+        + what
+        + "\n"
+        + "".join(f"\nNote: {n}\n" for n in notes)
+    )
+    tex = _tex_table(
+        [_tex_escape(h) for h in head],
+        tex_rows,
+        groups,
+        r"Success rate [\%], mean $\pm$ std over seeds and pooled with its Wilson 95\% interval, "
+        r"and mean path cost of successful queries.",
+        [_tex_escape(n) for n in notes],
+        3,
+    )
     return md, tex
 
 
@@ -232,37 +321,74 @@ def _group_rows(df: pd.DataFrame, cells) -> list[list[str]]:
 def render_quality(qt: pd.DataFrame, notes: list[str]) -> str:
     """quality.md."""
     head = ["Env", "Split", "Planner", "Quality median", "Quality p90", "n", "Cost / BIT* median", "Pairs"]
-    rows = _group_rows(qt, lambda r: [planner_label(r["planner"]), fmt_g(r["quality_median"]), fmt_g(r["quality_p90"]),
-                                      str(int(r["quality_n"])), fmt_g(r["cost_over_bit_star_median"]),
-                                      str(int(r["cost_over_bit_star_n"]))])
-    what = ("Quality: path cost / the query's reference cost, over the successful queries of all seeds that have a "
-            "reference (n); median and 90th percentile (linear interpolation). Cost / BIT*: median over the "
-            "queries solved by both this planner and BIT* (paired on env, split, seed and query id; Pairs) of "
-            "this planner's path cost / BIT*'s (BIT*'s first solution in the Table I runs).")
+    rows = _group_rows(
+        qt,
+        lambda r: [
+            planner_label(r["planner"]),
+            fmt_g(r["quality_median"]),
+            fmt_g(r["quality_p90"]),
+            str(int(r["quality_n"])),
+            fmt_g(r["cost_over_bit_star_median"]),
+            str(int(r["cost_over_bit_star_n"])),
+        ],
+    )
+    what = (
+        "Quality: path cost / the query's reference cost, over the successful queries of all seeds that have a "
+        "reference (n); median and 90th percentile (linear interpolation). Cost / BIT*: median over the "
+        "queries solved by both this planner and BIT* (paired on env, split, seed and query id; Pairs) of "
+        "this planner's path cost / BIT*'s (BIT*'s first solution in the Table I runs)."
+    )
     return f"# Path quality\n\n{_md_table(head, rows)}\n\n{what}\n" + "".join(f"\nNote: {n}\n" for n in notes)
 
 
 def render_ablations(ab: pd.DataFrame) -> str:
     """ablations.md."""
-    head = ["Env", "Split", "Planner", "Change", "Success [%] [95% CI]", "Median time [s] [95% CI]",
-            "Time / base [95% CI]", "Quality median", "Cost / BIT* median"]
+    head = [
+        "Env",
+        "Split",
+        "Planner",
+        "Change",
+        "Success [%] [95% CI]",
+        "Median time [s] [95% CI]",
+        "Time / base [95% CI]",
+        "Quality median",
+        "Cost / BIT* median",
+    ]
 
     def cells(r):
-        return [planner_label(r["planner"]), r["change"] or "(base)",
-                _with_ci(_pct(r["success_rate"]), r["success_ci_low"], r["success_ci_high"], _pct,
-                         _is_false(r["success_diff_significant"])),
-                _with_ci(fmt_g(r["time_median_s"]), r["time_median_ci_low"], r["time_median_ci_high"], None,
-                         _is_false(r["time_diff_significant"])),
-                _with_ci(fmt_g(r["time_ratio_vs"]), r["time_ratio_vs_ci_low"], r["time_ratio_vs_ci_high"]),
-                fmt_g(r["quality_median"]), fmt_g(r["cost_over_bit_star_median"])]
+        return [
+            planner_label(r["planner"]),
+            r["change"] or "(base)",
+            _with_ci(
+                _pct(r["success_rate"]),
+                r["success_ci_low"],
+                r["success_ci_high"],
+                _pct,
+                _is_false(r["success_diff_significant"]),
+            ),
+            _with_ci(
+                fmt_g(r["time_median_s"]),
+                r["time_median_ci_low"],
+                r["time_median_ci_high"],
+                None,
+                _is_false(r["time_diff_significant"]),
+            ),
+            _with_ci(fmt_g(r["time_ratio_vs"]), r["time_ratio_vs_ci_low"], r["time_ratio_vs_ci_high"]),
+            fmt_g(r["quality_median"]),
+            fmt_g(r["cost_over_bit_star_median"]),
+        ]
 
-    what = ("Each ablation is its base planner (MPNet (NR) or MPNet (HR), the row above it marked (base)) with one "
-            "piece changed. Success: successes / queries of all seeds with the Wilson score 95% interval. Median "
-            f"time: over the successful queries of all seeds, with a 95% bootstrap interval ({BOOT_N} resamples). "
-            "Time / base: ratio of median times, with the 95% bootstrap interval of the ratio. Quality and Cost / "
-            "BIT*: as in quality.md.")
-    note = (f"{APPROX}: the ablation's success rate (Fisher exact test, two-sided, p >= 0.05) or median time (the "
-            "interval of Time / base contains 1) does not differ significantly from its base's.")
+    what = (
+        "Each ablation is its base planner (MPNet (NR) or MPNet (HR), the row above it marked (base)) with one "
+        "piece changed. Success: successes / queries of all seeds with the Wilson score 95% interval. Median "
+        f"time: over the successful queries of all seeds, with a 95% bootstrap interval ({BOOT_N} resamples). "
+        "Time / base: ratio of median times, with the 95% bootstrap interval of the ratio. Quality and Cost / "
+        "BIT*: as in quality.md."
+    )
+    note = (
+        f"{APPROX}: the ablation's success rate (Fisher exact test, two-sided, p >= 0.05) or median time (the "
+        "interval of Time / base contains 1) does not differ significantly from its base's."
+    )
     return f"# MPNet ablations\n\n{_md_table(head, _group_rows(ab, cells))}\n\n{what}\n\nNote: {note}\n"
 
 
@@ -272,40 +398,65 @@ def _budget_text(b) -> str:
 
 def render_equal_quality(eq: pd.DataFrame) -> str:
     """equal_quality.md."""
-    head = ["Env", "Split", "Planner", "Stops at", "No target", "Targeted", "Reached [%] [95% CI]",
-            "Median time to reach, all targeted [s] [95% CI]", "Median time, reached only [s] [95% CI]",
-            "Target planner's median time [s] [95% CI]", "Ratio [95% CI]"]
+    head = [
+        "Env",
+        "Split",
+        "Planner",
+        "Stops at",
+        "No target",
+        "Targeted",
+        "Reached [%] [95% CI]",
+        "Median time to reach, all targeted [s] [95% CI]",
+        "Median time, reached only [s] [95% CI]",
+        "Target planner's median time [s] [95% CI]",
+        "Ratio [95% CI]",
+    ]
 
     def cells(r):
         target = ", ".join(planner_label(t) for t in str(r["target_planner"]).split(", "))
         if _is_true(r["censored"]):
-            to_reach = _budget_text(r["budget_s"]) + (f" {_ci(r['time_to_reach_ci_low'], r['time_to_reach_ci_high'])}"
-                                                      if not math.isnan(r["time_to_reach_ci_low"]) else "")
+            to_reach = _budget_text(r["budget_s"]) + (
+                f" {_ci(r['time_to_reach_ci_low'], r['time_to_reach_ci_high'])}"
+                if not math.isnan(r["time_to_reach_ci_low"])
+                else ""
+            )
             nr = r["target_time_median_s"]
-            ratio = (f"> {fmt_g(r['budget_s'] / nr)}" if np.isfinite(r["budget_s"]) and nr > 0 else "∞")
+            ratio = f"> {fmt_g(r['budget_s'] / nr)}" if np.isfinite(r["budget_s"]) and nr > 0 else "∞"
             ratio = (APPROX + " " if _is_false(r["time_ratio_significant"]) else "") + ratio
         else:
-            to_reach = _with_ci(fmt_g(r["time_to_reach_median_s"]), r["time_to_reach_ci_low"],
-                                r["time_to_reach_ci_high"])
-            ratio = _with_ci(fmt_g(r["time_ratio"]), r["time_ratio_ci_low"], r["time_ratio_ci_high"], None,
-                             _is_false(r["time_ratio_significant"]))
-        return [planner_label(r["algorithm"]), f"cost ≤ {r['factor']:g} × {target}'s", str(r["no_target"]),
-                str(r["targeted"]),
-                _with_ci(_pct(r["reach_rate"]), r["reach_ci_low"], r["reach_ci_high"], _pct),
-                to_reach,
-                _with_ci(fmt_g(r["time_reached_median_s"]), r["time_reached_ci_low"], r["time_reached_ci_high"]),
-                _with_ci(fmt_g(r["target_time_median_s"]), r["target_time_ci_low"], r["target_time_ci_high"]),
-                ratio]
+            to_reach = _with_ci(
+                fmt_g(r["time_to_reach_median_s"]), r["time_to_reach_ci_low"], r["time_to_reach_ci_high"]
+            )
+            ratio = _with_ci(
+                fmt_g(r["time_ratio"]),
+                r["time_ratio_ci_low"],
+                r["time_ratio_ci_high"],
+                None,
+                _is_false(r["time_ratio_significant"]),
+            )
+        return [
+            planner_label(r["algorithm"]),
+            f"cost ≤ {r['factor']:g} × {target}'s",
+            str(r["no_target"]),
+            str(r["targeted"]),
+            _with_ci(_pct(r["reach_rate"]), r["reach_ci_low"], r["reach_ci_high"], _pct),
+            to_reach,
+            _with_ci(fmt_g(r["time_reached_median_s"]), r["time_reached_ci_low"], r["time_reached_ci_high"]),
+            _with_ci(fmt_g(r["target_time_median_s"]), r["target_time_ci_low"], r["target_time_ci_high"]),
+            ratio,
+        ]
 
-    what = ("Time to equal quality: on each query the target planner (MPNet (NR)) plans first, untimed; the "
-            "classical planner then runs until its path cost is at most the factor × the target's verified path "
-            "cost, within the budget. No target: queries the target planner failed (logged `no_target`, left out "
-            "of every other column). Targeted: the other queries. Reached: targeted queries whose run logged "
-            "success with a path cost within the target, with the Wilson score 95% interval. Median time to "
-            "reach: over all targeted queries, a miss counting as +∞; '> budget': at least half of them were "
-            "missed, so the median lies beyond the budget. Reached only: over the reached queries. Target "
-            "planner's median time: its `target_time_s` over the targeted queries. Ratio: median time to reach "
-            f"(all targeted) / the target planner's median time. Intervals: 95% bootstrap ({BOOT_N} resamples; "
-            "the ratio's two medians resampled independently).")
+    what = (
+        "Time to equal quality: on each query the target planner (MPNet (NR)) plans first, untimed; the "
+        "classical planner then runs until its path cost is at most the factor × the target's verified path "
+        "cost, within the budget. No target: queries the target planner failed (logged `no_target`, left out "
+        "of every other column). Targeted: the other queries. Reached: targeted queries whose run logged "
+        "success with a path cost within the target, with the Wilson score 95% interval. Median time to "
+        "reach: over all targeted queries, a miss counting as +∞; '> budget': at least half of them were "
+        "missed, so the median lies beyond the budget. Reached only: over the reached queries. Target "
+        "planner's median time: its `target_time_s` over the targeted queries. Ratio: median time to reach "
+        f"(all targeted) / the target planner's median time. Intervals: 95% bootstrap ({BOOT_N} resamples; "
+        "the ratio's two medians resampled independently)."
+    )
     note = f"{APPROX} before a ratio: its interval contains 1 (the two median times do not differ significantly)."
     return f"# Time to equal quality\n\n{_md_table(head, _group_rows(eq, cells))}\n\n{what}\n\nNote: {note}\n"

@@ -1,4 +1,5 @@
-"""Statistics: sample std, Wilson intervals, Fisher's exact test, bootstrap medians and ratios, the pairing with BIT*."""
+"""Statistics: sample std, Wilson intervals, Fisher's exact test, bootstrap medians and
+ratios, the pairing with BIT*."""
 
 from __future__ import annotations
 

@@ -61,8 +61,11 @@ def results_table(q: pd.DataFrame) -> pd.DataFrame:
     res["cost_mean"] = by["path_cost"].mean()
     ref = solved["reference_cost"]
     has_ref = np.isfinite(solved["path_cost"]) & np.isfinite(ref) & (ref > 0)
-    qual = solved.loc[has_ref, KEYS].assign(quality=(solved["path_cost"] / ref)[has_ref]) \
+    qual = (
+        solved.loc[has_ref, KEYS]
+        .assign(quality=(solved["path_cost"] / ref)[has_ref])
         .groupby(KEYS, sort=False)["quality"]
+    )
     res["quality_n"] = qual.size()
     res["quality_median"] = qual.median()
     res["quality_p90"] = qual.quantile(0.9)
@@ -77,7 +80,8 @@ def results_table(q: pd.DataFrame) -> pd.DataFrame:
     if len(fails):
         counts = fails.assign(failure=fails["failure"].fillna("unknown")).groupby(KEYS + ["failure"]).size()
         res["failures"] = counts.groupby(level=KEYS).apply(
-            lambda s: "; ".join(f"{k[-1]}: {v}" for k, v in sorted(s.items(), key=lambda kv: (-kv[1], kv[0][-1]))))
+            lambda s: "; ".join(f"{k[-1]}: {v}" for k, v in sorted(s.items(), key=lambda kv: (-kv[1], kv[0][-1])))
+        )
     else:
         res["failures"] = ""
     res["failures"] = res["failures"].fillna("")
@@ -100,9 +104,18 @@ def _compare(res: pd.DataFrame, keys: list[tuple], draws: dict) -> None:
     success by Fisher's exact test, median time by the bootstrap interval of the ratio of
     medians (the two rows resampled independently); significant at ALPHA."""
     row = {k: i for i, k in enumerate(keys)}
-    out = {c: [None] * len(keys) for c in ("comparator", "success_p_vs", "success_diff_significant",
-                                           "time_ratio_vs", "time_ratio_vs_ci_low", "time_ratio_vs_ci_high",
-                                           "time_diff_significant")}
+    out = {
+        c: [None] * len(keys)
+        for c in (
+            "comparator",
+            "success_p_vs",
+            "success_diff_significant",
+            "time_ratio_vs",
+            "time_ratio_vs_ci_low",
+            "time_ratio_vs_ci_high",
+            "time_diff_significant",
+        )
+    }
     k_, n_, med = res["successes"].tolist(), res["queries"].tolist(), res["time_median_s"].tolist()
     for i, (env, split, planner) in enumerate(keys):
         c = comparator_of(planner)
@@ -122,8 +135,11 @@ def _compare(res: pd.DataFrame, keys: list[tuple], draws: dict) -> None:
         out["time_ratio_vs_ci_low"][i], out["time_ratio_vs_ci_high"][i] = lo, hi
         out["time_diff_significant"][i] = excludes_one(lo, hi)
     for c, v in out.items():
-        res[c] = pd.Series(v, index=res.index, dtype=object if c in ("comparator", "success_diff_significant",
-                                                                     "time_diff_significant") else float)
+        res[c] = pd.Series(
+            v,
+            index=res.index,
+            dtype=object if c in ("comparator", "success_diff_significant", "time_diff_significant") else float,
+        )
 
 
 def duplicate_warnings(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
@@ -134,13 +150,16 @@ def duplicate_warnings(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
     per_file = q[key + ["file"]].drop_duplicates()
     d = per_file[per_file.duplicated(key, keep=False)]
     out = []
-    groups = sorted(d.groupby(["env", "planner", "seed"], sort=False),
-                    key=lambda kv: (env_rank(kv[0][0]), planner_rank(kv[0][1]), kv[0][2]))
+    groups = sorted(
+        d.groupby(["env", "planner", "seed"], sort=False),
+        key=lambda kv: (env_rank(kv[0][0]), planner_rank(kv[0][1]), kv[0][2]),
+    )
     for (env, planner, seed), g in groups:
         n = len(g.drop_duplicates(key))
         names = ", ".join(str(files[i].path) for i in sorted(g["file"].unique()))
-        out.append(f"warning: {env} {planner} seed {seed}: {n} queries logged in more than one file, "
-                   f"all counted: {names}")
+        out.append(
+            f"warning: {env} {planner} seed {seed}: {n} queries logged in more than one file, all counted: {names}"
+        )
     return out
 
 
@@ -160,8 +179,11 @@ def table1(res: pd.DataFrame, paper: pd.DataFrame | None = None) -> tuple[pd.Dat
     first, then the BIT*/NR ratio, then any other planner (so the paper's layout comes first)."""
     planners = _planner_columns(res["planner"] if len(res) else [])
     sources = [("ours", res)] + ([("paper", paper)] if paper is not None else [])
-    vals = {(src, e, s, p): (m, sd) for src, df in sources
-            for e, s, p, m, sd in zip(df["env"], df["split"], df["planner"], df["time_mean_s"], df["time_std_s"])}
+    vals = {
+        (src, e, s, p): (m, sd)
+        for src, df in sources
+        for e, s, p, m, sd in zip(df["env"], df["split"], df["planner"], df["time_mean_s"], df["time_std_s"])
+    }
     rows = []
     for env, split in sorted(set(zip(res["env"], res["split"])), key=lambda k: (env_rank(k[0]), split_rank(k[1]))):
         for src, _ in sources:
@@ -187,13 +209,37 @@ def main_planners(res: pd.DataFrame) -> pd.DataFrame:
 def success_cost(res: pd.DataFrame) -> pd.DataFrame:
     """Success rate (mean and std over seeds, %; the pooled rate with its Wilson interval, %;
     the test against the comparator) and mean path cost per env x split x planner."""
-    cols = ["env", "split", "planner", "success_mean_pct", "success_std_pct", "success_rate_pct",
-            "success_ci_low_pct", "success_ci_high_pct", "comparator", "success_p_vs", "success_diff_significant",
-            "cost_mean", "queries", "seeds"]
+    cols = [
+        "env",
+        "split",
+        "planner",
+        "success_mean_pct",
+        "success_std_pct",
+        "success_rate_pct",
+        "success_ci_low_pct",
+        "success_ci_high_pct",
+        "comparator",
+        "success_p_vs",
+        "success_diff_significant",
+        "cost_mean",
+        "queries",
+        "seeds",
+    ]
     if res.empty:
         return pd.DataFrame(columns=cols)
-    out = res[["env", "split", "planner", "comparator", "success_p_vs", "success_diff_significant", "cost_mean",
-               "queries", "seeds"]].copy()
+    out = res[
+        [
+            "env",
+            "split",
+            "planner",
+            "comparator",
+            "success_p_vs",
+            "success_diff_significant",
+            "cost_mean",
+            "queries",
+            "seeds",
+        ]
+    ].copy()
     out["success_mean_pct"] = 100.0 * res["success_mean"]
     out["success_std_pct"] = 100.0 * res["success_std"]
     for c in ("success_rate", "success_ci_low", "success_ci_high"):
@@ -201,8 +247,17 @@ def success_cost(res: pd.DataFrame) -> pd.DataFrame:
     return out[cols]
 
 
-QUALITY_COLS = ["env", "split", "planner", "successes", "quality_n", "quality_median", "quality_p90",
-                "cost_over_bit_star_n", "cost_over_bit_star_median"]
+QUALITY_COLS = [
+    "env",
+    "split",
+    "planner",
+    "successes",
+    "quality_n",
+    "quality_median",
+    "quality_p90",
+    "cost_over_bit_star_n",
+    "cost_over_bit_star_median",
+]
 
 
 def quality_table(res: pd.DataFrame) -> pd.DataFrame:
@@ -214,13 +269,40 @@ def quality_table(res: pd.DataFrame) -> pd.DataFrame:
     return res[QUALITY_COLS].reset_index(drop=True)
 
 
-ABLATION_COLS = ["env", "split", "planner", "base", "variant", "change", "queries", "successes", "success_rate",
-                 "success_ci_low", "success_ci_high", "success_p_vs", "success_diff_significant", "time_median_s",
-                 "time_median_ci_low", "time_median_ci_high", "time_ratio_vs", "time_ratio_vs_ci_low",
-                 "time_ratio_vs_ci_high", "time_diff_significant", "quality_n", "quality_median",
-                 "cost_over_bit_star_n", "cost_over_bit_star_median"]
-_VS_COLS = ["success_p_vs", "success_diff_significant", "time_ratio_vs", "time_ratio_vs_ci_low",
-            "time_ratio_vs_ci_high", "time_diff_significant"]
+ABLATION_COLS = [
+    "env",
+    "split",
+    "planner",
+    "base",
+    "variant",
+    "change",
+    "queries",
+    "successes",
+    "success_rate",
+    "success_ci_low",
+    "success_ci_high",
+    "success_p_vs",
+    "success_diff_significant",
+    "time_median_s",
+    "time_median_ci_low",
+    "time_median_ci_high",
+    "time_ratio_vs",
+    "time_ratio_vs_ci_low",
+    "time_ratio_vs_ci_high",
+    "time_diff_significant",
+    "quality_n",
+    "quality_median",
+    "cost_over_bit_star_n",
+    "cost_over_bit_star_median",
+]
+_VS_COLS = [
+    "success_p_vs",
+    "success_diff_significant",
+    "time_ratio_vs",
+    "time_ratio_vs_ci_low",
+    "time_ratio_vs_ci_high",
+    "time_diff_significant",
+]
 
 
 def ablation_table(res: pd.DataFrame) -> pd.DataFrame:
@@ -230,7 +312,7 @@ def ablation_table(res: pd.DataFrame) -> pd.DataFrame:
     if res.empty:
         return pd.DataFrame(columns=ABLATION_COLS)
     rows = []
-    for (env, split), d in sort_rows(res, ("env", "split")).groupby(["env", "split"], sort=False):
+    for _, d in sort_rows(res, ("env", "split")).groupby(["env", "split"], sort=False):
         by = {p: r for p, r in zip(d["planner"], d.to_dict("records"))}
         for base in ABLATION_BASES:
             abl = sorted((p for p in by if (ablation_of(p) or ("",))[0] == base), key=planner_rank)
@@ -246,12 +328,36 @@ def ablation_table(res: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=ABLATION_COLS)
 
 
-EQ_COLS = ["env", "split", "planner", "algorithm", "factor", "target_planner", "queries", "no_target", "targeted",
-           "reached", "reach_rate", "reach_ci_low", "reach_ci_high", "time_to_reach_median_s",
-           "time_to_reach_ci_low", "time_to_reach_ci_high", "censored", "time_reached_median_s",
-           "time_reached_ci_low", "time_reached_ci_high", "target_time_median_s", "target_time_ci_low",
-           "target_time_ci_high", "time_ratio", "time_ratio_ci_low", "time_ratio_ci_high", "time_ratio_significant",
-           "budget_s"]
+EQ_COLS = [
+    "env",
+    "split",
+    "planner",
+    "algorithm",
+    "factor",
+    "target_planner",
+    "queries",
+    "no_target",
+    "targeted",
+    "reached",
+    "reach_rate",
+    "reach_ci_low",
+    "reach_ci_high",
+    "time_to_reach_median_s",
+    "time_to_reach_ci_low",
+    "time_to_reach_ci_high",
+    "censored",
+    "time_reached_median_s",
+    "time_reached_ci_low",
+    "time_reached_ci_high",
+    "target_time_median_s",
+    "target_time_ci_low",
+    "target_time_ci_high",
+    "time_ratio",
+    "time_ratio_ci_low",
+    "time_ratio_ci_high",
+    "time_ratio_significant",
+    "budget_s",
+]
 
 
 def equal_quality_table(q: pd.DataFrame, files: list[TrialFile]) -> tuple[pd.DataFrame, list[str]]:
@@ -279,16 +385,19 @@ def equal_quality_table(q: pd.DataFrame, files: list[TrialFile]) -> tuple[pd.Dat
     d["algorithm"] = [meta[f][0] for f in d["file"]]
     d["factor"] = [meta[f][1] for f in d["file"]]
     d["budget_s"] = [meta[f][3] for f in d["file"]]
-    d["target_planner"] = [t if t is not None else meta[f][2] or "unknown"
-                           for t, f in zip(d["target_planner"], d["file"])]
+    d["target_planner"] = [
+        t if t is not None else meta[f][2] or "unknown" for t, f in zip(d["target_planner"], d["file"])
+    ]
     tgt = d["target_cost"]
     d["targeted"] = np.isfinite(tgt) & (tgt > 0)
     above = d["success"] & d["targeted"] & (d["path_cost"] > d["factor"] * tgt * (1 + REACH_RTOL))
     d["reached"] = d["success"] & d["targeted"] & ~above
     warns = []
     for planner, n in d[above].groupby("planner").size().items():
-        warns.append(f"warning: {planner}: {n} of its logged successes have a path cost above factor x target "
-                     "cost: counted as not reaching the target")
+        warns.append(
+            f"warning: {planner}: {n} of its logged successes have a path cost above factor x target "
+            "cost: counted as not reaching the target"
+        )
     rows = []
     group = ["env", "split", "algorithm", "factor"]
     for key, g in d.groupby(group, sort=False):
@@ -315,25 +424,46 @@ def equal_quality_table(q: pd.DataFrame, files: list[TrialFile]) -> tuple[pd.Dat
             with np.errstate(divide="ignore", invalid="ignore"):
                 rlo, rhi = boot_interval(b_all / b_nr)
         budgets = [b for b in g["budget_s"] if b is not None and math.isfinite(b)]
-        rows.append({
-            "env": env, "split": split, "planner": ", ".join(sorted(g["planner"].unique(), key=planner_rank)),
-            "algorithm": alg, "factor": factor, "target_planner": ", ".join(targets), "queries": len(g),
-            "no_target": int((~g["targeted"]).sum()), "targeted": n, "reached": k,
-            "reach_rate": k / n if n else math.nan, "reach_ci_low": ci[0], "reach_ci_high": ci[1],
-            "time_to_reach_median_s": m_all, **dict(zip(("time_to_reach_ci_low", "time_to_reach_ci_high"),
-                                                        boot_interval(b_all))),
-            "censored": bool(np.isinf(m_all)) if len(all_t) else None,
-            "time_reached_median_s": float(np.median(reached_t)) if len(reached_t) else math.nan,
-            **dict(zip(("time_reached_ci_low", "time_reached_ci_high"), boot_interval(b_reached))),
-            "target_time_median_s": m_nr,
-            **dict(zip(("target_time_ci_low", "target_time_ci_high"), boot_interval(b_nr))),
-            "time_ratio": ratio, "time_ratio_ci_low": rlo, "time_ratio_ci_high": rhi,
-            "time_ratio_significant": excludes_one(rlo, rhi),
-            "budget_s": max(budgets) if budgets else math.nan})
+        rows.append(
+            {
+                "env": env,
+                "split": split,
+                "planner": ", ".join(sorted(g["planner"].unique(), key=planner_rank)),
+                "algorithm": alg,
+                "factor": factor,
+                "target_planner": ", ".join(targets),
+                "queries": len(g),
+                "no_target": int((~g["targeted"]).sum()),
+                "targeted": n,
+                "reached": k,
+                "reach_rate": k / n if n else math.nan,
+                "reach_ci_low": ci[0],
+                "reach_ci_high": ci[1],
+                "time_to_reach_median_s": m_all,
+                **dict(zip(("time_to_reach_ci_low", "time_to_reach_ci_high"), boot_interval(b_all))),
+                "censored": bool(np.isinf(m_all)) if len(all_t) else None,
+                "time_reached_median_s": float(np.median(reached_t)) if len(reached_t) else math.nan,
+                **dict(zip(("time_reached_ci_low", "time_reached_ci_high"), boot_interval(b_reached))),
+                "target_time_median_s": m_nr,
+                **dict(zip(("target_time_ci_low", "target_time_ci_high"), boot_interval(b_nr))),
+                "time_ratio": ratio,
+                "time_ratio_ci_low": rlo,
+                "time_ratio_ci_high": rhi,
+                "time_ratio_significant": excludes_one(rlo, rhi),
+                "budget_s": max(budgets) if budgets else math.nan,
+            }
+        )
     out = pd.DataFrame(rows, columns=EQ_COLS)
     if out.empty:
         return out, warns
     out["_alg"] = [planner_rank(a) for a in out["algorithm"]]
-    order = sorted(range(len(out)), key=lambda i: (env_rank(out["env"].iat[i]), split_rank(out["split"].iat[i]),
-                                                  out["_alg"].iat[i], out["factor"].iat[i]))
+    order = sorted(
+        range(len(out)),
+        key=lambda i: (
+            env_rank(out["env"].iat[i]),
+            split_rank(out["split"].iat[i]),
+            out["_alg"].iat[i],
+            out["factor"].iat[i],
+        ),
+    )
     return out.iloc[order].drop(columns="_alg").reset_index(drop=True), warns

@@ -57,15 +57,23 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
     md, tex = render_success_cost(sc, paper)
     (out / "success_cost.md").write_text(md)
     (out / "success_cost.tex").write_text(tex)
-    written += [out / n for n in ("table1.md", "table1.tex", "table1.csv",
-                                  "success_cost.md", "success_cost.tex", "success_cost.csv")]
+    written += [
+        out / n
+        for n in ("table1.md", "table1.tex", "table1.csv", "success_cost.md", "success_cost.tex", "success_cost.csv")
+    ]
     refs = reference_notes(q, files)
     eq, eq_warns = equal_quality_table(q, files)
     warns += eq_warns
-    optional = {"quality": (quality_table(res), lambda d: render_quality(
-                    d, refs or ["no query in these logs has a reference cost: the quality columns are blank."])),
-                "ablations": (ablation_table(res), render_ablations),
-                "equal_quality": (eq, render_equal_quality)}
+    optional = {
+        "quality": (
+            quality_table(res),
+            lambda d: render_quality(
+                d, refs or ["no query in these logs has a reference cost: the quality columns are blank."]
+            ),
+        ),
+        "ablations": (ablation_table(res), render_ablations),
+        "equal_quality": (eq, render_equal_quality),
+    }
     extra = {"reference_notes": refs}
     for name, (df, render) in optional.items():
         for ext in ("md", "csv", "tex"):  # an earlier report's table must not outlive its data

@@ -8,6 +8,7 @@ data.npz holds
 - path_states (S, sdim), path_offsets (P+1,), path_workspace (P,) (a row of train_ids),
   path_cost (P,), path_raw_cost (P,): the expert paths, after and before contraction.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -19,7 +20,6 @@ from mpnet.data.expert import ExpertPaths, expert_paths, summary
 from mpnet.envs.clouds import clouds
 from mpnet.envs.generators import extra_ids, make_workspaces, split_ids
 from mpnet.envs.spec import EnvSpec
-from mpnet.envs.workspace import Workspace
 
 DATA_FILE = "data.npz"
 FORMAT = "mpnet-bench/data@2"  # @2: clouds of a fixed total size per env
@@ -57,26 +57,44 @@ def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, pro
     train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
     total = spec.cloud_size(p.points_per_block)
-    paths = expert_paths(spec, list(enumerate(train)), p.paths_per_workspace, p.data_seed, p.expert_iterations,
-                         p.expert_max_seconds, jobs=jobs, progress=progress, blocked_only=p.expert_blocked_only)
+    paths = expert_paths(
+        spec,
+        list(enumerate(train)),
+        p.paths_per_workspace,
+        p.data_seed,
+        p.expert_iterations,
+        p.expert_max_seconds,
+        jobs=jobs,
+        progress=progress,
+        blocked_only=p.expert_blocked_only,
+    )
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),
         "train_centers": np.stack([w.centers for w in train]),
         "train_sizes": np.stack([w.sizes for w in train]),
         "train_clouds": clouds(train, total, p.data_seed, spec.sample_cloud),
-        "ae_clouds": clouds(extra, total, p.data_seed, spec.sample_cloud) if extra
+        "ae_clouds": clouds(extra, total, p.data_seed, spec.sample_cloud)
+        if extra
         else np.zeros((0, total, spec.workspace_dim), np.float32),
-        "path_states": paths.states, "path_offsets": paths.offsets, "path_workspace": paths.workspace,
-        "path_cost": paths.cost, "path_raw_cost": paths.raw_cost,
+        "path_states": paths.states,
+        "path_offsets": paths.offsets,
+        "path_workspace": paths.workspace,
+        "path_cost": paths.cost,
+        "path_raw_cost": paths.raw_cost,
     }
     np.savez_compressed(folder / DATA_FILE, **arrays)
-    return {"format": FORMAT, "files": [DATA_FILE], "expert": summary(paths),
-            "sizes": {k: list(v.shape) for k, v in arrays.items()},
-            "bytes": (folder / DATA_FILE).stat().st_size}
+    return {
+        "format": FORMAT,
+        "files": [DATA_FILE],
+        "expert": summary(paths),
+        "sizes": {k: list(v.shape) for k, v in arrays.items()},
+        "bytes": (folder / DATA_FILE).stat().st_size,
+    }
 
 
 def load_dataset(folder: Path, manifest: dict) -> Dataset:
     with np.load(folder / DATA_FILE) as z:
-        paths = ExpertPaths(z["path_states"], z["path_offsets"], z["path_workspace"], z["path_cost"],
-                            z["path_raw_cost"])
+        paths = ExpertPaths(
+            z["path_states"], z["path_offsets"], z["path_workspace"], z["path_cost"], z["path_raw_cost"]
+        )
         return Dataset(z["train_ids"], z["train_clouds"], z["ae_clouds"], paths, manifest)

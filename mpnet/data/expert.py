@@ -5,6 +5,7 @@ An iteration budget, not a time budget, keeps the paths reproducible: each chunk
 workspaces runs in a fresh process whose OMPL RNG is seeded from (data seed, chunk), so
 the same config gives the same paths on any machine and with any number of processes.
 """
+
 from __future__ import annotations
 
 import math
@@ -12,6 +13,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
@@ -32,21 +34,26 @@ class ExpertPaths:
         return len(self.workspace)
 
     def path(self, i: int) -> np.ndarray:
-        return self.states[self.offsets[i]:self.offsets[i + 1]]
+        return self.states[self.offsets[i] : self.offsets[i + 1]]
 
     def paths(self) -> list[np.ndarray]:
         return [self.path(i) for i in range(len(self))]
 
     @staticmethod
-    def concat(parts: list["ExpertPaths"], state_dim: int) -> "ExpertPaths":
+    def concat(parts: list[ExpertPaths], state_dim: int) -> ExpertPaths:
         if not parts:
-            return ExpertPaths(np.zeros((0, state_dim)), np.zeros(1, np.int64), np.zeros(0, np.int64),
-                               np.zeros(0), np.zeros(0))
+            return ExpertPaths(
+                np.zeros((0, state_dim)), np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+            )
         lengths = np.concatenate([np.diff(p.offsets) for p in parts])
         return ExpertPaths(
-            np.concatenate([p.states for p in parts]), np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-            np.concatenate([p.workspace for p in parts]).astype(np.int64), np.concatenate([p.cost for p in parts]),
-            np.concatenate([p.raw_cost for p in parts]), sum(p.seconds for p in parts))
+            np.concatenate([p.states for p in parts]),
+            np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+            np.concatenate([p.workspace for p in parts]).astype(np.int64),
+            np.concatenate([p.cost for p in parts]),
+            np.concatenate([p.raw_cost for p in parts]),
+            sum(p.seconds for p in parts),
+        )
 
 
 def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seconds: float) -> list | None:
@@ -66,8 +73,11 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
         count[0] += 1
         return count[0] > iterations
 
-    planner.solve(ob.plannerOrTerminationCondition(ob.timedPlannerTerminationCondition(max_seconds),
-                                                   ob.PlannerTerminationCondition(spent)))
+    planner.solve(
+        ob.plannerOrTerminationCondition(
+            ob.timedPlannerTerminationCondition(max_seconds), ob.PlannerTerminationCondition(spent)
+        )
+    )
     if not pdef.hasExactSolution():
         return None
     path = [list(to_tuple(x)) for x in pdef.getSolutionPath().getStates()]
@@ -75,8 +85,17 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
     return path
 
 
-def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, seed: int, iterations: int,
-                    max_seconds: float, blocked_only: bool = True, max_tries: int = 50) -> ExpertPaths:
+def workspace_paths(
+    spec: EnvSpec,
+    ws: Workspace,
+    ws_index: int,
+    count: int,
+    seed: int,
+    iterations: int,
+    max_seconds: float,
+    blocked_only: bool = True,
+    max_tries: int = 50,
+) -> ExpertPaths:
     """`count` expert paths between random valid states of one workspace.
 
     blocked_only keeps the pairs whose straight line is blocked, as every test query's
@@ -105,9 +124,14 @@ def workspace_paths(spec: EnvSpec, ws: Workspace, ws_index: int, count: int, see
         costs.append(path_cost(spec, path))
         raws.append(raw)
     offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-    return ExpertPaths(np.concatenate(states) if states else np.zeros((0, spec.state_dim)), offsets,
-                       np.full(len(lengths), ws_index, np.int64), np.array(costs), np.array(raws),
-                       time.perf_counter() - t0)
+    return ExpertPaths(
+        np.concatenate(states) if states else np.zeros((0, spec.state_dim)),
+        offsets,
+        np.full(len(lengths), ws_index, np.int64),
+        np.array(costs),
+        np.array(raws),
+        time.perf_counter() - t0,
+    )
 
 
 def chunk_worker(args: tuple) -> ExpertPaths:
@@ -117,24 +141,36 @@ def chunk_worker(args: tuple) -> ExpertPaths:
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
-    return ExpertPaths.concat([workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds, blocked_only)
-                               for idx, ws in workspaces], spec.state_dim)
+    return ExpertPaths.concat(
+        [workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds, blocked_only) for idx, ws in workspaces],
+        spec.state_dim,
+    )
 
 
-def expert_paths(spec: EnvSpec, workspaces: list[tuple[int, Workspace]], count: int, seed: int, iterations: int,
-                 max_seconds: float, jobs: int = 2, chunk_size: int = 1, progress=None,
-                 blocked_only: bool = True) -> ExpertPaths:
+def expert_paths(
+    spec: EnvSpec,
+    workspaces: list[tuple[int, Workspace]],
+    count: int,
+    seed: int,
+    iterations: int,
+    max_seconds: float,
+    jobs: int = 2,
+    chunk_size: int = 1,
+    progress=None,
+    blocked_only: bool = True,
+) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
     `progress(n)` is called with the number of workspaces each finished chunk held."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    chunks = [workspaces[i:i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
+    chunks = [workspaces[i : i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
     tasks = [(spec, c, count, seed, k, iterations, max_seconds, blocked_only) for k, c in enumerate(chunks)]
     results: list[ExpertPaths | None] = [None] * len(tasks)
-    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"),
-                             max_tasks_per_child=1) as pool:
+    with ProcessPoolExecutor(
+        max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
+    ) as pool:
         futures = {pool.submit(chunk_worker, t): k for k, t in enumerate(tasks)}
         from concurrent.futures import as_completed
 

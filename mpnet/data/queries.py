@@ -4,9 +4,11 @@ A test query's start and goal are valid, its straight line is blocked (trivial q
 say nothing, and one of OMPL's planners hung on them), and RRT-Connect solves it.
 The test set depends on the data config only, never on the run's `seed`.
 """
+
 from __future__ import annotations
 
 import numpy as np
+
 from mpnet.envs.generators import make_workspace, split_ids
 from mpnet.envs.ompl_space import is_solvable
 from mpnet.envs.spec import EnvSpec, TestSet
@@ -15,8 +17,9 @@ from mpnet.envs.workspace import Query, Workspace
 SPLIT_CODES = {"seen": 1, "unseen": 2}
 
 
-def make_queries(spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str,
-                 solvable_s: float = 2.0, max_tries: int = 100000) -> list[Query]:
+def make_queries(
+    spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str, solvable_s: float = 2.0, max_tries: int = 100000
+) -> list[Query]:
     """`count` queries in `ws`, drawn by a generator seeded by (seed, split, workspace)."""
     rng = np.random.default_rng([seed, SPLIT_CODES.get(split, 0), int(ws.id) if ws.id.isdigit() else 0])
     checker = spec.make_checker(ws)
@@ -35,8 +38,9 @@ def make_queries(spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str
     raise RuntimeError(f"workspace {ws.id}: found only {len(out)} of {count} queries in {max_tries} draws")
 
 
-def make_testset(spec: EnvSpec, splits: dict[str, tuple[int, int]], seed: int = 0,
-                 solvable_s: float = 2.0, progress=None) -> TestSet:
+def make_testset(
+    spec: EnvSpec, splits: dict[str, tuple[int, int]], seed: int = 0, solvable_s: float = 2.0, progress=None
+) -> TestSet:
     """splits: {"seen": (workspaces, queries per workspace), "unseen": (...)};
     progress(1) is called after each workspace."""
     workspaces: list[Workspace] = []

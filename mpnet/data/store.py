@@ -4,6 +4,7 @@ a temporary name and renamed into place, with a manifest that is checked on load
 Concurrent jobs of a sweep that need the same artifact: the first builds it, the others
 wait on the lock and then load what it built.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -44,8 +45,13 @@ def read_manifest(folder: Path, key: str) -> dict:
     return manifest
 
 
-def ensure(root: str | Path, kind: str, config: dict, build: Callable[[Path], dict],
-           provenance: Callable[[], dict] | None = None) -> tuple[Path, dict, bool]:
+def ensure(
+    root: str | Path,
+    kind: str,
+    config: dict,
+    build: Callable[[Path], dict],
+    provenance: Callable[[], dict] | None = None,
+) -> tuple[Path, dict, bool]:
     """The artifact of `kind` for `config` under `root`, building it if absent.
 
     build(tmp_folder) writes the files and returns manifest fields (must include "files");
@@ -73,9 +79,12 @@ def ensure(root: str | Path, kind: str, config: dict, build: Callable[[Path], di
         try:
             fields = build(tmp)
             manifest = {
-                "kind": kind, "key": key, "config": config,
-                "created_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-                **(provenance() if provenance else {}), **fields,
+                "kind": kind,
+                "key": key,
+                "config": config,
+                "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+                **(provenance() if provenance else {}),
+                **fields,
             }
             (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True, default=str))
             os.replace(tmp, folder)

@@ -6,5 +6,15 @@ from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.specs import SPECS, get_spec
 from mpnet.envs.workspace import Query, Workspace
 
-__all__ = ["SPECS", "get_spec", "EnvSpec", "TestSet", "Query", "Workspace", "StateSpace", "EuclideanSpace",
-           "SE2Space", "wrap_angle"]
+__all__ = [
+    "SPECS",
+    "get_spec",
+    "EnvSpec",
+    "TestSet",
+    "Query",
+    "Workspace",
+    "StateSpace",
+    "EuclideanSpace",
+    "SE2Space",
+    "wrap_angle",
+]

@@ -12,7 +12,6 @@ methods; everything else uses only the public, counted calls.
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from mpnet.envs.workspace import Workspace
@@ -29,7 +28,9 @@ class CollisionChecker:
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         if ws.dim != spec.workspace_dim:
-            raise ValueError(f"workspace {ws.id!r} has {ws.dim}-D obstacles, env {spec.name} needs {spec.workspace_dim}-D")
+            raise ValueError(
+                f"workspace {ws.id!r} has {ws.dim}-D obstacles, env {spec.name} needs {spec.workspace_dim}-D"
+            )
         self.spec = spec
         self.workspace = ws
         self.margin = margin

@@ -1,6 +1,7 @@
 """OMPL state spaces and checkers for an env: one fresh space per setup (a shared space
 crashed OMPL's Benchmark), validity through the shared counted checker, and an exact
 motion validator (OMPL's discrete motion checking cuts box corners)."""
+
 from __future__ import annotations
 
 from ompl import base as ob

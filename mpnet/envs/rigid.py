@@ -73,8 +73,11 @@ class RigidChecker(CollisionChecker):
         r = self.radius
         xmin, xmax = min(ax, ax + dx) - r, max(ax, ax + dx) + r
         ymin, ymax = min(ay, ay + dy) - r, max(ay, ay + dy) + r
-        boxes = [bx for bx in self._boxes if bx[0] + bx[2] >= xmin and bx[0] - bx[2] <= xmax
-                 and bx[1] + bx[3] >= ymin and bx[1] - bx[3] <= ymax]
+        boxes = [
+            bx
+            for bx in self._boxes
+            if bx[0] + bx[2] >= xmin and bx[0] - bx[2] <= xmax and bx[1] + bx[3] >= ymin and bx[1] - bx[3] <= ymax
+        ]
         if not boxes:
             return True
         t = 0.0
@@ -108,8 +111,12 @@ class RigidChecker(CollisionChecker):
             ddx, ddy = bx - x, by - y
             gx = abs(ddx) - ex - bhx
             gy = abs(ddy) - ey - bhy
-            g = max(gx, gy, abs(ddx * c + ddy * s) - hx - bhx * ac - bhy * as_,
-                    abs(ddy * c - ddx * s) - hy - bhx * as_ - bhy * ac)
+            g = max(
+                gx,
+                gy,
+                abs(ddx * c + ddy * s) - hx - bhx * ac - bhy * as_,
+                abs(ddy * c - ddx * s) - hy - bhx * as_ - bhy * ac,
+            )
             if g <= m:
                 return None
             step = g / rate if rate > 0 else math.inf
@@ -158,8 +165,10 @@ class FclRigidChecker(RigidChecker):
 
         super().__init__(spec, ws, margin)
         self._fcl = fcl
-        self._objects = [fcl.CollisionObject(fcl.Box(2 * bx, 2 * by, 1.0), fcl.Transform(np.array([cx, cy, 0.0])))
-                         for cx, cy, bx, by in self._boxes]
+        self._objects = [
+            fcl.CollisionObject(fcl.Box(2 * bx, 2 * by, 1.0), fcl.Transform(np.array([cx, cy, 0.0])))
+            for cx, cy, bx, by in self._boxes
+        ]
         self._manager = fcl.DynamicAABBTreeCollisionManager()
         self._manager.registerObjects(self._objects)
         self._manager.setup()

@@ -19,8 +19,9 @@ class Robot:
     def to_json(self) -> dict:
         return {"kind": self.kind}
 
-    def make_checker(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN,
-                     backend: str = "native") -> CollisionChecker:
+    def make_checker(
+        self, spec, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str = "native"
+    ) -> CollisionChecker:
         try:
             cls = self.checkers[backend]
         except KeyError:

@@ -13,8 +13,7 @@ _RIGID = RectangleRobot((2.0, 5.0))
 
 SPECS: dict[str, EnvSpec] = {
     "s2d": EnvSpec("s2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(), exact_reference=True),
-    "c2d": EnvSpec("c2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(C2D_SIZES),
-                   exact_reference=True),
+    "c2d": EnvSpec("c2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(C2D_SIZES), exact_reference=True),
     "c3d": EnvSpec("c3d", EuclideanSpace(_BOX * 3), PointRobot(), 3, C3DLayouts(), blocks=10),
     "rigid": EnvSpec("rigid", SE2Space(_BOX * 2, radius=_RIGID.radius), _RIGID, 2, OriginalLayouts()),
 }

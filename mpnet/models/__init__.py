@@ -3,14 +3,27 @@
 Importing this package does NOT import Lightning (~2 s): the networks, the numpy export and
 the checkpoint reader are loaded eagerly; the Lightning classes on first access.
 """
+
 from __future__ import annotations
 
 import importlib
 
 from mpnet.models.checkpoint import PlannerNets, load_enet_checkpoint, load_pnet_checkpoint
-from mpnet.models.networks import (ENET_HIDDEN, ENET_LATENT, PNET_HIDDEN, ContractiveAE, Decoder,
-                                   Enet, Normalizer, NumpyEnet, NumpyPnet, Pnet, enet_numpy,
-                                   paper_s2d, pnet_numpy)
+from mpnet.models.networks import (
+    ENET_HIDDEN,
+    ENET_LATENT,
+    PNET_HIDDEN,
+    ContractiveAE,
+    Decoder,
+    Enet,
+    Normalizer,
+    NumpyEnet,
+    NumpyPnet,
+    Pnet,
+    enet_numpy,
+    paper_s2d,
+    pnet_numpy,
+)
 
 _LAZY = {
     "EnetModule": "mpnet.models.modules",
@@ -30,7 +43,21 @@ def __getattr__(name: str):
 
 
 __all__ = [
-    "ENET_HIDDEN", "ENET_LATENT", "PNET_HIDDEN", "Enet", "Decoder", "ContractiveAE", "Pnet",
-    "Normalizer", "NumpyPnet", "NumpyEnet", "pnet_numpy", "enet_numpy", "paper_s2d",
-    "PlannerNets", "load_pnet_checkpoint", "load_enet_checkpoint", *_LAZY,
+    "ENET_HIDDEN",
+    "ENET_LATENT",
+    "PNET_HIDDEN",
+    "Enet",
+    "Decoder",
+    "ContractiveAE",
+    "Pnet",
+    "Normalizer",
+    "NumpyPnet",
+    "NumpyEnet",
+    "pnet_numpy",
+    "enet_numpy",
+    "paper_s2d",
+    "PlannerNets",
+    "load_pnet_checkpoint",
+    "load_enet_checkpoint",
+    *_LAZY,
 ]

@@ -5,6 +5,7 @@ The layout read here is the one :mod:`mpnet.models.modules` writes: ``hyper_para
 holds the networks' ``config()`` dicts and scales; ``state_dict`` keys are prefixed with
 the module attribute (``pnet.``, ``encoder.``, ``ae.``).
 """
+
 from __future__ import annotations
 
 import os
@@ -12,12 +13,11 @@ from dataclasses import dataclass
 
 import torch
 
-from mpnet.models.networks import (ContractiveAE, Enet, Normalizer, NumpyEnet, NumpyPnet, Pnet,
-                                   _flat_cloud)
+from mpnet.models.networks import ContractiveAE, Enet, Normalizer, NumpyEnet, NumpyPnet, Pnet, _flat_cloud
 
 
 def _sub_state(state: dict, prefix: str) -> dict:
-    return {k[len(prefix):]: v for k, v in state.items() if k.startswith(prefix)}
+    return {k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)}
 
 
 def _load(path: str | os.PathLike, map_location) -> tuple[dict, dict]:
@@ -58,8 +58,7 @@ def load_pnet_checkpoint(path: str | os.PathLike, map_location="cpu") -> Planner
     pnet, encoder = Pnet(**hp["pnet"]), Enet(**hp["encoder"])
     pnet.load_state_dict(_sub_state(state, "pnet."))
     encoder.load_state_dict(_sub_state(state, "encoder."))
-    return PlannerNets(encoder.eval(), pnet.eval(), Normalizer(hp["state_scale"]),
-                       Normalizer(hp["cloud_scale"]))
+    return PlannerNets(encoder.eval(), pnet.eval(), Normalizer(hp["state_scale"]), Normalizer(hp["cloud_scale"]))
 
 
 def load_enet_checkpoint(path: str | os.PathLike, map_location="cpu") -> tuple[ContractiveAE, Normalizer]:

@@ -12,6 +12,7 @@ split is a pure function of ``seed`` (and ``groups``, when given: whole groups, 
 paths, go to one side). Batches are gathered with one tensor index per batch
 (``__getitems__``), not per sample.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -27,8 +28,9 @@ def _identity(batch):
     return batch
 
 
-def split_indices(n: int, val_fraction: float, seed: int,
-                  groups: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def split_indices(
+    n: int, val_fraction: float, seed: int, groups: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Deterministic (train, val) index arrays, sorted. ``val_fraction`` of the samples (or of
     the groups) go to val; at least one when ``val_fraction > 0`` and there are two or more."""
     if not 0.0 <= val_fraction < 1.0:
@@ -54,8 +56,16 @@ def split_indices(n: int, val_fraction: float, seed: int,
 class PairDataset(Dataset):
     """Pnet samples over shared tensors; ``rows`` selects this split's samples."""
 
-    def __init__(self, clouds: torch.Tensor, ws: torch.Tensor, x_t: torch.Tensor,
-                 x_goal: torch.Tensor, x_next: torch.Tensor, rows: np.ndarray, key: str = "clouds"):
+    def __init__(
+        self,
+        clouds: torch.Tensor,
+        ws: torch.Tensor,
+        x_t: torch.Tensor,
+        x_goal: torch.Tensor,
+        x_next: torch.Tensor,
+        rows: np.ndarray,
+        key: str = "clouds",
+    ):
         self.clouds, self.ws, self.x_t, self.x_goal, self.x_next = clouds, ws, x_t, x_goal, x_next
         self.rows = torch.as_tensor(rows, dtype=torch.long)
         self.key = key
@@ -66,8 +76,13 @@ class PairDataset(Dataset):
     def __getitems__(self, indices: Sequence[int]) -> dict[str, torch.Tensor]:
         r = self.rows[torch.as_tensor(indices, dtype=torch.long)]
         uniq, inverse = torch.unique(self.ws[r], return_inverse=True)
-        return {self.key: self.clouds[uniq], "ws": inverse, "x_t": self.x_t[r],
-                "x_goal": self.x_goal[r], "x_next": self.x_next[r]}
+        return {
+            self.key: self.clouds[uniq],
+            "ws": inverse,
+            "x_t": self.x_t[r],
+            "x_goal": self.x_goal[r],
+            "x_next": self.x_next[r],
+        }
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
         return self.__getitems__([i])
@@ -110,9 +125,14 @@ class _Base(L.LightningDataModule):
         self.val_set: Dataset | None = None
 
     def _loader(self, ds: Dataset, shuffle: bool) -> DataLoader:
-        return DataLoader(ds, batch_size=self.batch_size, shuffle=shuffle, collate_fn=_identity,
-                          num_workers=self.num_workers,
-                          persistent_workers=self.num_workers > 0)
+        return DataLoader(
+            ds,
+            batch_size=self.batch_size,
+            shuffle=shuffle,
+            collate_fn=_identity,
+            num_workers=self.num_workers,
+            persistent_workers=self.num_workers > 0,
+        )
 
     def train_dataloader(self) -> DataLoader:
         if self.train_set is None:
@@ -136,10 +156,20 @@ class MPNetDataModule(_Base):
     encoder's codes never change, so encoding them once saves most of Pnet's training time
     when batches span many workspaces)."""
 
-    def __init__(self, clouds: np.ndarray, ws_index: np.ndarray, x_t: np.ndarray,
-                 x_goal: np.ndarray, x_next: np.ndarray, batch_size: int = 100,
-                 val_fraction: float = 0.1, seed: int = 0, num_workers: int = 0,
-                 groups: np.ndarray | None = None, features: str = "clouds"):
+    def __init__(
+        self,
+        clouds: np.ndarray,
+        ws_index: np.ndarray,
+        x_t: np.ndarray,
+        x_goal: np.ndarray,
+        x_next: np.ndarray,
+        batch_size: int = 100,
+        val_fraction: float = 0.1,
+        seed: int = 0,
+        num_workers: int = 0,
+        groups: np.ndarray | None = None,
+        features: str = "clouds",
+    ):
         super().__init__(batch_size, val_fraction, seed, num_workers)
         if features not in ("clouds", "codes"):
             raise ValueError(f"features must be 'clouds' or 'codes', got {features!r}")
@@ -179,8 +209,9 @@ class MPNetDataModule(_Base):
 class CloudDataModule(_Base):
     """Flattened point clouds (n_ws, n_points * wdim) for the autoencoder; split by workspace."""
 
-    def __init__(self, clouds: np.ndarray, batch_size: int = 100, val_fraction: float = 0.1,
-                 seed: int = 0, num_workers: int = 0):
+    def __init__(
+        self, clouds: np.ndarray, batch_size: int = 100, val_fraction: float = 0.1, seed: int = 0, num_workers: int = 0
+    ):
         super().__init__(batch_size, val_fraction, seed, num_workers)
         self.clouds = _float_tensor(clouds, "clouds", 2)
         if len(self.clouds) == 0:
@@ -197,15 +228,14 @@ class CloudDataModule(_Base):
 
 
 class Pairs(NamedTuple):
-    ws_index: np.ndarray   # (n,) int64
-    x_t: np.ndarray        # (n, state_dim)
-    x_goal: np.ndarray     # (n, state_dim)
-    x_next: np.ndarray     # (n, state_dim)
-    path_id: np.ndarray    # (n,) int64: the index of the source path (for ``groups``)
+    ws_index: np.ndarray  # (n,) int64
+    x_t: np.ndarray  # (n, state_dim)
+    x_goal: np.ndarray  # (n, state_dim)
+    x_next: np.ndarray  # (n, state_dim)
+    path_id: np.ndarray  # (n,) int64: the index of the source path (for ``groups``)
 
 
-def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int],
-                   bidirectional: bool = True) -> Pairs:
+def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int], bidirectional: bool = True) -> Pairs:
     """Expert paths -> Pnet samples, as the public code: for a path ``x_0..x_T`` every
     ``(x_j, x_T) -> x_{j+1}``; with ``bidirectional`` also the reversed path (the planner grows
     trees from both ends). Paths with fewer than two states add nothing."""
@@ -222,7 +252,7 @@ def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int],
             raise ValueError(f"path {pid} has state_dim {path.shape[1]}, expected {dim}")
         if len(path) < 2:
             continue
-        for p in ((path, path[::-1]) if bidirectional else (path,)):
+        for p in (path, path[::-1]) if bidirectional else (path,):
             k = len(p) - 1
             cols["x_t"].append(p[:-1])
             cols["x_next"].append(p[1:])
@@ -237,5 +267,12 @@ def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int],
     return Pairs(cat["ws"], cat["x_t"], cat["x_goal"], cat["x_next"], cat["pid"])
 
 
-__all__ = ["MPNetDataModule", "CloudDataModule", "PairDataset", "CloudDataset",
-           "split_indices", "waypoint_pairs", "Pairs"]
+__all__ = [
+    "MPNetDataModule",
+    "CloudDataModule",
+    "PairDataset",
+    "CloudDataset",
+    "split_indices",
+    "waypoint_pairs",
+    "Pairs",
+]

@@ -10,6 +10,7 @@ reads the planner's networks without importing Lightning.
 Metrics: ``train_loss`` / ``val_loss`` (per step and per epoch for training), plus
 ``train_recon``, ``train_penalty``, ``val_recon`` for the autoencoder.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -39,9 +40,15 @@ class EnetModule(L.LightningModule):
     ``lam`` (when given) replaces the autoencoder's penalty weight. The public code used
     Adagrad (lr 0.01, its default)."""
 
-    def __init__(self, ae: ContractiveAE | dict[str, Any], lr: float = 1e-2,
-                 lam: float | None = None, optimizer: str = "adagrad", *,
-                 cloud_scale: Sequence[float] | float):
+    def __init__(
+        self,
+        ae: ContractiveAE | dict[str, Any],
+        lr: float = 1e-2,
+        lam: float | None = None,
+        optimizer: str = "adagrad",
+        *,
+        cloud_scale: Sequence[float] | float,
+    ):
         super().__init__()
         ae = ae if isinstance(ae, ContractiveAE) else ContractiveAE.from_config(ae)
         if lam is not None:
@@ -50,10 +57,15 @@ class EnetModule(L.LightningModule):
             raise ValueError(f"unknown optimizer {optimizer!r}; choices: {', '.join(OPTIMIZERS)}")
         self.ae = ae
         self.cloud_norm = Normalizer(cloud_scale)
-        self.save_hyperparameters({
-            "ae": ae.config(), "lr": float(lr), "lam": ae.lam, "optimizer": optimizer.lower(),
-            "cloud_scale": self.cloud_norm.to_list(),
-        })
+        self.save_hyperparameters(
+            {
+                "ae": ae.config(),
+                "lr": float(lr),
+                "lam": ae.lam,
+                "optimizer": optimizer.lower(),
+                "cloud_scale": self.cloud_norm.to_list(),
+            }
+        )
 
     @property
     def encoder(self) -> Enet:
@@ -93,8 +105,8 @@ class PnetModule(L.LightningModule):
     point-mass and rigid bodies) it gets no gradient and is not optimised; without it Enet
     and Pnet train end to end (the arm). ``state_scale`` and ``cloud_scale`` come from the
     env's bounds (``StateSpace.scale``, ``EnvSpec.workspace_scale``: rigid ``[20, 20, pi]``
-    and ``[20, 20]``), never a default that would mis-scale another robot. Training runs Pnet with dropout on; validation with
-    dropout off unless ``val_stochastic``.
+    and ``[20, 20]``), never a default that would mis-scale another robot. Training runs Pnet
+    with dropout on; validation with dropout off unless ``val_stochastic``.
 
     Batches are dicts ``{"clouds": (k, D), "ws": (B,) index into clouds, "x_t", "x_goal",
     "x_next": (B, state_dim)}`` (what :class:`MPNetDataModule` yields: each workspace's
@@ -103,17 +115,24 @@ class PnetModule(L.LightningModule):
     x_goal, x_next)``.
     """
 
-    def __init__(self, pnet: Pnet | dict[str, Any], encoder: Enet | dict[str, Any],
-                 lr: float = 1e-2, optimizer: str = "adagrad", freeze_encoder: bool = True, *,
-                 state_scale: Sequence[float] | float, cloud_scale: Sequence[float] | float,
-                 val_stochastic: bool = False):
+    def __init__(
+        self,
+        pnet: Pnet | dict[str, Any],
+        encoder: Enet | dict[str, Any],
+        lr: float = 1e-2,
+        optimizer: str = "adagrad",
+        freeze_encoder: bool = True,
+        *,
+        state_scale: Sequence[float] | float,
+        cloud_scale: Sequence[float] | float,
+        val_stochastic: bool = False,
+    ):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
         encoder = encoder if isinstance(encoder, Enet) else Enet(**encoder)
         state_dim = pnet.out_dim
         if pnet.in_dim != encoder.latent + 2 * state_dim:
-            raise ValueError(
-                f"Pnet input {pnet.in_dim} != latent {encoder.latent} + 2 * state_dim {state_dim}")
+            raise ValueError(f"Pnet input {pnet.in_dim} != latent {encoder.latent} + 2 * state_dim {state_dim}")
         if optimizer.lower() not in OPTIMIZERS:
             raise ValueError(f"unknown optimizer {optimizer!r}; choices: {', '.join(OPTIMIZERS)}")
         self.pnet = pnet
@@ -125,20 +144,27 @@ class PnetModule(L.LightningModule):
         self.freeze_encoder = bool(freeze_encoder)
         if self.freeze_encoder:
             self.encoder.requires_grad_(False)
-        self.save_hyperparameters({
-            "pnet": pnet.config(), "encoder": encoder.config(), "lr": float(lr),
-            "optimizer": optimizer.lower(), "freeze_encoder": self.freeze_encoder,
-            "state_scale": self.state_norm.to_list(), "cloud_scale": self.cloud_norm.to_list(),
-            "val_stochastic": bool(val_stochastic),
-        })
+        self.save_hyperparameters(
+            {
+                "pnet": pnet.config(),
+                "encoder": encoder.config(),
+                "lr": float(lr),
+                "optimizer": optimizer.lower(),
+                "freeze_encoder": self.freeze_encoder,
+                "state_scale": self.state_norm.to_list(),
+                "cloud_scale": self.cloud_norm.to_list(),
+                "val_stochastic": bool(val_stochastic),
+            }
+        )
 
     # -- inference in raw coordinates ---------------------------------------------------
     def encode(self, cloud: torch.Tensor) -> torch.Tensor:
         """Raw flattened cloud(s) -> ``Z``."""
         return self.encoder(self.cloud_norm.normalize(cloud))
 
-    def forward(self, cloud: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor,
-                stochastic: bool = True) -> torch.Tensor:
+    def forward(
+        self, cloud: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor, stochastic: bool = True
+    ) -> torch.Tensor:
         """Raw cloud and states -> raw next state. ``cloud`` is (D,) or (B, D)."""
         z = self.encode(cloud)
         if z.dim() < x_t.dim():

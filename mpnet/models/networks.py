@@ -15,6 +15,7 @@
 Every network has ``config()`` (a plain dict of its constructor arguments) so that it can be
 rebuilt with ``Cls(**config)``; the LightningModules save only these dicts.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -80,7 +81,7 @@ class Decoder(nn.Module):
         self.net = _mlp((self.latent, *reversed(self.hidden), self.out_dim))
 
     @classmethod
-    def mirror(cls, encoder: Enet) -> "Decoder":
+    def mirror(cls, encoder: Enet) -> Decoder:
         return cls(encoder.in_dim, encoder.hidden, encoder.latent)
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
@@ -103,13 +104,14 @@ class ContractiveAE(nn.Module):
         if decoder.out_dim != encoder.in_dim or decoder.latent != encoder.latent:
             raise ValueError(
                 f"decoder {decoder.latent}->{decoder.out_dim} does not mirror encoder "
-                f"{encoder.in_dim}->{encoder.latent}")
+                f"{encoder.in_dim}->{encoder.latent}"
+            )
         self.encoder = encoder
         self.decoder = decoder
         self.lam = float(lam)
 
     @classmethod
-    def from_config(cls, config: dict[str, Any]) -> "ContractiveAE":
+    def from_config(cls, config: dict[str, Any]) -> ContractiveAE:
         return cls(Enet(**config["encoder"]), Decoder(**config["decoder"]), config.get("lam", 1e-3))
 
     def config(self) -> dict[str, Any]:
@@ -137,8 +139,7 @@ class Pnet(nn.Module):
     ``in_dim = latent + 2 * state_dim``.
     """
 
-    def __init__(self, in_dim: int, out_dim: int, hidden: Sequence[int] = PNET_HIDDEN,
-                 dropout: float = 0.5):
+    def __init__(self, in_dim: int, out_dim: int, hidden: Sequence[int] = PNET_HIDDEN, dropout: float = 0.5):
         super().__init__()
         self.in_dim = _ints([in_dim], "in_dim")[0]
         self.out_dim = _ints([out_dim], "out_dim")[0]
@@ -162,14 +163,12 @@ class Pnet(nn.Module):
                 x = F.dropout(x, self.p, training=True)
         return self.linears[-1](x)
 
-    def step(self, z: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor,
-             stochastic: bool = True) -> torch.Tensor:
+    def step(self, z: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor, stochastic: bool = True) -> torch.Tensor:
         """Convenience: ``forward(cat(z, x_t, x_goal))`` along the last dimension."""
         return self(torch.cat((z, x_t, x_goal), dim=-1), stochastic)
 
     def config(self) -> dict[str, Any]:
-        return {"in_dim": self.in_dim, "out_dim": self.out_dim, "hidden": list(self.hidden),
-                "dropout": self.p}
+        return {"in_dim": self.in_dim, "out_dim": self.out_dim, "hidden": list(self.hidden), "dropout": self.p}
 
 
 class Normalizer:
@@ -190,13 +189,13 @@ class Normalizer:
         self._cache: dict[tuple, Any] = {}
 
     @classmethod
-    def from_bounds(cls, bounds: Sequence[Sequence[float]]) -> "Normalizer":
+    def from_bounds(cls, bounds: Sequence[Sequence[float]]) -> Normalizer:
         """Scale = the largest absolute bound per dimension: ``[-20, 20]^2 x [-pi, pi)`` gives
         ``[20, 20, pi]``."""
         return cls([max(abs(float(lo)), abs(float(hi))) for lo, hi in bounds])
 
     @classmethod
-    def points(cls, dim: int, half_extent: float = 20.0) -> "Normalizer":
+    def points(cls, dim: int, half_extent: float = 20.0) -> Normalizer:
         return cls([half_extent] * dim)
 
     def to_list(self) -> list[float]:
@@ -297,11 +296,12 @@ class NumpyPnet:
         h = self._in
         zd, d = self._zdim, self.state_dim
         if np.shape(z) != (zd,) or np.shape(x) != (d,) or np.shape(goal) != (d,):
-            raise ValueError(f"expected z ({zd},), x and goal ({d},); got "
-                             f"{np.shape(z)}, {np.shape(x)}, {np.shape(goal)}")
+            raise ValueError(
+                f"expected z ({zd},), x and goal ({d},); got {np.shape(z)}, {np.shape(x)}, {np.shape(goal)}"
+            )
         h[:zd] = z
-        h[zd:zd + d] = x
-        h[zd + d:] = goal
+        h[zd : zd + d] = x
+        h[zd + d :] = goal
         if self.normalizer is not None:
             h[zd:] *= self._inv2
         masks = None
@@ -326,7 +326,7 @@ class NumpyPnet:
                 t += 1.0
                 o *= t
             if masks is not None and i < self.n_dropout:
-                o *= masks[self._offsets[i]:self._offsets[i + 1]]
+                o *= masks[self._offsets[i] : self._offsets[i + 1]]
             h = o
         if self.normalizer is not None:
             return o * self._out
@@ -356,7 +356,7 @@ class NumpyPnet:
                 break
             h = np.where(h >= 0, h, h * self.alphas[i])
             if masks is not None and i < self.n_dropout:
-                h *= masks[..., self._offsets[i]:self._offsets[i + 1]]
+                h *= masks[..., self._offsets[i] : self._offsets[i + 1]]
         if self.normalizer is not None:
             return h * self._out
         return h
@@ -418,6 +418,17 @@ def paper_s2d(n_points: int = 1400) -> tuple[Enet, Decoder, Pnet]:
 
 
 __all__ = [
-    "ENET_HIDDEN", "ENET_LATENT", "PNET_HIDDEN", "Enet", "Decoder", "ContractiveAE", "Pnet",
-    "Normalizer", "NumpyPnet", "NumpyEnet", "pnet_numpy", "enet_numpy", "paper_s2d",
+    "ENET_HIDDEN",
+    "ENET_LATENT",
+    "PNET_HIDDEN",
+    "Enet",
+    "Decoder",
+    "ContractiveAE",
+    "Pnet",
+    "Normalizer",
+    "NumpyPnet",
+    "NumpyEnet",
+    "pnet_numpy",
+    "enet_numpy",
+    "paper_s2d",
 ]

@@ -1,5 +1,6 @@
 """One Planner protocol for neural and classical planners alike (OMPL's shape):
 a problem (workspace, checker, start, goal, objective) solved within a budget."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -53,8 +54,11 @@ class Planner(Protocol):
 
 def check_endpoints(problem: Problem) -> Result | None:
     """Start and goal validated before solving: OMPL would burn the whole budget on them."""
-    bad = [which for which, q in (("start", problem.start), ("goal", problem.goal))
-           if not problem.checker.is_valid(q.tolist())]
+    bad = [
+        which
+        for which, q in (("start", problem.start), ("goal", problem.goal))
+        if not problem.checker.is_valid(q.tolist())
+    ]
     if bad:
         return Result(None, INVALID_QUERY, {"invalid": "+".join(bad)})
     return None

@@ -1,4 +1,5 @@
 """OMPL's C++ planners behind the Planner protocol."""
+
 from __future__ import annotations
 
 import math
@@ -33,11 +34,19 @@ class OmplPlanner:
     snake_case name (rewire_factor -> setRewireFactor).
     """
 
-    def __init__(self, name: str, algorithm: str, stop: str = "first", cost_factor: float = 1.0,
-                 range: float | None = None, params: dict | None = None):
+    def __init__(
+        self,
+        name: str,
+        algorithm: str,
+        stop: str = "first",
+        cost_factor: float = 1.0,
+        range: float | None = None,
+        params: dict | None = None,
+    ):
         if algorithm not in ALGORITHMS:
-            raise ValueError(f"config key planner.algorithm: unknown OMPL algorithm {algorithm!r}; "
-                             f"choices: {', '.join(ALGORITHMS)}")
+            raise ValueError(
+                f"config key planner.algorithm: unknown OMPL algorithm {algorithm!r}; choices: {', '.join(ALGORITHMS)}"
+            )
         if stop not in ("first", "cost", "time"):
             raise ValueError(f"config key planner.stop must be 'first', 'cost' or 'time', not {stop!r}")
         self.name = name
@@ -109,4 +118,3 @@ def snap_endpoints(path: list, problem: Problem) -> list:
     if len(path) == 1:
         path = [path[0], path[0]]
     return [problem.start.tolist(), *path[1:-1], problem.goal.tolist()]
-

@@ -17,11 +17,25 @@ from mpnet.planners.neural import MPNetPlanner
 PNET_FILE = "pnet.ckpt"
 
 
-def from_checkpoint(models_dir: Path | Callable[[], Path], env: EnvSpec, seed: int, cloud: Callable, *,
-                    name: str, hybrid: bool = False, max_steps: int = 80, replan_steps: int = 50,
-                    replan_rounds: int = 10, steer_steps=None, fallback: str = "rrt_star",
-                    fallback_restart_s: float | None = 0.5, proposal: str = "pnet", straight_step: float = 0.1,
-                    encoding: str = "cloud", dropout: bool = True) -> MPNetPlanner:
+def from_checkpoint(
+    models_dir: Path | Callable[[], Path],
+    env: EnvSpec,
+    seed: int,
+    cloud: Callable,
+    *,
+    name: str,
+    hybrid: bool = False,
+    max_steps: int = 80,
+    replan_steps: int = 50,
+    replan_rounds: int = 10,
+    steer_steps=None,
+    fallback: str = "rrt_star",
+    fallback_restart_s: float | None = 0.5,
+    proposal: str = "pnet",
+    straight_step: float = 0.1,
+    encoding: str = "cloud",
+    dropout: bool = True,
+) -> MPNetPlanner:
     """MPNet (NR, or HR with the OMPL planner `fallback`) on the networks in models_dir.
 
     models_dir may be a callable that returns the folder (building the networks on first
@@ -30,10 +44,23 @@ def from_checkpoint(models_dir: Path | Callable[[], Path], env: EnvSpec, seed: i
     and dropout ablate one piece each (Pnet's proposals, the workspace code Pnet sees,
     Pnet's dropout at planning time).
     """
-    planner = MPNetPlanner(name, None, None, None, hybrid=hybrid, max_steps=max_steps, replan_steps=replan_steps,
-                           replan_rounds=replan_rounds, seed=seed, steer_steps=steer_steps, proposal=proposal,
-                           straight_step=straight_step, fallback_restart_s=fallback_restart_s, encoding=encoding,
-                           dropout=dropout)
+    planner = MPNetPlanner(
+        name,
+        None,
+        None,
+        None,
+        hybrid=hybrid,
+        max_steps=max_steps,
+        replan_steps=replan_steps,
+        replan_rounds=replan_rounds,
+        seed=seed,
+        steer_steps=steer_steps,
+        proposal=proposal,
+        straight_step=straight_step,
+        fallback_restart_s=fallback_restart_s,
+        encoding=encoding,
+        dropout=dropout,
+    )
     planner.fallback = OmplPlanner(fallback, fallback) if hybrid else None
     folder = Path(models_dir() if callable(models_dir) else models_dir)
     encode, pnet_step = load_pnet_checkpoint(folder / PNET_FILE).to_numpy()

@@ -5,6 +5,7 @@ The networks come in as two callables so that planning needs neither torch nor
 Lightning: `encode(cloud) -> Z` and `step(Z, x, goal, rng) -> x_next` (Pnet with its
 dropout kept on, drawn from `rng`), both in the env's state coordinates.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,13 +40,38 @@ class MPNetPlanner:
     ablated planner may not carry MPNet's own name, so the logs never mix the two.
     """
 
-    def __init__(self, name: str, encode: Callable | None, step: Callable | None, cloud: Callable | None, *,
-                 hybrid: bool = False, max_steps: int = 80, replan_steps: int = 50, replan_rounds: int = 10,
-                 seed: int = 0, fallback=None, steer_steps=None, proposal: str = "pnet", straight_step: float = 0.1,
-                 fallback_restart_s: float | None = None, encoding: str = "cloud", dropout: bool = True):
-        check_settings(name, max_steps=max_steps, replan_steps=replan_steps, replan_rounds=replan_rounds,
-                       steer_steps=steer_steps, proposal=proposal, straight_step=straight_step,
-                       fallback_restart_s=fallback_restart_s, encoding=encoding, dropout=dropout)
+    def __init__(
+        self,
+        name: str,
+        encode: Callable | None,
+        step: Callable | None,
+        cloud: Callable | None,
+        *,
+        hybrid: bool = False,
+        max_steps: int = 80,
+        replan_steps: int = 50,
+        replan_rounds: int = 10,
+        seed: int = 0,
+        fallback=None,
+        steer_steps=None,
+        proposal: str = "pnet",
+        straight_step: float = 0.1,
+        fallback_restart_s: float | None = None,
+        encoding: str = "cloud",
+        dropout: bool = True,
+    ):
+        check_settings(
+            name,
+            max_steps=max_steps,
+            replan_steps=replan_steps,
+            replan_rounds=replan_rounds,
+            steer_steps=steer_steps,
+            proposal=proposal,
+            straight_step=straight_step,
+            fallback_restart_s=fallback_restart_s,
+            encoding=encoding,
+            dropout=dropout,
+        )
         self.name = name
         self.encode = encode
         self.step = step
@@ -108,8 +134,9 @@ class MPNetPlanner:
             return random_valid_state(spec, problem.checker, self.rng)
         return straight_step(spec, x, target, self.straight_step)
 
-    def neural_planner(self, problem: Problem, z, start, goal, max_steps: int, stats: dict, deadline: float,
-                       step: float | None = None):
+    def neural_planner(
+        self, problem: Problem, z, start, goal, max_steps: int, stats: dict, deadline: float, step: float | None = None
+    ):
         """Algorithm 2: grow a path from each end by Pnet, alternating, until steer_to
         connects their tips; None when max_steps pass first."""
         checker = problem.checker
@@ -130,6 +157,7 @@ class MPNetPlanner:
     def replan(self, problem: Problem, z, path, stats: dict, deadline: float, step: float | None = None) -> list:
         """Algorithm 3 (neural): replan each unconnectable pair with a short NeuralPlanner
         run; a pair it cannot connect stays for the next round."""
+
         def connect(x, y):
             mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step)
             return [] if mini is None else mini[1:-1]
@@ -144,11 +172,14 @@ class MPNetPlanner:
         fallback_restart_s, then twice that, and so on: in narrow passages RRT*'s time to a
         first solution is heavy-tailed (on one rigid query: 0.5 s, 2.6 s, > 10 s in three
         runs), and restarts cut the tail."""
+
         def connect(x, y):
             slice_s = self.fallback_restart_s
             while (left := deadline - time.perf_counter()) > 0:
-                res = self.fallback.solve(Problem(problem.spec, problem.workspace, problem.checker, x, y),
-                                          left if slice_s is None else min(left, slice_s))
+                res = self.fallback.solve(
+                    Problem(problem.spec, problem.workspace, problem.checker, x, y),
+                    left if slice_s is None else min(left, slice_s),
+                )
                 stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
                 if res.solved:
                     return [np.asarray(q, float) for q in res.path[1:-1]]
@@ -182,31 +213,51 @@ def _positive(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0
 
 
-def check_settings(name: str, *, max_steps, replan_steps, replan_rounds, steer_steps, proposal, straight_step,
-                   fallback_restart_s, encoding, dropout) -> None:
+def check_settings(
+    name: str,
+    *,
+    max_steps,
+    replan_steps,
+    replan_rounds,
+    steer_steps,
+    proposal,
+    straight_step,
+    fallback_restart_s,
+    encoding,
+    dropout,
+) -> None:
     """Every MPNet setting, checked once: ValueError naming the config key."""
     _count("max_steps", max_steps, 1)
     _count("replan_steps", replan_steps, 1)
     _count("replan_rounds", replan_rounds, 0)
-    if steer_steps is not None and (isinstance(steer_steps, (str, bytes)) or not hasattr(steer_steps, "__iter__")
-                                    or not all(x is None or _positive(x) for x in steer_steps)):
-        raise ValueError(f"config key planner.steer_steps: expected null or a list of positive steps "
-                         f"(null entries: continuous), got {steer_steps!r}")
+    if steer_steps is not None and (
+        isinstance(steer_steps, (str, bytes))
+        or not hasattr(steer_steps, "__iter__")
+        or not all(x is None or _positive(x) for x in steer_steps)
+    ):
+        raise ValueError(
+            f"config key planner.steer_steps: expected null or a list of positive steps "
+            f"(null entries: continuous), got {steer_steps!r}"
+        )
     if proposal not in PROPOSALS:
         raise ValueError(f"config key planner.proposal: expected one of {', '.join(PROPOSALS)}, got {proposal!r}")
     if not _positive(straight_step):
         raise ValueError(f"config key planner.straight_step: expected a positive step, got {straight_step!r}")
     if fallback_restart_s is not None and not _positive(fallback_restart_s):
-        raise ValueError(f"config key planner.fallback_restart_s: expected null or a positive number of seconds, "
-                         f"got {fallback_restart_s!r}")
+        raise ValueError(
+            f"config key planner.fallback_restart_s: expected null or a positive number of seconds, "
+            f"got {fallback_restart_s!r}"
+        )
     if encoding not in ENCODINGS:
         raise ValueError(f"config key planner.encoding: expected one of {', '.join(ENCODINGS)}, got {encoding!r}")
     if not isinstance(dropout, bool):
         raise ValueError(f"config key planner.dropout: expected true or false, got {dropout!r}")
     ablated = ablation_of(proposal, encoding, dropout)
     if ablated and name in BASE_NAMES:
-        raise ValueError(f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
-                         f"not {name!r}: use its config (+planner=mpnet_nr_random, ...) or set planner.name")
+        raise ValueError(
+            f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
+            f"not {name!r}: use its config (+planner=mpnet_nr_random, ...) or set planner.name"
+        )
 
 
 def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = 1000) -> np.ndarray:

@@ -11,6 +11,7 @@ Other envs (c3d, rigid) get the best of two planned paths, each shortened by laz
 contraction and kept only if it passes the fine re-check: the expert's (RRT* for a fixed
 number of iterations, as the training data) and BIT* run for a fixed time.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,12 +45,12 @@ def visible(p: np.ndarray, q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.
     """
     if len(lo) == 0:
         return np.ones((len(p), len(q)), bool)
-    a = p[:, None, None, :]                    # (m, 1, 1, 2)
-    d = q[None, :, None, :] - a                # (m, m, 1, 2)
+    a = p[:, None, None, :]  # (m, 1, 1, 2)
+    d = q[None, :, None, :] - a  # (m, m, 1, 2)
     flat = d == 0
     inside = (a >= lo[None, None]) & (a <= hi[None, None])
     with np.errstate(divide="ignore", invalid="ignore"):  # flat axes and empty clips: masked below
-        t_lo = (lo[None, None] - a) / d        # (m, m, n, 2)
+        t_lo = (lo[None, None] - a) / d  # (m, m, n, 2)
         t_hi = (hi[None, None] - a) / d
         enter = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t_lo, t_hi))
         leave = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t_lo, t_hi))
@@ -68,11 +69,20 @@ def shortest_path_cost_2d(spec: EnvSpec, ws: Workspace, start, goal) -> float:
     if np.allclose(start, goal):
         return 0.0
     lo, hi = ws.lo, ws.hi
-    corners = np.concatenate([np.stack([lo[:, 0], lo[:, 1]], 1), np.stack([lo[:, 0], hi[:, 1]], 1),
-                              np.stack([hi[:, 0], lo[:, 1]], 1), np.stack([hi[:, 0], hi[:, 1]], 1)])
+    corners = np.concatenate(
+        [
+            np.stack([lo[:, 0], lo[:, 1]], 1),
+            np.stack([lo[:, 0], hi[:, 1]], 1),
+            np.stack([hi[:, 0], lo[:, 1]], 1),
+            np.stack([hi[:, 0], hi[:, 1]], 1),
+        ]
+    )
     inb = np.all((corners >= spec.space.lower[:2]) & (corners <= spec.space.upper[:2]), axis=1)
-    in_box = ((corners[:, None] > lo[None] + EPS) & (corners[:, None] < hi[None] - EPS)).all(-1).any(-1) \
-        if len(lo) else np.zeros(len(corners), bool)
+    in_box = (
+        ((corners[:, None] > lo[None] + EPS) & (corners[:, None] < hi[None] - EPS)).all(-1).any(-1)
+        if len(lo)
+        else np.zeros(len(corners), bool)
+    )
     nodes = np.concatenate([np.asarray([start, goal], float), corners[inb & ~in_box]])
     seen = visible(nodes, nodes, lo, hi)
     weights = np.linalg.norm(nodes[:, None] - nodes[None], axis=-1)
@@ -80,13 +90,15 @@ def shortest_path_cost_2d(spec: EnvSpec, ws: Workspace, start, goal) -> float:
     return float(dijkstra(graph, directed=False, indices=0)[1])
 
 
-def planned_cost(spec: EnvSpec, ws: Workspace, checker, start, goal, iterations: int, expert_s: float,
-                 bit_star_s: float) -> float:
+def planned_cost(
+    spec: EnvSpec, ws: Workspace, checker, start, goal, iterations: int, expert_s: float, bit_star_s: float
+) -> float:
     """The best verified, contracted cost of the expert's RRT* path and a BIT* run of
     bit_star_s seconds; inf when neither finds a path."""
     expert = rrt_star_path(spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
     bit_star = OmplPlanner("bit_star", "bit_star", stop="time").solve(
-        Problem(spec, ws, checker, np.asarray(start, float), np.asarray(goal, float)), float(bit_star_s))
+        Problem(spec, ws, checker, np.asarray(start, float), np.asarray(goal, float)), float(bit_star_s)
+    )
     candidates = [expert, bit_star.path]
     best = math.inf
     for path in candidates:
@@ -98,8 +110,9 @@ def planned_cost(spec: EnvSpec, ws: Workspace, checker, start, goal, iterations:
     return best
 
 
-def workspace_references(spec: EnvSpec, ws: Workspace, queries: list[Query], iterations: int, expert_s: float,
-                         bit_star_s: float) -> list[float]:
+def workspace_references(
+    spec: EnvSpec, ws: Workspace, queries: list[Query], iterations: int, expert_s: float, bit_star_s: float
+) -> list[float]:
     """The reference cost of each query of one workspace."""
     if spec.exact_reference:
         return [shortest_path_cost_2d(spec, ws, q.start, q.goal) for q in queries]
@@ -117,8 +130,18 @@ def _worker(args: tuple) -> list[float]:
     return workspace_references(spec, ws, queries, iterations, expert_s, bit_star_s)
 
 
-def reference_costs(spec: EnvSpec, workspaces: list[Workspace], queries: list[Query], *, iterations: int,
-                    expert_s: float, bit_star_s: float, seed: int = 0, jobs: int = 2, progress=None) -> None:
+def reference_costs(
+    spec: EnvSpec,
+    workspaces: list[Workspace],
+    queries: list[Query],
+    *,
+    iterations: int,
+    expert_s: float,
+    bit_star_s: float,
+    seed: int = 0,
+    jobs: int = 2,
+    progress=None,
+) -> None:
     """Set every query's reference_cost (None where no path was found; planned ones in fresh processes, one workspace
     each, OMPL seeded per workspace so any `jobs` gives the same costs). progress(1) after
     each workspace."""
@@ -134,8 +157,9 @@ def reference_costs(spec: EnvSpec, workspaces: list[Workspace], queries: list[Qu
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     tasks = [(spec, ws, qs, iterations, expert_s, bit_star_s, seed, k) for k, (ws, qs) in enumerate(by_ws)]
-    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"),
-                             max_tasks_per_child=1) as pool:
+    with ProcessPoolExecutor(
+        max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
+    ) as pool:
         futures = {pool.submit(_worker, t): k for k, t in enumerate(tasks)}
         for fut in as_completed(futures):
             for q, c in zip(by_ws[futures[fut]][1], fut.result()):
