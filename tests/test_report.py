@@ -156,6 +156,7 @@ def known(tmp_path):
     return logs
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_statistics_exact(tmp_path, known, capsys):
     rc, out = report(tmp_path, known)
     assert rc == 0
@@ -227,6 +228,7 @@ def test_statistics_exact(tmp_path, known, capsys):
     assert "ddof=1" in (out / "README.md").read_text()
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     logs = tmp_path / "logs"
     write_log(logs / "b", "c2d", "bit_star", 0, [Q("unseen", "100", 0, True, 0.002)])
@@ -279,6 +281,7 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
     assert (out / "success_cost.tex").read_text().count(r"\bottomrule") == 1
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_paper_numbers_as_printed(tmp_path):
     """--paper shows the paper's numbers exactly as harness/paper_table1.csv gives them."""
     logs = tmp_path / "logs"
@@ -294,6 +297,7 @@ def test_paper_numbers_as_printed(tmp_path):
     assert r"30.25 $\pm$ 27.59 & 11.10 $\pm$ 5.59 & 34.7" in tex
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
     good = write_log(
         tmp_path / "logs" / "extra", "s2d", "bit_star", 1, [Q("seen", "0", k, True, 0.1) for k in range(20)]
@@ -352,6 +356,7 @@ def test_no_readable_files_exit_1(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_benchmark_db(tmp_path, known):
     for _ in range(2):  # a second report replaces the database
         rc, out = report(tmp_path, known)
@@ -394,6 +399,7 @@ def test_benchmark_db(tmp_path, known):
     con.close()
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_figures_and_example_choice(tmp_path, capsys):
     logs = tmp_path / "logs"
     for env in ("rigid", "c3d"):
@@ -418,6 +424,7 @@ def test_figures_and_example_choice(tmp_path, capsys):
     assert {q.at[r, "query_id"] for r in chosen.values()} == {"0/1"}
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_cost_cpu_checks_over_every_success(tmp_path):
     """A success without a logged time is left out of the time statistics only."""
     logs = tmp_path / "logs"
@@ -442,6 +449,7 @@ def test_cost_cpu_checks_over_every_success(tmp_path):
     assert r["collision_checks_median"] == pytest.approx(20.0)
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_stale_figures_are_removed(tmp_path):
     logs = tmp_path / "logs"
     write_log(logs / "s", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)])
@@ -455,6 +463,7 @@ def test_stale_figures_are_removed(tmp_path):
     assert not {"example_c2d.png", "example_c2d.svg"} & names
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_benchmark_db_configs_segments_versions(tmp_path):
     logs = tmp_path / "logs"
     write_log(
@@ -503,6 +512,7 @@ def test_benchmark_db_configs_segments_versions(tmp_path):
     con.close()
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_files_without_queries(tmp_path, capsys):
     logs = tmp_path / "logs"
     empty = write_log(logs / "empty", "s2d", "bit_star", 0, [])
@@ -519,6 +529,7 @@ def test_files_without_queries(tmp_path, capsys):
     assert f"- {empty}: no queries" in (out / "README.md").read_text()
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_files_without_an_integer_seed_are_seeds_of_their_own(tmp_path, capsys):
     logs = tmp_path / "logs"
     write_log(logs / "a", "s2d", "bit_star", None, [Q("seen", "0", 0, True, 1.0)])
@@ -537,6 +548,7 @@ def test_files_without_an_integer_seed_are_seeds_of_their_own(tmp_path, capsys):
     con.close()
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_readme_scales_and_no_warnings(tmp_path, capsys):
     logs = tmp_path / "logs"
     quick = (
@@ -768,6 +780,7 @@ def quality_logs(tmp_path):
     return logs
 
 
+@pytest.mark.slow  # the whole report, end to end
 def test_quality_ablations_equal_quality(tmp_path, quality_logs, capsys):
     rc, out = report(tmp_path, quality_logs)
     assert rc == 0
