@@ -92,7 +92,7 @@ def _fcl_rect_collides(q, ws):
 def test_rigid_state_matches_fcl(x, y, th, wsi):
     ws = make_workspace(RIGID, wsi, "seen")
     ch = RigidChecker(RIGID, ws, margin=0.0)
-    gap = ch._gap(x, y, th, ch._boxes)
+    gap = ch.clearance(x, y, th, ch._boxes)
     if abs(gap) < 1e-6:
         return  # touching: closed-box tie, either answer is fine
     assert ch.is_valid((x, y, th)) == (not _fcl_rect_collides((x, y, th), ws))
@@ -140,11 +140,11 @@ def test_fcl_backend_agrees(x, y, th, dx, dy, th2, wsi):
     ws = make_workspace(RIGID, wsi, "seen")
     native, viafcl = RIGID.make_checker(ws), RIGID.make_checker(ws, backend="fcl")
     a, b = (x, y, th), (x + dx, y + dy, th2)
-    if abs(native._gap(x, y, th, native._boxes)) > 1e-4:
+    if abs(native.clearance(x, y, th, native._boxes)) > 1e-4:
         assert native.is_valid(a) == viafcl.is_valid(a)
     if native.motion_valid(a, b) != viafcl.motion_valid(a, b):
         # only a graze within the margin may differ; both are then sound
-        assert min(native._gap(*q, native._boxes) for q in interpolate(RIGID, a, b, 0.001)) < 1e-3
+        assert min(native.clearance(*q, native._boxes) for q in interpolate(RIGID, a, b, 0.001)) < 1e-3
 
 
 def test_unknown_backend():

@@ -336,14 +336,14 @@ def _trainer(tmp_path):
 
 def _ae_loss(module: EnetModule, clouds: np.ndarray) -> float:
     with torch.no_grad():
-        return float(module._losses(torch.from_numpy(clouds))[0])
+        return float(module.losses(torch.from_numpy(clouds))[0])
 
 
 def _pnet_loss(module: PnetModule, data) -> float:
     clouds, ws, x_t, x_goal, x_next = (torch.as_tensor(a) for a in data)
     batch = {"clouds": clouds.float(), "ws": ws, "x_t": x_t.float(), "x_goal": x_goal.float(), "x_next": x_next.float()}
     with torch.no_grad():
-        return float(module._loss(batch, stochastic=False)[0])
+        return float(module.batch_loss(batch, stochastic=False)[0])
 
 
 def test_train_enet_then_pnet_and_reload(tmp_path):
@@ -413,11 +413,11 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
     (a,), (b,) = list(by_cloud.val_dataloader()), list(by_code.val_dataloader())
     assert "codes" in b and "clouds" not in b
     with torch.no_grad():
-        la, lb = mod._loss(a, stochastic=False)[0], mod._loss(b, stochastic=False)[0]
+        la, lb = mod.batch_loss(a, stochastic=False)[0], mod.batch_loss(b, stochastic=False)[0]
     assert torch.allclose(la, lb, rtol=1e-5, atol=1e-7)
     end_to_end = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), freeze_encoder=False, **SCALES_2D)
     with pytest.raises(ValueError, match="frozen"):
-        end_to_end._loss(b, stochastic=False)
+        end_to_end.batch_loss(b, stochastic=False)
     with pytest.raises(ValueError):
         MPNetDataModule(codes, ws, x_t, x_goal, x_next, 8, 0.1, 0, features="pixels")
 
@@ -433,7 +433,7 @@ def test_pnet_module_end_to_end_and_checks():
     assert n_opt == sum(p.numel() for p in mod.parameters())
     assert isinstance(opt, torch.optim.Adagrad)
     batch = (torch.randn(5, 120), torch.randn(5, 3), torch.randn(5, 3), torch.randn(5, 3))
-    mod._loss(batch, stochastic=True)[0].backward()
+    mod.batch_loss(batch, stochastic=True)[0].backward()
     assert all(p.grad is not None for p in enet.parameters())
     frozen = PnetModule(Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi], cloud_scale=20.0)
     n_opt = sum(p.numel() for grp in frozen.configure_optimizers().param_groups for p in grp["params"])

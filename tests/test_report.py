@@ -36,8 +36,6 @@ from mpnet.envs.spaces import SE2Space
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 
-REPO = Path(__file__).resolve().parents[1]
-
 
 @functools.cache
 def planner_yaml(planner: str) -> str:
@@ -46,11 +44,11 @@ def planner_yaml(planner: str) -> str:
     from hydra import compose, initialize_config_dir
     from omegaconf import OmegaConf
 
-    from harness.cli import choices
+    from harness.cli import CONF_DIR, choices
 
     if planner not in choices("planner"):
         return f"planner:\n  name: {planner}\n"
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+    with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
         cfg = compose("config", ["+env=s2d", f"+planner={planner}"])
     return OmegaConf.to_yaml({"planner": OmegaConf.to_container(cfg.planner, resolve=True)})
 
@@ -337,14 +335,14 @@ def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
     assert 24 <= bit["queries"] < 44 and bit["seeds"] == 2
 
 
-def test_no_readable_files_exit_1(tmp_path):
+def test_no_readable_files_exit_1(tmp_path, repo):
     (tmp_path / "empty").mkdir()
     (tmp_path / "junk" / "x").mkdir(parents=True)
     (tmp_path / "junk" / "x" / "trials.mcap").write_bytes(b"not an mcap file")
     for d, n_lines in ((tmp_path / "empty", 1), (tmp_path / "junk", 2)):
         p = subprocess.run(
             [sys.executable, "-m", "harness.report", str(d), "--out", str(tmp_path / "out")],
-            cwd=REPO,
+            cwd=repo,
             check=False,
             capture_output=True,
             text=True,

@@ -35,7 +35,7 @@ from harness.log import (
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[1]  # the kill scripts run from outside pytest
 TOPIC_SCHEMAS = {
     "/run": "mpnet_bench.Run",
     "/workspace": "mpnet_bench.Workspace",

@@ -37,7 +37,7 @@ class RigidChecker(CollisionChecker):
     def _in_bounds(self, x, y) -> bool:
         return self._x0 <= x <= self._x1 and self._y0 <= y <= self._y1
 
-    def _gap(self, x, y, th, boxes) -> float:
+    def clearance(self, x, y, th, boxes) -> float:
         """Lower bound on the distance from the body to the nearest box (<= 0: overlap)."""
         c, s = math.cos(th), math.sin(th)
         ac, as_ = abs(c), abs(s)
@@ -61,7 +61,7 @@ class RigidChecker(CollisionChecker):
         x, y, th = q[0], q[1], q[2]
         if not self._in_bounds(x, y):
             return False
-        return self._gap(x, y, th, self._boxes) > 0.0
+        return self.clearance(x, y, th, self._boxes) > 0.0
 
     def _motion_free(self, a, b) -> bool:
         ax, ay, ath = a[0], a[1], a[2]
@@ -188,13 +188,13 @@ class FclRigidChecker(RigidChecker):
         return not data.result.is_collision
 
     def _safe_step(self, x, y, th, boxes, dx, dy, dth) -> float | None:
-        g = self._gap(x, y, th, boxes)
+        g = self.clearance(x, y, th, boxes)
         if g <= self.margin:
             return None
         rate = math.hypot(dx, dy) + abs(dth) * self.radius
         return g / rate if rate > 0 else math.inf
 
-    def _gap(self, x, y, th, boxes) -> float:
+    def clearance(self, x, y, th, boxes) -> float:
         self._place(x, y, th)
         data = self._fcl.DistanceData()
         self._manager.distance(self._body, data, self._fcl.defaultDistanceCallback)

@@ -75,11 +75,11 @@ class EnetModule(L.LightningModule):
         """Raw cloud -> latent ``Z``."""
         return self.ae.encoder(self.cloud_norm.normalize(cloud))
 
-    def _losses(self, batch: torch.Tensor):
+    def losses(self, batch: torch.Tensor):
         return self.ae.loss(self.cloud_norm.normalize(batch))
 
     def training_step(self, batch: torch.Tensor, batch_idx: int) -> torch.Tensor:
-        total, recon, pen = self._losses(batch)
+        total, recon, pen = self.losses(batch)
         n = batch.shape[0]
         self.log("train_loss", total, on_step=True, on_epoch=True, prog_bar=True, batch_size=n)
         self.log("train_recon", recon, on_step=False, on_epoch=True, batch_size=n)
@@ -87,7 +87,7 @@ class EnetModule(L.LightningModule):
         return total
 
     def validation_step(self, batch: torch.Tensor, batch_idx: int) -> None:
-        total, recon, _ = self._losses(batch)
+        total, recon, _ = self.losses(batch)
         n = batch.shape[0]
         self.log("val_loss", total, on_epoch=True, prog_bar=True, batch_size=n)
         self.log("val_recon", recon, on_epoch=True, batch_size=n)
@@ -179,7 +179,7 @@ class PnetModule(L.LightningModule):
         cloud, x_t, x_goal, x_next = batch
         return cloud, None, x_t, x_goal, x_next
 
-    def _loss(self, batch, stochastic: bool) -> tuple[torch.Tensor, int]:
+    def batch_loss(self, batch, stochastic: bool) -> tuple[torch.Tensor, int]:
         clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
         if isinstance(batch, dict) and "codes" in batch:
             if not self.freeze_encoder:
@@ -197,12 +197,12 @@ class PnetModule(L.LightningModule):
         return F.mse_loss(pred, s.normalize(x_next)), x_t.shape[0]
 
     def training_step(self, batch, batch_idx: int) -> torch.Tensor:
-        loss, n = self._loss(batch, stochastic=True)
+        loss, n = self.batch_loss(batch, stochastic=True)
         self.log("train_loss", loss, on_step=True, on_epoch=True, prog_bar=True, batch_size=n)
         return loss
 
     def validation_step(self, batch, batch_idx: int) -> None:
-        loss, n = self._loss(batch, stochastic=self.hparams["val_stochastic"])
+        loss, n = self.batch_loss(batch, stochastic=self.hparams["val_stochastic"])
         self.log("val_loss", loss, on_epoch=True, prog_bar=True, batch_size=n)
 
     def configure_optimizers(self):
