@@ -3,7 +3,6 @@ and without the paper's numbers, figures, the OMPL benchmark database, bad files
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 import sqlite3
@@ -14,43 +13,44 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
+from harness.cli import CONF_DIR
 from harness.log import TrialLog
 from harness.report.__main__ import main
-from harness.report.facts import PlannerFacts, facts_from_config, learn
+from harness.report.facts import Facts, planner_facts, run_facts
 from harness.report.figures import pick_example
 from harness.report.load import load, queries_frame
-from harness.report.names import (
-    BOOT_N,
-    ablation_of,
-    comparator_of,
-    env_rank,
-    equal_quality_of,
-    planner_label,
-    planner_rank,
-)
-from harness.report.stats import boot_interval, boot_medians, fisher_p, wilson
+from harness.report.names import env_rank
+from harness.report.stats import BOOT_N, boot_interval, boot_medians, fisher_p, wilson
 from mpnet.envs.spaces import SE2Space
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Workspace
 
 
-@functools.cache
-def planner_yaml(planner: str) -> str:
-    """The `planner:` section a real run of this planner logs (its composed config), so the
-    report reads the planner's facts as it does from real logs; a bare name otherwise."""
-    from hydra import compose, initialize_config_dir
-    from omegaconf import OmegaConf
+def planner_section(name: str) -> dict:
+    """The `planner` section conf/planner/<name>.yaml resolves to (its defaults list merged as Hydra
+    does for these files), as a run logs it in its config."""
+    raw = yaml.safe_load((CONF_DIR / "planner" / f"{name}.yaml").read_text())
+    defaults = raw.pop("defaults", ["_self_"])
+    out = {}
+    for d in defaults if "_self_" in defaults else defaults + ["_self_"]:
+        if d == "_self_":
+            out.update(raw)
+        else:
+            parent, _, key = d.partition("@")
+            out.update({key: planner_section(parent)} if key else planner_section(parent))
+    return out
 
-    from harness.cli import CONF_DIR, choices
 
-    if planner not in choices("planner"):
-        return f"planner:\n  name: {planner}\n"
-    with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
-        cfg = compose("config", ["+env=s2d", f"+planner={planner}"])
-    return OmegaConf.to_yaml({"planner": OmegaConf.to_container(cfg.planner, resolve=True)})
+def planner_config(conf: str, **planner_kw) -> str:
+    """A run's resolved config as YAML text: a budget and the planner section of conf/planner/<conf>.yaml
+    (a bare `name: <conf>` for a planner not there), with planner_kw on top."""
+    known = (CONF_DIR / "planner" / f"{conf}.yaml").exists()
+    section = {**(planner_section(conf) if known else {"name": conf}), **planner_kw}
+    return yaml.safe_dump({"budget_s": 10.0, "planner": section}, sort_keys=False)
 
 
 def ws(env: str, wid: str, split: str) -> Workspace:
@@ -70,7 +70,7 @@ def write_log(
         "planner": planner,
         "seed": seed,
         "split": "seen+unseen",
-        "config": config or f"budget_s: 10.0\n{planner_yaml(planner)}",
+        "config": config or planner_config(planner),
         "git_rev": "abc1234",
         "versions": {"ompl": "2.0.1"},
         "host": "testhost",
@@ -613,32 +613,8 @@ def test_wilson_fisher_bootstrap_known_values():
     assert lo == 1.0 and hi == np.inf
 
 
-def _run(planner: str, config: str | None = None) -> dict:
-    return {"planner": planner, "config": config or f"budget_s: 10.0\n{planner_yaml(planner)}"}
-
-
 def test_planner_names():
-    learn(
-        _run(p)
-        for p in (
-            "mpnet_nr",
-            "mpnet_hr",
-            "mpnet_nr_zeros",
-            "mpnet_hr_zeros",
-            "mpnet_hr_nodropout",
-            "informed_rrt_star_to_nr_x1.1",
-            "bit_star_to_nr",
-            "mpnet_hr_random",
-            "mpnet_nr_random",
-            "rrt_star",
-            "bit_star",
-        )
-    )
-    assert comparator_of("mpnet_nr") is None and comparator_of("mpnet_hr") == "mpnet_nr"
-    assert comparator_of("mpnet_nr_zeros") == "mpnet_nr" and comparator_of("mpnet_hr_zeros") == "mpnet_hr"
-    assert comparator_of("bit_star") == "mpnet_nr"
-    assert planner_label("mpnet_hr_nodropout") == "MPNet (HR): nodropout"
-    assert planner_label("informed_rrt_star_to_nr_x1.1") == "Informed-RRT* to NR ×1.1"
+    """Comparators, labels and order follow what each name's config (conf/planner) says it is."""
     names = [
         "bit_star_to_nr",
         "mpnet_hr_random",
@@ -648,7 +624,15 @@ def test_planner_names():
         "bit_star",
         "mpnet_nr",
     ]
-    assert sorted(names, key=planner_rank) == [
+    more = ["mpnet_hr", "mpnet_hr_zeros", "mpnet_hr_nodropout", "informed_rrt_star_to_nr_x1.1"]
+    facts = Facts({n: run_facts({"planner": n, "config": planner_config(n)}) for n in names + more})
+    assert facts.comparator("mpnet_nr") is None and facts.comparator("mpnet_hr") == "mpnet_nr"
+    assert facts.comparator("mpnet_nr_zeros") == "mpnet_nr" and facts.comparator("mpnet_hr_zeros") == "mpnet_hr"
+    assert facts.comparator("bit_star") == "mpnet_nr"
+    assert facts.label("mpnet_hr_nodropout") == "MPNet (HR): nodropout"
+    assert facts.label("informed_rrt_star_to_nr_x1.1") == "Informed-RRT* to NR ×1.1"
+    assert facts.label("bit_star_to_nr") == "BIT* to NR"
+    assert sorted(names, key=facts.rank) == [
         "mpnet_nr",
         "bit_star",
         "rrt_star",
@@ -657,32 +641,86 @@ def test_planner_names():
         "mpnet_hr_random",
         "bit_star_to_nr",
     ]
+    # a name alone says nothing: without facts, every one of them is a plain planner
+    assert Facts().ablation("mpnet_nr_zeros") is None and Facts().equal_quality("bit_star_to_nr") is None
 
 
-def test_facts_come_from_the_config_not_the_name():
-    """A planner's kind is what its run's config says, whatever it is called."""
-    nr_random = planner_yaml("mpnet_nr_random").replace("name: mpnet_nr_random", "name: my_planner")
-    learn(
-        [
-            _run("my_planner", nr_random),
-            _run("mpnet_nr_lookalike", planner_yaml("mpnet_nr")),
-            _run("to_target", planner_yaml("informed_rrt_star_to_nr_x1.1")),
-        ]
+@pytest.mark.slow  # the whole report, end to end
+def test_facts_come_from_the_run_config(tmp_path, capsys):
+    """What a planner is comes from its /run config, whatever its name: keys of old configs and of
+    configs without `_target_` / `needs_models` give the same facts; no readable config: a plain planner."""
+
+    def facts(conf, **kw):
+        return run_facts({"planner": kw.get("name", conf), "config": planner_config(conf, **kw)})
+
+    assert facts("mpnet_nr", name="whatever", proposal="random").ablation == ("mpnet_nr", "random")
+    assert facts("mpnet_hr", proposal="straight", dropout=False).ablation == ("mpnet_hr", "straight+nodropout")
+    assert facts("mpnet_hr").ablation is None and facts("mpnet_hr").base == "mpnet_hr"
+    assert facts("bit_star_to_nr_x1.1").equal_quality == ("bit_star", "nr", 1.1)
+    assert facts("rrt_star", cost_target={"hybrid": True}, cost_factor=1.5).equal_quality == ("rrt_star", "hr", 1.5)
+    new_style = {k: v for k, v in planner_section("mpnet_nr_zeros").items() if k != "needs_models"}
+    new_style["_target_"] = "mpnet.somewhere.else"
+    assert run_facts({"planner": "x", "config": yaml.safe_dump({"planner": new_style})}).ablation == (
+        "mpnet_nr",
+        "zeros",
     )
-    assert ablation_of("my_planner") == ("mpnet_nr", "random") and comparator_of("my_planner") == "mpnet_nr"
-    assert ablation_of("mpnet_nr_lookalike") is None
-    assert equal_quality_of("to_target") == ("informed_rrt_star", "nr", 1.1)
-    assert facts_from_config({"hybrid": True, "encoding": "zeros"}).ablation == ("mpnet_hr", "zeros")
-    assert facts_from_config("not a mapping") == facts_from_config({"algorithm": "bit_star"}) == PlannerFacts()
+    assert facts("bit_star", name="mpnet_nr_random").ablation is None  # the name does not count
+    assert run_facts({"planner": "x", "config": "planner: [unclosed"}) is None
+
+    logs = tmp_path / "logs"
+    write_log(logs / "nr", "s2d", "mpnet_nr", 0, [Q("seen", "0", i, True, 0.1) for i in range(3)])
+    write_log(
+        logs / "fancy",
+        "s2d",
+        "fancy",
+        0,
+        [Q("seen", "0", i, i > 0, 0.2) for i in range(3)],
+        config=planner_config("mpnet_nr", name="fancy", proposal="random"),
+    )
+    write_log(
+        logs / "chase",
+        "s2d",
+        "chase",
+        0,
+        [Q("seen", "0", i, True, 0.3, cost=10.0, stats={"target_cost": 10.0, "target_time_s": 0.1}) for i in range(3)],
+        config=planner_config("bit_star_to_nr_x1.1", name="chase"),
+    )
+    write_log(
+        logs / "broken",
+        "s2d",
+        "mpnet_nr_zeros",
+        0,
+        [Q("seen", "0", 0, True, 0.4)],
+        config="budget_s: 10.0\nplanner: [unclosed\n",
+    )
+    rc, out = report(tmp_path, logs)
+    err = capsys.readouterr().err
+    assert rc == 0 and "Traceback" not in err
+    assert err.strip().splitlines() == [
+        f"warning: {logs / 'broken' / 'trials.mcap'}: its /run has no readable "
+        "config with a planner section: mpnet_nr_zeros counted as a plain planner"
+    ]
+    res = pd.read_csv(out / "results.csv")
+    assert list(res["planner"]) == ["mpnet_nr", "mpnet_nr_zeros", "fancy"]  # chase: equal_quality.csv
+    assert res.set_index("planner").loc["fancy", "comparator"] == "mpnet_nr"
+    ab = pd.read_csv(out / "ablations.csv", keep_default_na=False)
+    assert list(zip(ab["planner"], ab["base"], ab["variant"])) == [
+        ("mpnet_nr", "mpnet_nr", ""),
+        ("fancy", "mpnet_nr", "random"),
+    ]
+    assert "| MPNet (NR): random | a uniformly random valid state" in (out / "ablations.md").read_text()
+    assert "fancy" not in pd.read_csv(out / "table1.csv").columns.str.cat()
+    assert "mpnet_nr_zeros_time_mean_s" in pd.read_csv(out / "table1.csv").columns  # plain: a column of its own
+    eq = pd.read_csv(out / "equal_quality.csv")
+    assert list(zip(eq["planner"], eq["algorithm"], eq["factor"], eq["target_planner"], eq["reached"])) == [
+        ("chase", "bit_star", 1.1, "mpnet_nr", 3)
+    ]
+    files, _, _ = load([logs])
+    assert planner_facts(files)[0].equal_quality("chase") == ("bit_star", "nr", 1.1)
 
 
 def eq_config(name: str, factor: float | None = None) -> str:
-    """A time-to-equal-quality run's config: a cost target (MPNet-NR) and its factor."""
-    extra = "" if factor is None else f"  stop: cost\n  cost_factor: {factor}\n"
-    return (
-        f"budget_s: 10.0\nplanner:\n  name: {name}\n  algorithm: bit_star\n{extra}"
-        f"  cost_target:\n    name: mpnet_nr\n    hybrid: false\n"
-    )
+    return planner_config(name) if factor is None else planner_config(name, cost_factor=factor)
 
 
 @pytest.fixture()
@@ -742,7 +780,7 @@ def quality_logs(tmp_path):
         "s2d",
         "bit_star_to_nr",
         0,
-        [  # factor from the name: 1.0
+        [  # factor from the config: 1.0
             Q("seen", "0", 0, True, 1.0, cost=9.9, stats=target(10.0, 0.1)),
             Q("seen", "0", 1, True, 2.0, cost=20.0, stats=target(20.0, 0.3)),
             Q("seen", "0", 2, False, 10.0, stats=target(30.0, 0.2)),

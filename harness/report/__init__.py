@@ -25,20 +25,27 @@ How the numbers are computed (also written to OUT/README.md):
   the field (NaN for planners that do not).
 - Table I: mean ± std time in seconds, and the BIT*/MPNet (NR) ratio of mean times; other
   planners come after the ratio, so the first columns are the paper's layout. Table I,
-  success_cost and the figures leave out the MPNet ablations (`mpnet_nr_*`, `mpnet_hr_*`:
-  ablations.*); results.csv leaves out the time-to-equal-quality runs (`*_to_nr*`:
-  equal_quality.*), whose success means "reached MPNet-NR's cost".
+  success_cost and the figures leave out the MPNet ablations (runs whose config changes one
+  piece of MPNet, e.g. `mpnet_nr_random`: ablations.*); results.csv leaves out the
+  time-to-equal-quality runs (a config with `planner.cost_target`, e.g. `bit_star_to_nr`:
+  equal_quality.*), whose success means "reached MPNet-NR's cost". What a run is comes from
+  its logged config, never from its planner's name (facts.py); rows keep the logged name.
 - Intervals (95%): Wilson score for every success rate (pooled successes / queries);
   percentile bootstrap (BOOT_N resamples, seeded per row) for every median time and ratio of
-  medians. Significance against the comparator (comparator_of) at 5%: Fisher's exact test
+  medians. Significance against the comparator (facts.py) at 5%: Fisher's exact test
   for success, the ratio-of-medians interval excluding 1 for time; "≈" marks a difference
   that is not significant.
 - Path quality: path cost / the query's logged `reference_cost` (median, p90) over
   successful queries, and the median ratio to bit_star's path cost on the queries both
   solved (paired on env, split, seed, query id): quality.*.
 
-Modules: `load` (logs to frames), `facts` (what kind of planner a run is, from its
-config), `names` (orders and labels), `stats`, `tables`, `render` (Markdown, LaTeX),
-`figures`, `arena` (the OMPL benchmark database), `readme`, `write` (the whole report)
-and `__main__` (the CLI).
+The modules: load (the logs into frames), facts (what each planner is), stats, tables,
+equal_quality, render (Markdown, LaTeX), figures, arena (benchmark.db), readme (OUT/README.md),
+build (write_report) and __main__ (the command line).
 """
+
+from __future__ import annotations
+
+from harness.report.build import write_report
+
+__all__ = ["write_report"]

@@ -1,4 +1,4 @@
-"""`python -m harness.report DIR... [--out OUT] [--paper]`."""
+"""`python -m harness.report DIR... [--out OUT] [--paper]`: the command line of the report."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.report.write import write_report
+from harness.report.build import write_report
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,5 @@
-"""The OMPL benchmark database (the SQLite schema Planner Arena reads), one run per logged query."""
+"""OUT/benchmark.db: the trial logs as an OMPL benchmark database (the schema of OMPL's benchmark
+statistics script), so that Planner Arena (plannerarena.org) opens them."""
 
 from __future__ import annotations
 
@@ -9,18 +10,24 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.report.facts import budget_of
+from harness.report.facts import Facts, config_budget
 from harness.report.load import TrialFile, run_seed
-from harness.report.names import (
-    OMPL_STATUS,
-    ST_CRASH,
-    ST_EXACT,
-    ST_INVALID_START,
-    ST_TIMEOUT,
-    ST_UNKNOWN,
-    planner_rank,
-    sort_rows,
+
+# OMPL's PlannerStatus, in the order its Benchmark writes the `status` enum.
+OMPL_STATUS = (
+    "Unknown status",
+    "Invalid start",
+    "Invalid goal",
+    "Unrecognized goal type",
+    "Timeout",
+    "Approximate solution",
+    "Exact solution",
+    "Crash",
+    "Abort",
+    "Infeasible",
 )
+ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH = 0, 1, 4, 6, 7
+
 
 _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
     ("time", "REAL"),
@@ -45,6 +52,7 @@ _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
     ("failure", "VARCHAR(256)"),
 )
 
+
 _SCHEMA = """
 CREATE TABLE experiments
     (id INTEGER PRIMARY KEY AUTOINCREMENT, name VARCHAR(512),
@@ -65,6 +73,7 @@ CREATE TABLE progress
     (runid INTEGER, time REAL, PRIMARY KEY (runid, time),
     FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
 """
+
 
 _VIEWS = """
 CREATE VIEW bestPlannerConfigsPerExperiment AS
@@ -126,7 +135,7 @@ def _path_len(v) -> int:
     return len(v) if isinstance(v, (list, tuple)) else 0
 
 
-def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> int:
+def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, facts: Facts) -> int:
     """OUT/benchmark.db in the schema of OMPL's benchmark statistics script, so Planner Arena
     opens it: one experiment per env x split, one planner config per (planner name, settings)
     as that script keys them (runs of one planner with other settings get their own), one run
@@ -143,7 +152,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
         c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
         configs = [(str(tf.run["planner"]), planner_settings(tf.run.get("config"))) for tf in files]
         config_ids = {}
-        for p, settings in sorted(set(configs), key=lambda k: (planner_rank(k[0]), k[1])):
+        for p, settings in sorted(set(configs), key=lambda k: (facts.rank(k[0]), k[1])):
             c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)", (f"geometric_{p}", settings))
             config_ids[(p, settings)] = c.lastrowid
         file_config = [config_ids[k] for k in configs]
@@ -151,7 +160,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
             conn.commit()
             return 0
         n = 0
-        order = sort_rows(q[["env", "split"]].drop_duplicates(), ("env", "split"))
+        order = facts.sort(q[["env", "split"]].drop_duplicates(), ("env", "split"))
         for env, split in zip(order["env"], order["split"]):
             d = q[(q["env"] == env) & (q["split"] == split)]
             fruns = [files[i].run for i in sorted(d["file"].unique())]
@@ -163,7 +172,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path) -> i
                 }
             )
             logged_seed = np.array([run_seed(files[f].run) is not None for f in d["file"]], bool)
-            budgets = {b for b in (budget_of(r.get("config")) for r in fruns) if b is not None}
+            budgets = {b for b in (config_budget(r.get("config")) for r in fruns) if b is not None}
             started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
             hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
             git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})

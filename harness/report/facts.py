@@ -1,16 +1,36 @@
-"""What kind of planner a run is, read from its `/run` config (the resolved YAML it logs),
-never parsed out of its name: an MPNet ablation (which piece it replaces) or a
-time-to-equal-quality run (which algorithm, toward which MPNet, at which factor).
+"""What kind of planner each run is, read from the resolved config its /run message logs (`config`: the
+run's Hydra config as YAML text), never parsed out of the planner's name, so that a run keeps its place
+whatever it is called. Only keys that old and current configs share are read (not `_target_`, not
+`needs_models`, which change between versions):
 
-`load` registers every run's facts by planner name; the tables ask `facts_of(name)`.
+- `planner.cost_target` a mapping: a time-to-equal-quality run of `planner.algorithm`, to reach MPNet
+  (HR if `cost_target.hybrid`, else NR)'s cost times `planner.cost_factor`;
+- `planner.hybrid` present: an MPNet run, base mpnet_hr if it is true, else mpnet_nr; an ablation of
+  that base when `proposal` is not pnet (random, straight), `encoding` is zeros or `dropout` is false;
+- `planner.algorithm`: a classical run.
+
+Rows and labels keep the logged planner name; the facts decide which table a row goes to and how it
+is ordered, labelled and compared. A run without a readable config is a plain planner (with a warning).
 """
 
 from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+
+import pandas as pd
+
+from harness.report.names import (
+    ABLATION_BASES,
+    ABLATIONS,
+    KNOWN_EXTRAS,
+    PAPER_PLANNERS,
+    PLANNER_LABELS,
+    env_rank,
+    split_rank,
+)
 
 
 def run_config(run: dict) -> dict:
@@ -25,6 +45,7 @@ def run_config(run: dict) -> dict:
 
 
 def cfg_get(cfg: dict, *keys):
+    """cfg[k1][k2]..., None where a level is missing or not a mapping."""
     for k in keys:
         if not isinstance(cfg, dict):
             return None
@@ -32,7 +53,8 @@ def cfg_get(cfg: dict, *keys):
     return cfg
 
 
-def finite_number(v) -> float | None:
+def number(v) -> float | None:
+    """A config value as a finite float, else None."""
     if isinstance(v, bool) or not isinstance(v, (int, float, str)):
         return None
     try:
@@ -42,7 +64,8 @@ def finite_number(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def budget_of(config: str) -> float | None:
+def config_budget(config) -> float | None:
+    """The top-level `budget_s` of a run's config text, None when it gives none."""
     m = re.search(r"^budget_s:\s*([0-9.eE+-]+)\s*$", str(config or ""), re.MULTILINE)
     try:
         return float(m.group(1)) if m else None
@@ -52,53 +75,146 @@ def budget_of(config: str) -> float | None:
 
 @dataclass(frozen=True)
 class PlannerFacts:
-    """ablation: (base, variant), e.g. ("mpnet_nr", "random"); equal_quality: (algorithm,
-    target "nr"/"hr", factor or None for 1)."""
+    """What a run's config says its planner is; every field None for a plain planner."""
 
-    ablation: tuple[str, str] | None = None
-    equal_quality: tuple[str, str, float | None] | None = None
+    base: str | None = None  # mpnet_nr / mpnet_hr: an MPNet run, or the base of an ablation
+    variant: str | None = None  # the ablation: random, straight, zeros, nodropout ('+' joins several)
+    algorithm: str | None = None  # the OMPL algorithm of a classical or time-to-equal-quality run
+    target: str | None = None  # nr / hr: whose cost a time-to-equal-quality run must reach
+    factor: float | None = None  # ... times this factor
+
+    @property
+    def ablation(self) -> tuple[str, str] | None:
+        return (self.base, self.variant) if self.base and self.variant else None
+
+    @property
+    def equal_quality(self) -> tuple[str, str, float] | None:
+        return (self.algorithm, self.target, self.factor) if self.target else None
+
+    def describe(self) -> str:
+        if self.equal_quality:
+            return f"a time-to-equal-quality run ({self.algorithm} to {self.target}, factor {self.factor:g})"
+        if self.ablation:
+            return f"an ablation of {self.base} ({self.variant})"
+        if self.base:
+            return self.base
+        return f"a classical planner ({self.algorithm})" if self.algorithm else "a plain planner"
 
 
 PLAIN = PlannerFacts()
-_FACTS: dict[str, PlannerFacts] = {}
 
 
-def facts_from_config(planner) -> PlannerFacts:
-    """An MPNet config has `hybrid`; an ablation changes `proposal`, `encoding` or
-    `dropout`; a time-to-equal-quality config has a `cost_target` planner."""
-    if not isinstance(planner, dict):
-        return PLAIN
-    target = planner.get("cost_target")
+def planner_section(run: dict) -> dict | None:
+    """The `planner` mapping of a run's config; None when the config is missing, unparsable or has none."""
+    p = run_config(run).get("planner")
+    return p if isinstance(p, dict) else None
+
+
+def run_facts(run: dict) -> PlannerFacts | None:
+    """The facts of one run (see the module docstring), None when its config has no `planner` mapping."""
+    p = planner_section(run)
+    if p is None:
+        return None
+    target = p.get("cost_target")
     if isinstance(target, dict):
-        factor = finite_number(planner.get("cost_factor"))
         return PlannerFacts(
-            equal_quality=(
-                str(planner.get("algorithm")),
-                "hr" if target.get("hybrid") else "nr",
-                None if factor in (None, 1.0) else factor,
-            )
+            algorithm=str(p.get("algorithm") or run.get("planner")),
+            target="hr" if target.get("hybrid") is True else "nr",
+            factor=number(p.get("cost_factor")) or 1.0,
         )
-    if "hybrid" not in planner:
-        return PLAIN
-    variants = []
-    if planner.get("proposal", "pnet") != "pnet":
-        variants.append(str(planner["proposal"]))
-    if planner.get("encoding", "cloud") != "cloud":
-        variants.append(str(planner["encoding"]))
-    if planner.get("dropout", True) is False:
-        variants.append("nodropout")
-    if not variants:
-        return PLAIN
-    return PlannerFacts(ablation=("mpnet_hr" if planner.get("hybrid") else "mpnet_nr", "+".join(variants)))
+    if "hybrid" in p:
+        variant = [] if p.get("proposal", "pnet") in ("pnet", None) else [str(p["proposal"])]
+        if p.get("encoding") == "zeros":
+            variant.append("zeros")
+        if p.get("dropout") is False:
+            variant.append("nodropout")
+        return PlannerFacts(base="mpnet_hr" if p["hybrid"] is True else "mpnet_nr", variant="+".join(variant) or None)
+    if p.get("algorithm"):
+        return PlannerFacts(algorithm=str(p["algorithm"]))
+    return PLAIN
 
 
-def learn(runs: Iterable[dict]) -> None:
-    """Register the facts of each run's planner (from its config) under its logged name."""
-    for run in runs:
-        if run.get("planner") is not None:
-            _FACTS[str(run["planner"])] = facts_from_config(run_config(run).get("planner"))
+class Facts:
+    """The facts of every planner name in the logs, and what follows from them: a row's place,
+    label and comparator. A name it does not know is a plain planner."""
+
+    def __init__(self, by_planner: Mapping[str, PlannerFacts] | None = None):
+        self.by_planner = dict(by_planner or {})
+
+    def of(self, planner: str) -> PlannerFacts:
+        return self.by_planner.get(planner, PLAIN)
+
+    def ablation(self, planner: str) -> tuple[str, str] | None:
+        """(base, variant) for an MPNet ablation, e.g. ("mpnet_nr", "random"), else None."""
+        return self.of(planner).ablation
+
+    def equal_quality(self, planner: str) -> tuple[str, str, float] | None:
+        """(algorithm, target, factor) for a time-to-equal-quality run, e.g. ("bit_star", "nr", 1.1), else None."""
+        return self.of(planner).equal_quality
+
+    def comparator(self, planner: str) -> str | None:
+        """The planner a row's significance marks compare with: an ablation's own base (mpnet_nr or
+        mpnet_hr), none for mpnet_nr itself, mpnet_nr for every other planner (MPNet (HR) included)."""
+        ab = self.ablation(planner)
+        if ab is not None:
+            return ab[0]
+        return None if planner == "mpnet_nr" else "mpnet_nr"
+
+    def rank(self, planner: str) -> tuple:
+        """The paper's planners, the known extras, any other planner by name, then the ablations
+        (by base, then variant), then the time-to-equal-quality planners."""
+        known = PAPER_PLANNERS + KNOWN_EXTRAS
+        if planner in known:
+            return (0, known.index(planner), "")
+        ab = self.ablation(planner)
+        if ab is not None:
+            variants = list(ABLATIONS)
+            v = variants.index(ab[1]) if ab[1] in variants else len(variants)
+            return (2, ABLATION_BASES.index(ab[0]) * (len(variants) + 1) + v, planner)
+        if self.equal_quality(planner) is not None:
+            return (3, 0, planner)
+        return (1, 0, planner)
+
+    def label(self, planner: str) -> str:
+        if planner in PLANNER_LABELS:
+            return PLANNER_LABELS[planner]
+        ab = self.ablation(planner)
+        if ab is not None:
+            return f"{PLANNER_LABELS[ab[0]]}: {ab[1]}"
+        eq = self.equal_quality(planner)
+        if eq is not None:
+            alg, target, factor = eq
+            return f"{PLANNER_LABELS.get(alg, alg)} to {target.upper()}" + (f" ×{factor:g}" if factor != 1.0 else "")
+        return planner
+
+    def sort(self, df: pd.DataFrame, cols=("env", "split", "planner")) -> pd.DataFrame:
+        """df's rows in report order (envs, splits, then planners as rank orders them)."""
+        rank = {"env": env_rank, "split": split_rank, "planner": self.rank}
+        if df.empty:
+            return df
+        order = sorted(range(len(df)), key=lambda i: tuple(rank[c](df[c].iat[i]) for c in cols))
+        return df.iloc[order].reset_index(drop=True)
 
 
-def facts_of(planner: str) -> PlannerFacts:
-    """The registered facts of a planner (plain when no run of it was loaded)."""
-    return _FACTS.get(planner, PLAIN)
+def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
+    """The facts of each planner name, from the first of its files (in path order) whose config has a
+    `planner` section; plus one warning line per file whose config has none, or makes the planner
+    another ablation or time-to-equal-quality run than that first file does."""
+    by: dict[str, PlannerFacts] = {}
+    first, no_config, warns = {}, [], []
+    for tf in files:
+        name = str(tf.run["planner"])
+        f = run_facts(tf.run)
+        if f is None:
+            no_config.append((tf.path, name))
+        elif name not in by:
+            by[name], first[name] = f, tf.path
+        elif (f.ablation, f.equal_quality) != (by[name].ablation, by[name].equal_quality):
+            warns.append(
+                f"warning: {tf.path}: its config makes {name} {f.describe()}, but {first[name]}'s makes it "
+                f"{by[name].describe()}: taken as the latter"
+            )
+    for path, name in no_config:
+        how = f"taken as {first[name]} says ({by[name].describe()})" if name in by else "counted as a plain planner"
+        warns.append(f"warning: {path}: its /run has no readable config with a planner section: {name} {how}")
+    return Facts(by), warns

@@ -1,4 +1,5 @@
-"""Figures (PNG and SVG): time per planner, success, per-query times, one example workspace per env."""
+"""The figures, as PNG and SVG: mean time and success per planner (the paper's Fig. 4), per-query times,
+and one example workspace per env with an MPNet and a BIT* path (its Fig. 3)."""
 
 from __future__ import annotations
 
@@ -9,16 +10,9 @@ import numpy as np
 import pandas as pd
 
 from harness.log import painter_for
+from harness.report.facts import Facts
 from harness.report.load import TrialFile
-from harness.report.names import (
-    PLANNER_COLORS,
-    env_label,
-    env_rank,
-    natural_key,
-    planner_label,
-    planner_rank,
-    split_rank,
-)
+from harness.report.names import PLANNER_COLORS, env_label, env_rank, natural_key, split_rank
 from harness.report.render import fmt_g
 
 
@@ -46,10 +40,12 @@ def _save(fig, out: Path, name: str) -> list[Path]:
     return paths
 
 
-def _grouped_bars(res: pd.DataFrame, value: str, err: str, scale: float, ylabel: str, log: bool, title: str):
+def _grouped_bars(
+    res: pd.DataFrame, facts: Facts, value: str, err: str, scale: float, ylabel: str, log: bool, title: str
+):
     """One panel per env: splits on x, one bar per planner (error bar: std), as the paper's Fig. 4."""
     envs = sorted(res["env"].unique(), key=env_rank)
-    planners = sorted(res["planner"].unique(), key=planner_rank)
+    planners = sorted(res["planner"].unique(), key=facts.rank)
     fig, axes = _figure(len(envs))
     width = 0.8 / max(len(planners), 1)
     for ax, env in zip(axes, envs):
@@ -68,7 +64,7 @@ def _grouped_bars(res: pd.DataFrame, value: str, err: str, scale: float, ylabel:
                 yerr=np.vstack([lower, s]),
                 capsize=2,
                 color=PLANNER_COLORS.get(p),
-                label=planner_label(p),
+                label=facts.label(p),
                 error_kw={"elinewidth": 0.8},
             )
         ax.set_xticks(x, splits)
@@ -83,24 +79,31 @@ def _grouped_bars(res: pd.DataFrame, value: str, err: str, scale: float, ylabel:
     return fig
 
 
-def fig_time_per_planner(res: pd.DataFrame):
+def fig_time_per_planner(res: pd.DataFrame, facts: Facts):
     d = res[np.isfinite(res["time_mean_s"].astype(float))] if len(res) else res
     if d.empty:
         return None
     return _grouped_bars(
-        d, "time_mean_s", "time_std_s", 1.0, "planning time [s]", True, "Mean planning time ± std (successful queries)"
+        d,
+        facts,
+        "time_mean_s",
+        "time_std_s",
+        1.0,
+        "planning time [s]",
+        True,
+        "Mean planning time ± std (successful queries)",
     )
 
 
-def fig_success(res: pd.DataFrame):
+def fig_success(res: pd.DataFrame, facts: Facts):
     if res.empty:
         return None
     return _grouped_bars(
-        res, "success_mean", "success_std", 100.0, "success [%]", False, "Success rate, mean ± std over seeds"
+        res, facts, "success_mean", "success_std", 100.0, "success [%]", False, "Success rate, mean ± std over seeds"
     )
 
 
-def fig_time_boxplot(q: pd.DataFrame):
+def fig_time_boxplot(q: pd.DataFrame, facts: Facts):
     ok = q[q["success"] & (q["time_s"] > 0)]
     if ok.empty:
         return None
@@ -108,11 +111,11 @@ def fig_time_boxplot(q: pd.DataFrame):
     fig, axes = _figure(len(envs))
     for ax, env in zip(axes, envs):
         d = ok[ok["env"] == env]
-        planners = sorted(d["planner"].unique(), key=planner_rank)
+        planners = sorted(d["planner"].unique(), key=facts.rank)
         data = [d.loc[d["planner"] == p, "time_s"].to_numpy() for p in planners]
         bp = ax.boxplot(
             data,
-            tick_labels=[planner_label(p) for p in planners],
+            tick_labels=[facts.label(p) for p in planners],
             whis=(5, 95),
             showfliers=False,
             patch_artist=True,
@@ -159,7 +162,7 @@ def pick_example(q: pd.DataFrame, env: str) -> tuple[dict[str, int], int] | None
     return {p: rows[key] for p, rows in solved.items() if key in rows}, r
 
 
-def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
+def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts):
     """One workspace of env: obstacles, start, goal and the chosen planners' paths."""
     from matplotlib.patches import Rectangle
 
@@ -192,7 +195,7 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
                 lw=0.5,
             )
         )
-    for p in sorted(chosen, key=planner_rank):
+    for p in sorted(chosen, key=facts.rank):
         r = chosen[p]
         m = files[int(q.at[r, "file"])].queries[int(q.at[r, "qidx"])]
         path = np.asarray(m.get("path") or [], float)
@@ -206,7 +209,7 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
             color=color,
             ms=3,
             lw=1.8,
-            label=f"{planner_label(p)} (cost {fmt_g(q.at[r, 'path_cost'])}, {fmt_g(q.at[r, 'time_s'])} s)",
+            label=f"{facts.label(p)} (cost {fmt_g(q.at[r, 'path_cost'])}, {fmt_g(q.at[r, 'time_s'])} s)",
         )
         for o in painter.footprints(path):
             ax.plot(o[:, 0], o[:, 1], color=color, lw=0.7, alpha=0.6)
@@ -226,7 +229,7 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str):
 
 
 def write_figures(
-    res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], out: Path
+    res: pd.DataFrame, q: pd.DataFrame, files: list[TrialFile], out: Path, facts: Facts
 ) -> tuple[list[Path], list[str]]:
     """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
     whose data is malformed is left out with a warning line. The PNG and SVG files of an
@@ -236,12 +239,12 @@ def write_figures(
         if old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
             old.unlink()
     makers = [
-        ("time_per_planner", lambda: fig_time_per_planner(res)),
-        ("success", lambda: fig_success(res)),
-        ("time_boxplot", lambda: fig_time_boxplot(q)),
+        ("time_per_planner", lambda: fig_time_per_planner(res, facts)),
+        ("success", lambda: fig_success(res, facts)),
+        ("time_boxplot", lambda: fig_time_boxplot(q, facts)),
     ]
     makers += [
-        (f"example_{env}", lambda env=env: fig_example(q, files, env))
+        (f"example_{env}", lambda env=env: fig_example(q, files, env, facts))
         for env in sorted(q["env"].unique(), key=env_rank)
     ]
     written, warns = [], []

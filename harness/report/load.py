@@ -1,5 +1,6 @@
-"""Reading the trial logs: every readable trials.mcap under the given folders (its /run,
-workspaces and queries), into one queries frame."""
+"""Reading trial logs: the trials.mcap files under the given directories into TrialFile objects and a
+frame of their queries, with one warning line per file that is skipped, cut short or pooled with another.
+The log format is read through harness.log."""
 
 from __future__ import annotations
 
@@ -12,8 +13,39 @@ import numpy as np
 import pandas as pd
 
 from harness.log import MCAP_NAME, read_log
-from harness.report.facts import learn
-from harness.report.names import QUERY_COLS
+from harness.report.names import env_rank
+
+__all__ = [
+    "QUERY_COLS",
+    "TrialFile",
+    "duplicate_warnings",
+    "find_logs",
+    "load",
+    "queries_frame",
+    "read_trials",
+    "run_seed",
+]
+
+QUERY_COLS = (
+    "query_id",
+    "workspace_id",
+    "split",
+    "success",
+    "failure",
+    "time_s",
+    "cpu_s",
+    "path_cost",
+    "collision_checks",
+    "state_checks",
+    "motion_checks",
+    "pnet_calls",
+    "replans",
+    "fallback_used",
+    "reference_cost",
+    "target_planner",
+    "target_cost",
+    "target_time_s",
+)
 
 
 @dataclass
@@ -106,7 +138,6 @@ def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
                 f"warning: {p}: its /run has no integer seed ({tf.run.get('seed')!r}): "
                 "its queries count as a seed of their own"
             )
-    learn(tf.run for tf in files)
     return files, warns, skipped
 
 
@@ -168,3 +199,24 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
     df = pd.concat(parts, ignore_index=True)
     df["success"] = df["success"].astype(bool)
     return df
+
+
+def duplicate_warnings(q: pd.DataFrame, files: list[TrialFile], facts) -> list[str]:
+    """One line per (env, planner, seed) with queries (same split, workspace and query id)
+    logged in more than one file: they all count, as documented, but it is seldom meant
+    (e.g. a sweep run twice into different directories)."""
+    key = ["env", "planner", "seed", "split", "workspace_id", "query_id"]
+    per_file = q[key + ["file"]].drop_duplicates()
+    d = per_file[per_file.duplicated(key, keep=False)]
+    out = []
+    groups = sorted(
+        d.groupby(["env", "planner", "seed"], sort=False),
+        key=lambda kv: (env_rank(kv[0][0]), facts.rank(kv[0][1]), kv[0][2]),
+    )
+    for (env, planner, seed), g in groups:
+        n = len(g.drop_duplicates(key))
+        names = ", ".join(str(files[i].path) for i in sorted(g["file"].unique()))
+        out.append(
+            f"warning: {env} {planner} seed {seed}: {n} queries logged in more than one file, all counted: {names}"
+        )
+    return out

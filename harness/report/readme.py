@@ -1,4 +1,5 @@
-"""The report's README: provenance of the logs, warnings, how the numbers compare with the paper's."""
+"""OUT/README.md: where the logs came from (their /run messages), what the report warned about, what each
+output is, how its numbers are computed and how they compare with the paper's."""
 
 from __future__ import annotations
 
@@ -9,20 +10,11 @@ import numpy as np
 import pandas as pd
 
 from harness.log import painter_for
+from harness.report.equal_quality import REACH_RTOL
 from harness.report.facts import cfg_get, run_config
 from harness.report.load import TrialFile
-from harness.report.names import (
-    APPROX,
-    BOOT_N,
-    BOOT_SEED,
-    CITATION,
-    PAPER_PNET_HIDDEN,
-    PAPER_SCALE,
-    PAPER_SCALE_TEXT,
-    REACH_RTOL,
-    env_label,
-    env_rank,
-)
+from harness.report.names import APPROX, CITATION, PAPER_PNET_HIDDEN, PAPER_SCALE, PAPER_SCALE_TEXT, env_label, env_rank
+from harness.report.stats import BOOT_N, BOOT_SEED
 
 
 def scale_sizes(scale) -> tuple[int, ...] | None:
@@ -196,7 +188,8 @@ def readme_text(
     warn_text = "\n".join(f"- {w.removeprefix('warning: ')}" for w in warnings) or "none"
     if extra.get("ablations") or extra.get("equal_quality"):
         regen = (
-            "python -m harness -m +experiment=findings [scale=quick]   # Table I planners + NR ablations, 5 seeds\n"
+            "python -m harness -m +experiment=findings [scale=quick]   "
+            "# Table I planners + NR ablations, 5 seeds\n"
             "python -m harness -m +experiment=equal_quality            # time to equal quality\n"
             "python -m harness.report multirun/<date>/<time> multirun/<date>/<time> --paper"
         )

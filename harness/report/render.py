@@ -1,4 +1,5 @@
-"""Rendering the tables as Markdown and LaTeX: number formats, intervals, significance marks."""
+"""Writing the tables as text: number formats, Markdown and booktabs LaTeX tables, and the Markdown /
+LaTeX of Table I, success and cost, path quality, the ablations and time to equal quality."""
 
 from __future__ import annotations
 
@@ -8,17 +9,9 @@ import re
 import numpy as np
 import pandas as pd
 
-from harness.report.names import (
-    APPROX,
-    BOOT_N,
-    CITATION,
-    PAPER,
-    PAPER_PLANNERS,
-    RATIO_COL,
-    RATIO_LABEL,
-    env_label,
-    planner_label,
-)
+from harness.report.facts import Facts
+from harness.report.names import APPROX, CITATION, PAPER, PAPER_PLANNERS, RATIO_COL, RATIO_LABEL, env_label
+from harness.report.stats import BOOT_N
 
 
 def _decimals(x: float, digits: int = 3) -> int:
@@ -83,6 +76,7 @@ def render_table1(
     t: pd.DataFrame,
     planners: list[str],
     with_paper: bool,
+    facts: Facts,
     res: pd.DataFrame | None = None,
     paper: pd.DataFrame | None = None,
 ) -> tuple[str, str]:
@@ -122,9 +116,9 @@ def render_table1(
     head = (
         ["Env", "Split"]
         + (["Source"] if with_paper else [])
-        + [planner_label(p) for p in main]
+        + [facts.label(p) for p in main]
         + [RATIO_LABEL]
-        + [planner_label(p) for p in extra]
+        + [facts.label(p) for p in extra]
     )
 
     def cell(r: dict, p: str, sep: str, dash: str) -> str:
@@ -250,7 +244,7 @@ def _comparator_note(what: str, test: str) -> str:
     )
 
 
-def render_success_cost(sc: pd.DataFrame, with_paper: bool) -> tuple[str, str]:
+def render_success_cost(sc: pd.DataFrame, with_paper: bool, facts: Facts) -> tuple[str, str]:
     """The success / path cost table as (Markdown, LaTeX)."""
     head = ["Env", "Split", "Planner", "Success [%]", "Pooled [%] [95% CI]", "Path cost", "Queries", "Seeds"]
     md_rows, tex_rows, groups = [], [], []
@@ -261,8 +255,8 @@ def render_success_cost(sc: pd.DataFrame, with_paper: bool) -> tuple[str, str]:
         lead = [env_label(r.env) if first else "", r.split if first else ""]
         same = _is_false(r.success_diff_significant)
         succ = (APPROX + " " if same else "") + _pm(r.success_mean_pct, r.success_std_pct, 1)
-        pooled = _with_ci(_g1(r.success_rate_pct), r.success_ci_low_pct, r.success_ci_high_pct, _g1)
-        rest = [planner_label(r.planner), succ, pooled, fmt_g(r.cost_mean), str(r.queries), str(r.seeds)]
+        pooled = _with_ci(fmt_g1(r.success_rate_pct), r.success_ci_low_pct, r.success_ci_high_pct, fmt_g1)
+        rest = [facts.label(r.planner), succ, pooled, fmt_g(r.cost_mean), str(r.queries), str(r.seeds)]
         md_rows.append(lead + rest)
         tex_rows.append(
             [_tex_escape(x) for x in lead + rest[:1]]
@@ -303,7 +297,7 @@ def render_success_cost(sc: pd.DataFrame, with_paper: bool) -> tuple[str, str]:
     return md, tex
 
 
-def _g1(x) -> str:
+def fmt_g1(x) -> str:
     """A percentage with one decimal, blank when missing."""
     return "" if x is None or not np.isfinite(x) else f"{x:.1f}"
 
@@ -318,13 +312,13 @@ def _group_rows(df: pd.DataFrame, cells) -> list[list[str]]:
     return rows
 
 
-def render_quality(qt: pd.DataFrame, notes: list[str]) -> str:
+def render_quality(qt: pd.DataFrame, notes: list[str], facts: Facts) -> str:
     """quality.md."""
     head = ["Env", "Split", "Planner", "Quality median", "Quality p90", "n", "Cost / BIT* median", "Pairs"]
     rows = _group_rows(
         qt,
         lambda r: [
-            planner_label(r["planner"]),
+            facts.label(r["planner"]),
             fmt_g(r["quality_median"]),
             fmt_g(r["quality_p90"]),
             str(int(r["quality_n"])),
@@ -341,7 +335,7 @@ def render_quality(qt: pd.DataFrame, notes: list[str]) -> str:
     return f"# Path quality\n\n{_md_table(head, rows)}\n\n{what}\n" + "".join(f"\nNote: {n}\n" for n in notes)
 
 
-def render_ablations(ab: pd.DataFrame) -> str:
+def render_ablations(ab: pd.DataFrame, facts: Facts) -> str:
     """ablations.md."""
     head = [
         "Env",
@@ -357,7 +351,7 @@ def render_ablations(ab: pd.DataFrame) -> str:
 
     def cells(r):
         return [
-            planner_label(r["planner"]),
+            facts.label(r["planner"]),
             r["change"] or "(base)",
             _with_ci(
                 _pct(r["success_rate"]),
@@ -396,7 +390,7 @@ def _budget_text(b) -> str:
     return f"> budget ({fmt_g(b)} s)" if b is not None and np.isfinite(b) else "> budget"
 
 
-def render_equal_quality(eq: pd.DataFrame) -> str:
+def render_equal_quality(eq: pd.DataFrame, facts: Facts) -> str:
     """equal_quality.md."""
     head = [
         "Env",
@@ -413,7 +407,7 @@ def render_equal_quality(eq: pd.DataFrame) -> str:
     ]
 
     def cells(r):
-        target = ", ".join(planner_label(t) for t in str(r["target_planner"]).split(", "))
+        target = ", ".join(facts.label(t) for t in str(r["target_planner"]).split(", "))
         if _is_true(r["censored"]):
             to_reach = _budget_text(r["budget_s"]) + (
                 f" {_ci(r['time_to_reach_ci_low'], r['time_to_reach_ci_high'])}"
@@ -435,7 +429,7 @@ def render_equal_quality(eq: pd.DataFrame) -> str:
                 _is_false(r["time_ratio_significant"]),
             )
         return [
-            planner_label(r["algorithm"]),
+            facts.label(r["algorithm"]),
             f"cost ≤ {r['factor']:g} × {target}'s",
             str(r["no_target"]),
             str(r["targeted"]),

@@ -1,5 +1,5 @@
-"""Statistics: sample std, Wilson intervals, Fisher's exact test, bootstrap medians and
-ratios, the pairing with BIT*."""
+"""Statistics: Wilson score intervals, Fisher's exact test, the seeded order-statistic bootstrap of
+medians, and the pairing of each planner's path costs with BIT*'s on the same queries."""
 
 from __future__ import annotations
 
@@ -9,10 +9,15 @@ import zlib
 import numpy as np
 import pandas as pd
 
-from harness.report.names import ALPHA, BOOT_N, BOOT_SEED, KEYS, equal_quality_of
+from harness.report.names import KEYS
+
+# Statistics: 95% intervals; bootstrap resamples and their fixed seed (the report is reproducible).
+ALPHA = 0.05
+BOOT_N = 10_000
+BOOT_SEED = 20190521
 
 
-def sample_std(g, n_min: int = 2) -> pd.Series:
+def std_or_zero(g, n_min: int = 2) -> pd.Series:
     """Sample std (ddof=1) where a group has n_min values or more, else 0 (NaN when empty)."""
     s1, n = g.std(ddof=1), g.count()
     return s1.where(n >= n_min, 0.0).where(n > 0)
@@ -84,16 +89,6 @@ def excludes_one(lo: float, hi: float) -> bool | None:
     if math.isnan(lo) or math.isnan(hi):
         return None
     return bool(lo > 1.0 or hi < 1.0)
-
-
-def equal_quality_planners(q: pd.DataFrame) -> set[str]:
-    """Planners that ran to a cost target (time to equal quality): named `<alg>_to_<target>...`
-    or logging a `target_planner`. Their success means "reached the target", so they have a
-    table of their own, never rows of results.csv."""
-    out = {p for p in q["planner"].unique() if equal_quality_of(str(p)) is not None}
-    if "target_planner" in q:
-        out |= set(q.loc[q["target_planner"].notna(), "planner"].unique())
-    return out
 
 
 PAIR_KEY = ["env", "split", "seed", "query_id"]

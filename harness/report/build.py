@@ -1,4 +1,4 @@
-"""The whole report from a set of log folders: every table, figure, the database and the README."""
+"""write_report: read the logs once and write every output of the report into one directory."""
 
 from __future__ import annotations
 
@@ -6,9 +6,10 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from harness.report.arena import write_benchmark_db
+from harness.report.equal_quality import equal_quality_table
+from harness.report.facts import planner_facts
 from harness.report.figures import write_figures
-from harness.report.load import load, queries_frame
-from harness.report.names import load_paper
+from harness.report.load import duplicate_warnings, load, queries_frame
 from harness.report.readme import provenance, readme_text, reference_notes
 from harness.report.render import (
     render_ablations,
@@ -19,8 +20,7 @@ from harness.report.render import (
 )
 from harness.report.tables import (
     ablation_table,
-    duplicate_warnings,
-    equal_quality_table,
+    load_paper,
     main_planners,
     quality_table,
     results_table,
@@ -37,24 +37,26 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
     summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": []}
     if not files or not any(tf.queries for tf in files):
         return summary
+    facts, fact_warns = planner_facts(files)
+    warns += fact_warns
     q = queries_frame(files)
     summary["queries"] = len(q)
-    warns += duplicate_warnings(q, files)
+    warns += duplicate_warnings(q, files, facts)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    res = results_table(q)
+    res = results_table(q, facts)
     res.to_csv(out / "results.csv", index=False)
     written = [out / "results.csv"]
-    main_res = main_planners(res)
+    main_res = main_planners(res, facts)
     paper_df = load_paper() if paper else None
-    t, planners = table1(main_res, paper_df)
+    t, planners = table1(main_res, facts, paper_df)
     t.to_csv(out / "table1.csv", index=False)
-    md, tex = render_table1(t, planners, paper, main_res, paper_df)
+    md, tex = render_table1(t, planners, paper, facts, main_res, paper_df)
     (out / "table1.md").write_text(md)
     (out / "table1.tex").write_text(tex)
     sc = success_cost(main_res)
     sc.to_csv(out / "success_cost.csv", index=False)
-    md, tex = render_success_cost(sc, paper)
+    md, tex = render_success_cost(sc, paper, facts)
     (out / "success_cost.md").write_text(md)
     (out / "success_cost.tex").write_text(tex)
     written += [
@@ -62,17 +64,17 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
         for n in ("table1.md", "table1.tex", "table1.csv", "success_cost.md", "success_cost.tex", "success_cost.csv")
     ]
     refs = reference_notes(q, files)
-    eq, eq_warns = equal_quality_table(q, files)
+    eq, eq_warns = equal_quality_table(q, files, facts)
     warns += eq_warns
     optional = {
         "quality": (
             quality_table(res),
             lambda d: render_quality(
-                d, refs or ["no query in these logs has a reference cost: the quality columns are blank."]
+                d, refs or ["no query in these logs has a reference cost: the quality columns are blank."], facts
             ),
         ),
-        "ablations": (ablation_table(res), render_ablations),
-        "equal_quality": (eq, render_equal_quality),
+        "ablations": (ablation_table(res, facts), lambda d: render_ablations(d, facts)),
+        "equal_quality": (eq, lambda d: render_equal_quality(d, facts)),
     }
     extra = {"reference_notes": refs}
     for name, (df, render) in optional.items():
@@ -85,9 +87,9 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
         (out / f"{name}.md").write_text(render(df))
         written += [out / f"{name}.md", out / f"{name}.csv"]
     shown = set(main_res["planner"])
-    summary["figures"], fig_warns = write_figures(main_res, q[q["planner"].isin(shown)], files, out / "figures")
+    summary["figures"], fig_warns = write_figures(main_res, q[q["planner"].isin(shown)], files, out / "figures", facts)
     warns += fig_warns
-    write_benchmark_db(q, files, out / "benchmark.db")
+    write_benchmark_db(q, files, out / "benchmark.db", facts)
     (out / "README.md").write_text(readme_text(len(files), len(q), paper, provenance(files), dirs, warns, extra))
     summary["outputs"] = written + [out / "benchmark.db", out / "README.md"]
     return summary
