@@ -49,19 +49,24 @@ def seed_everything(seed: int) -> None:
 def make_planner(planner_cfg, key: str, runtime: dict) -> Planner:
     """The planner a config names (`_target_` and its constructor arguments), given the
     run's objects its signature asks for by name (env, seed, models_dir, cloud).
-    A constructor's ValueError names the config key; it becomes one line for the user."""
+    An unknown argument, or a constructor's ValueError (which names the config key),
+    becomes one line for the user."""
     import hydra
     from hydra.errors import InstantiationException
 
     args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}  # a bench hook, not an argument
     try:
         factory = hydra.utils.instantiate(args, _partial_=True)
-        wanted = inspect.signature(factory.func).parameters
-        return factory(**{k: v for k, v in runtime.items() if k in wanted})
     except InstantiationException as e:
         raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
+    signature = inspect.signature(factory.func)
+    kwargs = {**factory.keywords, **{k: v for k, v in runtime.items() if k in signature.parameters}}
+    try:
+        signature.bind(*factory.args, **kwargs)
     except TypeError as e:
         raise UsageError(f"config key {key}: {e}") from None
+    try:
+        return factory.func(*factory.args, **kwargs)
     except ValueError as e:
         raise UsageError(str(e)) from None
 
