@@ -19,6 +19,11 @@ from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import dump_problems, load_problems
 
 
+def _bar(total: int, desc: str, progress: bool):
+    """A stage's progress bar on stderr, one tick per workspace."""
+    return tqdm(total=total, desc=desc, unit="workspace", file=sys.stderr, disable=not progress, dynamic_ncols=True)
+
+
 def ensure_dataset(cfg: DictConfig, progress: bool = True):
     """The env's training dataset at this scale, from the cache or built now: (folder,
     manifest, built); `load_dataset(folder, manifest)` reads it."""
@@ -26,14 +31,7 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
     params = data_params(cfg)
 
     def build(folder: Path) -> dict:
-        bar = tqdm(
-            total=params.train_workspaces,
-            desc=f"expert paths {spec.name}",
-            unit="workspace",
-            file=sys.stderr,
-            disable=not progress,
-            dynamic_ncols=True,
-        )
+        bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
         try:
             return build_dataset(spec, params, folder, jobs=int(cfg.jobs), progress=bar.update)
         finally:
@@ -63,24 +61,10 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
         from ompl import util as ou
 
         ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
-        with tqdm(
-            total=sum(n for n, _ in sizes.values()),
-            desc=f"test set {spec.name}",
-            unit="workspace",
-            file=sys.stderr,
-            disable=not progress,
-            dynamic_ncols=True,
-        ) as bar:
+        with _bar(sum(n for n, _ in sizes.values()), f"test set {spec.name}", progress) as bar:
             ts = make_testset(spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update)
         t0 = time.perf_counter()
-        with tqdm(
-            total=len(ts.workspaces),
-            desc=f"reference costs {spec.name}",
-            unit="workspace",
-            file=sys.stderr,
-            disable=not progress,
-            dynamic_ncols=True,
-        ) as bar:
+        with _bar(len(ts.workspaces), f"reference costs {spec.name}", progress) as bar:
             reference_costs(
                 spec,
                 ts.workspaces,
