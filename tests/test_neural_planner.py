@@ -37,9 +37,10 @@ def random_free(spec, ws):
     return step
 
 
-def make(step, hybrid, seed=0, steer_steps=None):
+def make(step, hybrid, seed=0, steer_steps=None, replanning="original"):
+    base = "mpnet_hr" if hybrid else "mpnet_nr"
     return MPNetPlanner(
-        "mpnet_hr" if hybrid else "mpnet_nr",
+        base if replanning == "original" else f"{base}_{replanning}",
         encode=lambda cloud: np.zeros(4),
         step=step,
         cloud=CLOUD,
@@ -47,6 +48,7 @@ def make(step, hybrid, seed=0, steer_steps=None):
         seed=seed,
         fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
         steer_steps=steer_steps,
+        replanning=replanning,
     )
 
 
@@ -66,15 +68,70 @@ def test_plans_verified_paths(hybrid):
     assert ok == 15 if hybrid else ok >= 12
 
 
+WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+
+
+def wall_problem():
+    return Problem(S2D, WALL, S2D.make_checker(WALL), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
+
+
+def stuck(z, x, goal, rng):
+    return x
+
+
 def test_hybrid_falls_back_when_proposals_are_useless():
-    """Proposals stuck at the start: NR fails, HR's RRT* still solves it."""
-    ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
-    p = Problem(S2D, ws, S2D.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
-    stuck = lambda z, x, goal, rng: x  # noqa: E731
-    nr = make(stuck, False).solve(p, 2.0)
+    """Proposals stuck at the start, forgiving replanning: NR gives up after its 10 rounds,
+    HR's RRT* still solves it."""
+    p = wall_problem()
+    nr = make(stuck, False, replanning="forgiving").solve(p, 2.0)
     assert not nr.solved and nr.stats["replans"] == 10
-    hr = make(stuck, True).solve(p, 5.0)
-    assert hr.solved and hr.stats["fallback_used"] and verify_path(S2D, ws, hr.path, p.start, p.goal) is None
+    hr = make(stuck, True, replanning="forgiving").solve(p, 5.0)
+    assert hr.solved and hr.stats["fallback_used"] and verify_path(S2D, WALL, hr.path, p.start, p.goal) is None
+
+
+@pytest.mark.parametrize("hybrid", [False, True])
+def test_original_replanning_fails_when_the_first_run_does_not_connect(hybrid):
+    """Algorithm 1 and the public code: no coarse path after max_steps, no replanning, no
+    fallback: the query fails (HR too) after exactly max_steps Pnet calls."""
+    res = make(stuck, hybrid).solve(wall_problem(), 5.0)
+    assert not res.solved and res.status == "no_solution"
+    assert res.stats == {"pnet_calls": 80, "replans": 0, "fallback_used": False}
+
+
+def test_original_nr_fails_on_a_segment_replanning_cannot_connect_and_hr_hands_it_on():
+    """A coarse path whose segments pass through the wall; replanning cannot connect one:
+    original NR fails the query in round 1, HR stops neural replanning there and RRT*
+    solves; forgiving NR goes through all 10 rounds."""
+    p = wall_problem()
+
+    def through(z, x, goal, rng):  # the first proposal lands right of the wall; then stuck
+        return np.array([5.0, 0.0]) if np.allclose(x, p.start) and goal[0] == 10.0 else x
+
+    nr = make(through, False).solve(p, 5.0)
+    assert not nr.solved and nr.stats["replans"] == 1 and nr.stats["pnet_calls"] == 1 + 50
+    hr = make(through, True).solve(p, 5.0)
+    assert hr.solved and hr.stats["replans"] == 1 and hr.stats["fallback_used"]
+    assert verify_path(S2D, WALL, hr.path, p.start, p.goal) is None
+    forgiving = make(through, False, replanning="forgiving").solve(wall_problem(), 5.0)
+    assert not forgiving.solved and forgiving.stats["replans"] == 10
+
+
+def test_original_skips_the_straight_line_precheck_forgiving_takes_it():
+    """A free start-goal line: forgiving returns it with no Pnet call; the original asks
+    Pnet first (Algorithm 2 has no such check), then connects and contracts to it."""
+    ws = Workspace("empty", "file", [[15.0, 15.0]], [[1.0, 1.0]])
+    p = Problem(S2D, ws, S2D.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
+    forgiving = make(straight(), False, replanning="forgiving").solve(p, 5.0)
+    assert forgiving.solved and forgiving.stats["pnet_calls"] == 0
+    original = make(straight(), False).solve(p, 5.0)
+    assert original.solved and original.stats["pnet_calls"] == 1 and len(original.path) == 2
+
+
+def test_forgiving_is_a_named_variant():
+    with pytest.raises(ValueError, match="replanning=forgiving"):
+        MPNetPlanner("mpnet_nr", None, None, None, replanning="forgiving")
+    with pytest.raises(ValueError, match="planner.replanning"):
+        MPNetPlanner("x", None, None, None, replanning="lenient")
 
 
 def test_invalid_query_fails_fast():
@@ -100,11 +157,13 @@ def test_coarse_to_fine_steer_steps():
     thin = Workspace("thin", "file", [[0.0, 0.0]], [[0.4, 30.0]])
     p = Problem(S2D, thin, S2D.make_checker(thin), np.array([-5.5, 0.0]), np.array([4.5, 0.0]))
     over = lambda z, x, goal, rng: np.array([x[0] / 2, 17.5])  # noqa: E731  (a waypoint above the wall)
-    planner = make(over, False, steer_steps=[2.0, 2.0, 2.0, 1.2, 0.5, 0.1, None])
-    assert [planner.steer_step(i) for i in (0, 3, 5, 6, 50)] == [2.0, 1.2, 0.1, None, None]
+    planner = make(over, False, steer_steps=[2.0, 2.0, 1.2, 0.5, 0.1, None])
+    assert [planner.steer_step(i) for i in (0, 2, 4, 5, 50)] == [2.0, 1.2, 0.1, None, None]
     res = planner.solve(p, 5.0)
     assert res.solved and verify_path(S2D, thin, res.path, p.start, p.goal) is None
-    assert res.stats["replans"] == 5 and res.stats["pnet_calls"] == 2
+    # Two Pnet calls in the first run (Algorithm 2 has no straight-line pre-check), two in
+    # the 0.1 round: rounds 1-3 (2.0, 1.2, 0.5) replan nothing, their steps miss the wall.
+    assert res.stats["replans"] == 4 and res.stats["pnet_calls"] == 4
     continuous = make(over, False).solve(p, 5.0)
     assert continuous.solved and continuous.stats["replans"] == 0
     assert make(over, False).steer_step(4) is None
@@ -124,10 +183,11 @@ def never(*_):
     raise AssertionError("Pnet was asked for a proposal")
 
 
-@pytest.mark.parametrize("proposal", ["random", "straight"])
+@pytest.mark.parametrize("proposal", ["random", "random_any", "straight"])
 def test_ablated_proposals_never_call_pnet(proposal):
-    """proposal=random / straight replace Pnet and keep the rest: NR's paths still verify,
-    HR still solves every query."""
+    """proposal=random / random_any / straight replace Pnet and keep the rest: NR's paths
+    still verify, HR (forgiving, so that a failed first run still reaches RRT*) solves every
+    query."""
     ws = make_workspace(S2D, 4, "seen")
     queries = make_queries(S2D, ws, 8, seed=3, split="seen")
     for hybrid in (False, True):
@@ -139,6 +199,7 @@ def test_ablated_proposals_never_call_pnet(proposal):
             hybrid=hybrid,
             fallback=OmplPlanner("rrt_star", "rrt_star") if hybrid else None,
             proposal=proposal,
+            replanning="forgiving",
         )
         solved = 0
         for q in queries:
@@ -146,7 +207,7 @@ def test_ablated_proposals_never_call_pnet(proposal):
             if res.solved:
                 assert verify_path(S2D, ws, res.path, q.start, q.goal) is None
                 solved += 1
-        assert solved == len(queries) if hybrid else solved >= (6 if proposal == "random" else 0)
+        assert solved == len(queries) if hybrid else solved >= (6 if proposal.startswith("random") else 0)
 
 
 def test_random_proposals_are_valid_states():
@@ -187,18 +248,18 @@ class FlakyFallback:
 
 def test_hybrid_restarts_a_timed_out_fallback_with_doubling_slices():
     """HR's RRT* is restarted after 0.05 s, then 0.1 s, 0.2 s: the third run solves."""
-    ws = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
-    p = Problem(S2D, ws, S2D.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0]))
-    stuck = lambda z, x, goal, rng: x  # noqa: E731
+    ws = WALL
+    p = wall_problem()
     fallback = FlakyFallback(misses=2)
     planner = MPNetPlanner(
-        "mpnet_hr",
+        "mpnet_hr_forgiving",
         encode=lambda cloud: np.zeros(4),
         step=stuck,
         cloud=CLOUD,
         hybrid=True,
         fallback=fallback,
         fallback_restart_s=0.05,
+        replanning="forgiving",
     )
     res = planner.solve(p, 5.0)
     assert res.solved and verify_path(S2D, ws, res.path, p.start, p.goal) is None
@@ -206,13 +267,30 @@ def test_hybrid_restarts_a_timed_out_fallback_with_doubling_slices():
     assert res.stats["fallback_calls"] == 3
     once = FlakyFallback(misses=1)
     planner = MPNetPlanner(
-        "mpnet_hr",
+        "mpnet_hr_forgiving",
         encode=lambda cloud: np.zeros(4),
         step=stuck,
         cloud=CLOUD,
         hybrid=True,
         fallback=once,
         fallback_restart_s=None,
+        replanning="forgiving",
     )
     res = planner.solve(p, 0.5)  # one run with the whole budget left: it times out, nothing is left
     assert not res.solved and len(once.budgets) == 1 and once.budgets[0] > 0.4
+
+
+def test_tro_schedule_matches_the_public_code(repo):
+    """CMPNet's gem_eval.py: step 2.0 at t = 0 (the first run) and 1, 1.2 at t = 2, 0.5 at
+    t = 3, 0.1 after; the documented schedule gives the same step at every stage."""
+    from mpnet.planners.neural import TRO_STEER_STEPS
+
+    def public(t):
+        return 1.2 if t == 2 else 0.5 if t == 3 else 0.1 if t > 3 else 2.0
+
+    planner = make(stuck, False, steer_steps=list(TRO_STEER_STEPS))
+    assert [planner.steer_step(t) for t in range(11)] == [public(t) for t in range(11)]
+    listed = "[" + ", ".join(map(str, TRO_STEER_STEPS)) + "]"
+    for doc in ("conf/planner/mpnet_nr.yaml", "conf/planner/mpnet_hr.yaml"):
+        assert listed in (repo / doc).read_text()
+    assert listed.replace(" ", "") in (repo / "README.md").read_text()

@@ -61,6 +61,9 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     }
     for k, v in res.stats.items():
         rec.setdefault(k, _jsonable(v))
+    diagnose = getattr(planner, "diagnose", None)
+    if diagnose is not None:  # after the clock: what the planner proposed (MPNet), for the log
+        rec["diagnostics"] = {k: _jsonable(v) for k, v in diagnose(problem, res).items()}
     return rec
 
 

@@ -50,7 +50,11 @@ class QueryCsv:
         f.flush()
 
     def add(self, msg: dict):
-        row = {k: v for k, v in msg.items() if k not in _NON_CSV and (v is None or type(v) in (str, int, float, bool))}
+        flat = dict(msg)
+        for k, v in msg.items():  # one level of nesting (diagnostics): "diagnostics.key" columns
+            if isinstance(v, dict):
+                flat.update((f"{k}.{kk}", vv) for kk, vv in v.items())
+        row = {k: v for k, v in flat.items() if k not in _NON_CSV and (v is None or type(v) in (str, int, float, bool))}
         new = [k for k in row if k not in self._known]
         self.rows.append(row)
         if new:

@@ -107,6 +107,12 @@ QUERY_SCHEMA = {
         "replans": {"type": ["integer", "null"]},
         "fallback_used": {"type": ["boolean", "null"]},
         "planner_status": {"type": ["string", "null"]},
+        "diagnostics": {
+            "type": "object",
+            "description": "MPNet only: Pnet's proposals (trace: stage, tree end, proposal) and their shares "
+            "in collision / reachable, the first proposal's validity and visibility, code sensitivity "
+            "(mpnet.planners.diagnostics)",
+        },
     },
     "required": list(QUERY_FIELDS),
 }

@@ -6,7 +6,9 @@ whatever it is called. Only keys that old and current configs share are read (no
 - `planner.cost_target` a mapping: a time-to-equal-quality run of `planner.algorithm`, to reach MPNet
   (HR if `cost_target.hybrid`, else NR)'s cost times `planner.cost_factor`;
 - `planner.hybrid` present: an MPNet run, base mpnet_hr if it is true, else mpnet_nr; an ablation of
-  that base when `proposal` is not pnet (random, straight), `encoding` is zeros or `dropout` is false;
+  that base when `proposal` is not pnet (random, random_any, straight), `encoding` is zeros, `dropout`
+  is false or `replanning` is not original (a config without the key predates it: its runs replanned
+  the forgiving way);
 - `planner.algorithm`: a classical run.
 
 Rows and labels keep the logged planner name; the facts decide which table a row goes to and how it
@@ -124,6 +126,8 @@ def run_facts(run: dict) -> PlannerFacts | None:
         )
     if "hybrid" in p:
         variant = [] if p.get("proposal", "pnet") in ("pnet", None) else [str(p["proposal"])]
+        if p.get("replanning", "forgiving") != "original":
+            variant.append(str(p.get("replanning", "forgiving")))
         if p.get("encoding") == "zeros":
             variant.append("zeros")
         if p.get("dropout") is False:

@@ -35,6 +35,7 @@ def from_checkpoint(
     straight_step: float = 0.1,
     encoding: str = "cloud",
     dropout: bool = True,
+    replanning: str = "original",
 ) -> MPNetPlanner:
     """MPNet (NR, or HR with the OMPL planner `fallback`) on the networks in models_dir.
 
@@ -42,7 +43,8 @@ def from_checkpoint(
     use): the settings are checked before it is called, so a bad one costs no training.
     cloud(workspace) is the workspace's point cloud as training drew it. proposal, encoding
     and dropout ablate one piece each (Pnet's proposals, the workspace code Pnet sees,
-    Pnet's dropout at planning time).
+    Pnet's dropout at planning time); replanning="forgiving" is CMPNet's replanning
+    (MPNetPlanner).
     """
     planner = MPNetPlanner(
         name,
@@ -60,6 +62,7 @@ def from_checkpoint(
         fallback_restart_s=fallback_restart_s,
         encoding=encoding,
         dropout=dropout,
+        replanning=replanning,
     )
     planner.fallback = OmplPlanner(fallback, fallback) if hybrid else None
     folder = Path(models_dir() if callable(models_dir) else models_dir)

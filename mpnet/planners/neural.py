@@ -26,6 +26,15 @@ class MPNetPlanner:
     replanning call; replan_rounds bounds neural replanning. HR then plans each segment
     that is still unconnectable with OMPL's RRT* (`fallback`), within the budget left.
 
+    replanning: "original" follows the public code (ahq1993/MPNet, neuralplanner.py) and
+    Algorithm 1: a first NeuralPlanner run that does not connect within max_steps fails the
+    query, and so does a replanning round that leaves a segment unconnected (HR hands that
+    path to the classical planner instead). "forgiving" is CMPNet's neural_replan
+    (MiaoDragon/CMPNet, plan_general.py), as this project first ran it: a first run that
+    fails leaves [start, goal] to replanning, an unconnected segment waits for the next
+    round (and the round goes on with the next segments), and a free straight start-goal
+    line is taken before any Pnet call.
+
     steer_steps: None, steerTo is the continuous check throughout; or the T-RO code's
     coarse-to-fine schedule, the steerTo step of the first NeuralPlanner run and of each
     replanning round (the last entry repeats; an entry None is continuous). Whether a path
@@ -33,11 +42,15 @@ class MPNetPlanner:
     a segment's RRT* after this long, then after twice that, ... (None: one run).
 
     proposal: where NeuralPlanner's next state comes from: "pnet" (the network), or, to
-    ablate it with everything else unchanged, "random" (a uniformly random valid state)
-    or "straight" (a step of straight_step toward the other tree's end, measured in the
-    networks' normalised coordinates: state / the bounds' half-widths). encoding ("cloud"
+    ablate it with everything else unchanged, "random" (a uniformly random valid state),
+    "random_any" (a uniformly random state, valid or not, as Pnet's may be) or "straight"
+    (a step of straight_step toward the other tree's end, measured in the networks'
+    normalised coordinates: state / the bounds' half-widths). encoding ("cloud"
     or "zeros") and dropout record how the networks were wired (mpnet.planners.mpnet); an
     ablated planner may not carry MPNet's own name, so the logs never mix the two.
+
+    Every proposal is kept (stage, the tree end it grew from, the proposal) for
+    `diagnose`, which the harness calls after the query's time is taken.
     """
 
     def __init__(
@@ -59,6 +72,7 @@ class MPNetPlanner:
         fallback_restart_s: float | None = None,
         encoding: str = "cloud",
         dropout: bool = True,
+        replanning: str = "original",
     ):
         check_settings(
             name,
@@ -71,6 +85,7 @@ class MPNetPlanner:
             fallback_restart_s=fallback_restart_s,
             encoding=encoding,
             dropout=dropout,
+            replanning=replanning,
         )
         self.name = name
         self.encode = encode
@@ -88,6 +103,10 @@ class MPNetPlanner:
         self.straight_step = float(straight_step)
         self.encoding = encoding
         self.dropout = dropout
+        self.replanning = replanning
+        self.trace: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self.codes: dict[str, np.ndarray] = {}
+        self.last_code = None
 
     def steer_step(self, stage: int) -> float | None:
         """steerTo's step at stage 0 (first NeuralPlanner run) or replanning round `stage`."""
@@ -96,17 +115,22 @@ class MPNetPlanner:
     def solve(self, problem: Problem, budget_s: float) -> Result:
         t0 = time.perf_counter()
         deadline = t0 + budget_s
+        self.trace, self.last_code = [], None
         bad = check_endpoints(problem)
         if bad is not None:
             return bad
         stats = {"pnet_calls": 0, "replans": 0, "fallback_used": False}
         z = self.encode(self.cloud(problem.workspace))
+        self.last_code = z
         checker = problem.checker
+        forgiving = self.replanning == "forgiving"
         start, goal = problem.start.astype(float), problem.goal.astype(float)
         step = self.steer_step(0)
-        path = self.neural_planner(problem, z, start, goal, self.max_steps, stats, deadline, step)
+        path = self.neural_planner(problem, z, start, goal, self.max_steps, stats, deadline, step, 0, forgiving)
         if path is None:
-            path = [start, goal]  # no coarse path: every segment of [start, goal] is left to replanning
+            if not forgiving:  # Algorithm 1: no coarse path, no replanning
+                return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+            path = [start, goal]  # every segment of [start, goal] is left to replanning
         else:
             path = lazy_states_contraction(checker, path, step)
         while not is_feasible(checker, path) and stats["replans"] < self.replan_rounds:
@@ -114,7 +138,12 @@ class MPNetPlanner:
                 return Result(None, TIMEOUT, stats)
             stats["replans"] += 1
             step = self.steer_step(stats["replans"])
-            path = lazy_states_contraction(checker, self.replan(problem, z, path, stats, deadline, step), step)
+            path, stuck = self.replan(problem, z, path, stats, deadline, step)
+            path = lazy_states_contraction(checker, path, step)
+            if stuck and not forgiving:
+                if not self.hybrid:  # the public code: an unconnected segment fails the query
+                    return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+                break  # HR: the classical planner takes the path as it stands
         if not is_feasible(checker, path) and self.hybrid:
             stats["fallback_used"] = True
             path = self.classical_replan(problem, path, deadline, stats)
@@ -132,37 +161,54 @@ class MPNetPlanner:
         spec = problem.spec
         if self.proposal == "random":
             return random_valid_state(spec, problem.checker, self.rng)
+        if self.proposal == "random_any":
+            return spec.space.sample(self.rng)
         return straight_step(spec, x, target, self.straight_step)
 
     def neural_planner(
-        self, problem: Problem, z, start, goal, max_steps: int, stats: dict, deadline: float, step: float | None = None
+        self,
+        problem: Problem,
+        z,
+        start,
+        goal,
+        max_steps: int,
+        stats: dict,
+        deadline: float,
+        step: float | None = None,
+        stage: int = 0,
+        precheck: bool = False,
     ):
         """Algorithm 2: grow a path from each end by Pnet, alternating, until steer_to
-        connects their tips; None when max_steps pass first."""
+        connects their tips; None when max_steps pass first. precheck: first try the
+        straight line start-goal (not in Algorithm 2)."""
         checker = problem.checker
         a, b = [start], [goal]
-        if steer_to(checker, start.tolist(), goal.tolist(), step):
+        if precheck and steer_to(checker, start.tolist(), goal.tolist(), step):
             return [start, goal]
         for _ in range(max_steps):
             if time.perf_counter() > deadline:
                 return None
             x_new = self.propose(problem, z, a[-1], b[-1])
             stats["pnet_calls"] += 1
+            self.trace.append((stage, a[-1], x_new))
             a.append(x_new)
             if steer_to(checker, a[-1].tolist(), b[-1].tolist(), step):
                 return a + b[::-1] if a[0] is start else b + a[::-1]
             a, b = b, a
         return None
 
-    def replan(self, problem: Problem, z, path, stats: dict, deadline: float, step: float | None = None) -> list:
+    def replan(self, problem: Problem, z, path, stats: dict, deadline: float, step: float | None = None):
         """Algorithm 3 (neural): replan each unconnectable pair with a short NeuralPlanner
-        run; a pair it cannot connect stays for the next round."""
+        run. Returns (path, stuck): stuck when a pair stayed unconnected; the original
+        replanning stops the round there (the rest of the path kept as it was), the
+        forgiving one goes on with the next pairs."""
+        stage = stats["replans"]
 
         def connect(x, y):
-            mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step)
-            return [] if mini is None else mini[1:-1]
+            mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step, stage)
+            return None if mini is None else mini[1:-1]
 
-        return _repair(problem.checker, path, connect, step)
+        return _repair(problem.checker, path, connect, step, stop_on_fail=self.replanning == "original")
 
     def classical_replan(self, problem: Problem, path, deadline: float, stats: dict):
         """HR: RRT* on every segment that is still unconnectable, within the budget left;
@@ -188,17 +234,32 @@ class MPNetPlanner:
                 slice_s *= 2
             return None
 
-        return _repair(problem.checker, path, connect)
+        path, stuck = _repair(problem.checker, path, connect, stop_on_fail=True)
+        return None if stuck else path
+
+    def diagnose(self, problem: Problem, result: Result) -> dict:
+        """What Pnet proposed in the last solve and how good it was (not timed: the harness
+        calls this after the query; mpnet.planners.diagnostics)."""
+        from mpnet.planners.diagnostics import query_diagnostics
+
+        return query_diagnostics(self, problem)
 
 
-PROPOSALS = ("pnet", "random", "straight")
+# The T-RO code's steerTo schedule (CMPNet gem_eval.py): 2.0 for the first run (t = 0) and
+# round 1, then 1.2, 0.5, and 0.1 from round 4 on.
+TRO_STEER_STEPS = (2.0, 2.0, 1.2, 0.5, 0.1)
+PROPOSALS = ("pnet", "random", "random_any", "straight")
+REPLANNING = ("original", "forgiving")
 ENCODINGS = ("cloud", "zeros")
 BASE_NAMES = ("mpnet_nr", "mpnet_hr")
 
 
-def ablation_of(proposal: str = "pnet", encoding: str = "cloud", dropout: bool = True) -> str:
-    """'' for MPNet as the paper, else what is ablated (e.g. 'proposal=random')."""
+def ablation_of(
+    proposal: str = "pnet", encoding: str = "cloud", dropout: bool = True, replanning: str = "original"
+) -> str:
+    """'' for MPNet as the paper, else what differs (e.g. 'proposal=random')."""
     changed = [f"proposal={proposal}"] if proposal != "pnet" else []
+    changed += [f"replanning={replanning}"] if replanning != "original" else []
     changed += [f"encoding={encoding}"] if encoding != "cloud" else []
     changed += ["dropout=false"] if not dropout else []
     return ", ".join(changed)
@@ -225,6 +286,7 @@ def check_settings(
     fallback_restart_s,
     encoding,
     dropout,
+    replanning="original",
 ) -> None:
     """Every MPNet setting, checked once: ValueError naming the config key."""
     _count("max_steps", max_steps, 1)
@@ -252,7 +314,11 @@ def check_settings(
         raise ValueError(f"config key planner.encoding: expected one of {', '.join(ENCODINGS)}, got {encoding!r}")
     if not isinstance(dropout, bool):
         raise ValueError(f"config key planner.dropout: expected true or false, got {dropout!r}")
-    ablated = ablation_of(proposal, encoding, dropout)
+    if replanning not in REPLANNING:
+        raise ValueError(
+            f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}"
+        )
+    ablated = ablation_of(proposal, encoding, dropout, replanning)
     if ablated and name in BASE_NAMES:
         raise ValueError(
             f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
@@ -280,17 +346,22 @@ def straight_step(spec, x, target, length: float) -> np.ndarray:
     return space.wrap(nxt)
 
 
-def _repair(checker, path, connect, step: float | None = None):
+def _repair(checker, path, connect, step: float | None = None, stop_on_fail: bool = False):
     """Drop interior states in collision (start and goal are valid), keep neighbours
-    steer_to connects, and put connect(x, y)'s states between the others; None when it
-    gives None."""
+    steer_to connects, and put connect(x, y)'s states between the others. Returns
+    (path, stuck): stuck when connect gave None for a pair, which stays as it was; with
+    stop_on_fail the rest of the path is then kept unchanged."""
     states = [path[0], *[q for q in path[1:-1] if checker.is_valid(np.asarray(q).tolist())], path[-1]]
     out = [states[0]]
-    for x, y in zip(states[:-1], states[1:]):
+    stuck = False
+    for k, (x, y) in enumerate(zip(states[:-1], states[1:])):
         if not steer_to(checker, np.asarray(x).tolist(), np.asarray(y).tolist(), step):
             mid = connect(np.asarray(x, float), np.asarray(y, float))
             if mid is None:
-                return None
-            out.extend(mid)
+                stuck = True
+                if stop_on_fail:
+                    return out + states[k + 1 :], True
+            else:
+                out.extend(mid)
         out.append(y)
-    return out
+    return out, stuck
