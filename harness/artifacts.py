@@ -56,13 +56,18 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
         "splits": {s: list(v) for s, v in sizes.items()},
         "reference": reference_params(cfg, spec),
     }
+    blocked_only = bool(cfg.scale.test.get("blocked_only", True))
+    if not blocked_only:  # only then in the key, so that existing test sets keep theirs
+        key_config["blocked_only"] = False
 
     def build(folder: Path) -> dict:
         from ompl import util as ou
 
         ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
         with _bar(sum(n for n, _ in sizes.values()), f"test set {spec.name}", progress) as bar:
-            ts = make_testset(spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update)
+            ts = make_testset(
+                spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update, blocked_only=blocked_only
+            )
         t0 = time.perf_counter()
         with _bar(len(ts.workspaces), f"reference costs {spec.name}", progress) as bar:
             reference_costs(

@@ -49,6 +49,13 @@ def check_config(cfg: DictConfig) -> None:
     checkers = get_spec(cfg.env.name).robot.checkers
     if cfg.env.collision not in checkers:
         raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {cfg.env.collision!r}")
+    if not isinstance(cfg.scale.test.get("blocked_only", True), bool):
+        raise UsageError(
+            f"config key scale.test.blocked_only: expected true or false, got {cfg.scale.test.blocked_only!r}"
+        )
+    for key in ("blocked_only", "contract"):
+        if not isinstance(cfg.env.expert.get(key, False), bool):
+            raise UsageError(f"config key env.expert.{key}: expected true or false, got {cfg.env.expert[key]!r}")
     for key in ("rerun", "resume", "progress"):
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
@@ -66,6 +73,7 @@ def data_params(cfg: DictConfig) -> DataParams:
         expert_iterations=int(cfg.env.expert.iterations),
         expert_max_seconds=float(cfg.env.expert.max_seconds),
         expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)),
+        expert_contract=bool(cfg.env.expert.get("contract", False)),
     )
 
 

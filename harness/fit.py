@@ -100,8 +100,7 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
     ae_seconds, ae_epochs = time.perf_counter() - t0, trainer.current_epoch
 
     t1 = time.perf_counter()
-    paths = [spec.space.continuous(p) for p in data.paths.paths()]  # targets never jump by 2 pi
-    pairs = waypoint_pairs(paths, data.paths.workspace)
+    pairs = waypoint_pairs(data.paths.paths(), data.paths.workspace, space=spec.space)  # the planner's angles
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
     module = PnetModule(
         pnet,

@@ -25,7 +25,17 @@ def test_expert_paths_valid_and_reproducible(env):
         p = a.path(i)
         assert verify_path(spec, wss[a.workspace[i]][1], p, p[0], p[-1]) is None
         assert len(p) >= 3  # blocked_only: the straight line start -> goal is blocked, as in the test queries
-    assert np.all(a.cost <= a.raw_cost + 1e-9)
+        assert not np.any(np.all(p[1:] == p[:-1], axis=1))  # no state repeats the one before it
+    np.testing.assert_array_equal(a.cost, a.raw_cost)  # raw RRT* paths: stored as planned
+    c = expert_paths(spec, wss, 4, seed=3, iterations=300, max_seconds=2.0, jobs=2, contract=True)
+    assert len(c) == 8 and np.all(c.cost <= c.raw_cost + 1e-9) and np.array_equal(c.raw_cost, a.raw_cost)
+    assert len(c.states) < len(a.states) == a.raw_states == c.raw_states  # contraction drops states
+
+
+def test_dedupe_drops_repeated_states_only():
+    from mpnet.data.expert import dedupe
+
+    assert dedupe([[0, 0], [0, 0], [1, 0], [1, 0], [0, 0]]) == [[0, 0], [1, 0], [0, 0]]
 
 
 def test_store_builds_once_and_checks_manifest(tmp_path):

@@ -284,6 +284,27 @@ def test_waypoint_pairs_both_directions():
     assert len(waypoint_pairs([path], [0], bidirectional=False).x_t) == 2
 
 
+def test_waypoint_pairs_across_pi_train_on_wrapped_inputs():
+    """A rigid path that crosses theta = +-pi (and one stored unwrapped): Pnet's inputs are
+    wrapped, as the planner feeds them; each target is the next state as the motion reaches
+    it from the input (3.0 -> 3.0 + 0.283, not -3.0), within a step of [-pi, pi)."""
+    from mpnet.envs import get_spec
+
+    space = get_spec("rigid").space
+    wrapped = np.array([[0.0, 0.0, 3.0], [1.0, 0.0, -3.0], [2.0, 0.0, -2.5]])
+    unwrapped = np.array([[0.0, 0.0, 3.0], [1.0, 0.0, 2 * np.pi - 3.0], [2.0, 0.0, 2 * np.pi - 2.5]])
+    for path in (wrapped, unwrapped):
+        p = waypoint_pairs([path], [0], space=space)
+        for x in (p.x_t, p.x_goal):
+            assert np.all((x[:, 2] >= -np.pi) & (x[:, 2] < np.pi))
+        np.testing.assert_allclose(p.x_next[0], [1.0, 0.0, 2 * np.pi - 3.0])
+        np.testing.assert_allclose(p.x_t[1], [1.0, 0.0, -3.0])
+        np.testing.assert_allclose(
+            np.abs(space.difference(p.x_t, p.x_next)[:, 2]), np.abs(p.x_next[:, 2] - p.x_t[:, 2])
+        )
+        np.testing.assert_allclose(space.wrap(p.x_next), space.wrap(np.concatenate([path[1:], path[-2::-1]])))
+
+
 def _pair_data(n=2000, n_ws=12, cloud_dim=120, seed=0):
     rng = np.random.default_rng(seed)
     clouds = rng.uniform(-20, 20, (n_ws, cloud_dim)).astype(np.float32)

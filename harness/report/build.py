@@ -6,6 +6,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from harness.report.arena import write_benchmark_db
+from harness.report.diagnostics import diagnostics_table, render_diagnostics
 from harness.report.equal_quality import equal_quality_table
 from harness.report.facts import planner_facts
 from harness.report.figures import write_figures
@@ -75,6 +76,7 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
         ),
         "ablations": (ablation_table(res, facts), lambda d: render_ablations(d, facts)),
         "equal_quality": (eq, lambda d: render_equal_quality(d, facts)),
+        "diagnostics": (diagnostics_table(files), render_diagnostics),
     }
     extra = {"reference_notes": refs}
     for name, (df, render) in optional.items():

@@ -176,6 +176,11 @@ def readme_text(
             "interval, median time with its interval, quality, cost / BIT*), with the not-significant marks."
             if extra.get("ablations")
             else "- `ablations.*`: not written: no ablation runs in the logs.",
+            "- `diagnostics.md`, `diagnostics.csv`: what Pnet proposed, per env × split × MPNet planner: shares "
+            "of proposals in collision and reachable from their tree end, the first proposal's validity and "
+            "visibility, Pnet calls by stage, and the workspace-code sensitivity (from `/query` `diagnostics`)."
+            if extra.get("diagnostics")
+            else "- `diagnostics.*`: not written: no MPNet query in the logs carries diagnostics.",
             "- `equal_quality.md`, `equal_quality.csv`: time to equal quality: BIT* / Informed-RRT* run until their "
             "path cost is within a factor (1.0, 1.1) of MPNet (NR)'s on the same query, beside MPNet (NR)'s time."
             if extra.get("equal_quality")

@@ -6,7 +6,8 @@ data.npz holds
 - ae_clouds (A, n_points, wdim) float32: clouds of further layouts (never a test
   workspace) for the autoencoder, which wants many workspaces;
 - path_states (S, sdim), path_offsets (P+1,), path_workspace (P,) (a row of train_ids),
-  path_cost (P,), path_raw_cost (P,): the expert paths, after and before contraction.
+  path_cost (P,), path_raw_cost (P,): the expert paths, and their costs as stored and as
+  RRT* gave them (the same unless the paths were contracted: expert_contract).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from mpnet.envs.generators import extra_ids, make_workspaces, split_ids
 from mpnet.envs.spec import EnvSpec
 
 DATA_FILE = "data.npz"
-FORMAT = "mpnet-bench/data@2"  # @2: clouds of a fixed total size per env
+FORMAT = "mpnet-bench/data@3"  # @3: raw RRT* paths unless expert_contract (@2: always contracted)
 
 
 @dataclass
@@ -38,6 +39,7 @@ class DataParams:
     expert_iterations: int
     expert_max_seconds: float
     expert_blocked_only: bool = True
+    expert_contract: bool = False
 
     def key_config(self) -> dict:
         return {"format": FORMAT, **self.__dict__}
@@ -67,6 +69,7 @@ def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, pro
         jobs=jobs,
         progress=progress,
         blocked_only=p.expert_blocked_only,
+        contract=p.expert_contract,
     )
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),

@@ -1,5 +1,6 @@
-"""Expert paths for training Pnet: OMPL's RRT* for a fixed number of iterations, then
-lazy states contraction (a greedy exact shortcut), then the fine re-check.
+"""Expert paths for training Pnet: OMPL's RRT* for a fixed number of iterations; its raw
+vertex list (exact duplicates removed), as the original trained on, or with `contract`
+lazy states contraction (a greedy exact shortcut); then the fine re-check.
 
 An iteration budget, not a time budget, keeps the paths reproducible: each chunk of
 workspaces runs in a fresh process whose OMPL RNG is seeded from (data seed, chunk), so
@@ -29,6 +30,7 @@ class ExpertPaths:
     cost: np.ndarray
     raw_cost: np.ndarray
     seconds: float = 0.0
+    raw_states: int = 0  # states of the RRT* paths before contraction (== len(states) without it)
 
     def __len__(self) -> int:
         return len(self.workspace)
@@ -53,6 +55,7 @@ class ExpertPaths:
             np.concatenate([p.cost for p in parts]),
             np.concatenate([p.raw_cost for p in parts]),
             sum(p.seconds for p in parts),
+            sum(p.raw_states for p in parts),
         )
 
 
@@ -85,6 +88,16 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
     return path
 
 
+def dedupe(path: list) -> list:
+    """The path without states equal to the one before them (the original's data generator
+    drops repeated states the same way)."""
+    out = [path[0]]
+    for q in path[1:]:
+        if list(q) != list(out[-1]):
+            out.append(q)
+    return out
+
+
 def workspace_paths(
     spec: EnvSpec,
     ws: Workspace,
@@ -95,15 +108,17 @@ def workspace_paths(
     max_seconds: float,
     blocked_only: bool = True,
     max_tries: int = 50,
+    contract: bool = False,
 ) -> ExpertPaths:
     """`count` expert paths between random valid states of one workspace.
 
     blocked_only keeps the pairs whose straight line is blocked, as every test query's
-    is: a free pair only teaches Pnet to step onto the goal."""
+    is: a free pair only teaches Pnet to step onto the goal. contract: lazy states
+    contraction of each path (off: RRT*'s vertex list, as the paper trained on)."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
-    states, lengths, costs, raws = [], [], [], []
+    states, lengths, costs, raws, raw_states = [], [], [], [], 0
     for _ in range(count * max_tries):
         if len(lengths) == count:
             break
@@ -115,10 +130,13 @@ def workspace_paths(
         path = rrt_star_path(spec, checker, s, g, iterations, max_seconds)
         if path is None:
             continue
-        raw = path_cost(spec, path)
-        path = lazy_states_contraction(checker, path)
-        if verify_path(spec, ws, path, s, g) is not None:
+        path = dedupe(path)
+        raw, n_raw = path_cost(spec, path), len(path)
+        if contract:
+            path = lazy_states_contraction(checker, path)
+        if len(path) < 2 or verify_path(spec, ws, path, s, g) is not None:
             continue
+        raw_states += n_raw
         states.append(np.asarray(path, float))
         lengths.append(len(path))
         costs.append(path_cost(spec, path))
@@ -131,18 +149,22 @@ def workspace_paths(
         np.array(costs),
         np.array(raws),
         time.perf_counter() - t0,
+        raw_states,
     )
 
 
 def chunk_worker(args: tuple) -> ExpertPaths:
     """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path."""
-    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only = args
+    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only, contract = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
     return ExpertPaths.concat(
-        [workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds, blocked_only) for idx, ws in workspaces],
+        [
+            workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds, blocked_only, contract=contract)
+            for idx, ws in workspaces
+        ],
         spec.state_dim,
     )
 
@@ -158,6 +180,7 @@ def expert_paths(
     chunk_size: int = 1,
     progress=None,
     blocked_only: bool = True,
+    contract: bool = False,
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
@@ -166,7 +189,7 @@ def expert_paths(
     from concurrent.futures import ProcessPoolExecutor
 
     chunks = [workspaces[i : i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
-    tasks = [(spec, c, count, seed, k, iterations, max_seconds, blocked_only) for k, c in enumerate(chunks)]
+    tasks = [(spec, c, count, seed, k, iterations, max_seconds, blocked_only, contract) for k, c in enumerate(chunks)]
     results: list[ExpertPaths | None] = [None] * len(tasks)
     with ProcessPoolExecutor(
         max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
@@ -189,6 +212,7 @@ def summary(paths: ExpertPaths) -> dict:
     return {
         "paths": n,
         "states_per_path_mean": float(states.mean()) if n else math.nan,
+        "raw_states_per_path_mean": paths.raw_states / n if n else math.nan,
         "cost_mean": float(paths.cost.mean()) if n else math.nan,
         "raw_cost_mean": float(paths.raw_cost.mean()) if n else math.nan,
         "planning_seconds": float(paths.seconds),

@@ -1,7 +1,9 @@
 """Seeded test sets: the workspaces of each split and their queries.
 
 A test query's start and goal are valid, its straight line is blocked (trivial queries
-say nothing, and one of OMPL's planners hung on them), and RRT-Connect solves it.
+say nothing, and one of OMPL's planners hung on them), and RRT-Connect solves it. With
+blocked_only=False the straight line may be free: the paper's distribution (its test
+pairs were the ends of RRT* paths between random free states, unfiltered).
 The test set depends on the data config only, never on the run's `seed`.
 """
 
@@ -18,7 +20,14 @@ SPLIT_CODES = {"seen": 1, "unseen": 2}
 
 
 def make_queries(
-    spec: EnvSpec, ws: Workspace, count: int, seed: int, split: str, solvable_s: float = 2.0, max_tries: int = 100000
+    spec: EnvSpec,
+    ws: Workspace,
+    count: int,
+    seed: int,
+    split: str,
+    solvable_s: float = 2.0,
+    max_tries: int = 100000,
+    blocked_only: bool = True,
 ) -> list[Query]:
     """`count` queries in `ws`, drawn by a generator seeded by (seed, split, workspace)."""
     rng = np.random.default_rng([seed, SPLIT_CODES.get(split, 0), int(ws.id) if ws.id.isdigit() else 0])
@@ -30,7 +39,7 @@ def make_queries(
         s, g = spec.space.sample(rng), spec.space.sample(rng)
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
             continue
-        if checker.motion_valid(s.tolist(), g.tolist()):
+        if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):
             continue
         if not is_solvable(spec, checker, s, g, solvable_s):
             continue
@@ -39,7 +48,12 @@ def make_queries(
 
 
 def make_testset(
-    spec: EnvSpec, splits: dict[str, tuple[int, int]], seed: int = 0, solvable_s: float = 2.0, progress=None
+    spec: EnvSpec,
+    splits: dict[str, tuple[int, int]],
+    seed: int = 0,
+    solvable_s: float = 2.0,
+    progress=None,
+    blocked_only: bool = True,
 ) -> TestSet:
     """splits: {"seen": (workspaces, queries per workspace), "unseen": (...)};
     progress(1) is called after each workspace."""
@@ -49,7 +63,7 @@ def make_testset(
         for i in split_ids(split, n_ws):
             ws = make_workspace(spec, i, split, seed)
             workspaces.append(ws)
-            queries += make_queries(spec, ws, n_q, seed, split, solvable_s)
+            queries += make_queries(spec, ws, n_q, seed, split, solvable_s, blocked_only=blocked_only)
             if progress is not None:
                 progress(1)
     return TestSet(spec, workspaces, queries)

@@ -76,10 +76,6 @@ class StateSpace(ABC):
     def bounded_dims(self) -> int:
         """The leading coordinates that are bounded (and land exactly on a segment's end)."""
 
-    def continuous(self, path: np.ndarray) -> np.ndarray:
-        """The path with each step taken as the motion takes it (angles unwrapped)."""
-        return path
-
     def interpolate(self, a, b, step: float) -> np.ndarray:
         """States along a -> b no farther apart than `step` (motion_length)."""
         a = np.asarray(a, float)
@@ -197,12 +193,6 @@ class SE2Space(StateSpace):
 
     def in_bounds(self, q) -> bool:
         return all(self.bounds[d][0] <= q[d] <= self.bounds[d][1] for d in range(2))
-
-    def continuous(self, path):
-        p = np.array(path, float)
-        for k in range(1, len(p)):
-            p[k, 2] = p[k - 1, 2] + wrap_angle(p[k, 2] - p[k - 1, 2])
-        return p
 
     def ompl_space(self):
         from ompl import base as ob

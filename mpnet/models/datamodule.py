@@ -235,10 +235,17 @@ class Pairs(NamedTuple):
     path_id: np.ndarray  # (n,) int64: the index of the source path (for ``groups``)
 
 
-def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int], bidirectional: bool = True) -> Pairs:
+def waypoint_pairs(
+    paths: Sequence[np.ndarray], ws_index: Sequence[int], bidirectional: bool = True, space=None
+) -> Pairs:
     """Expert paths -> Pnet samples, as the public code: for a path ``x_0..x_T`` every
     ``(x_j, x_T) -> x_{j+1}``; with ``bidirectional`` also the reversed path (the planner grows
-    trees from both ends). Paths with fewer than two states add nothing."""
+    trees from both ends). Paths with fewer than two states add nothing.
+
+    With ``space`` (a StateSpace), samples take the planner's convention: ``x_j`` and ``x_T``
+    in canonical coordinates (angles wrapped, as the planner feeds them) and the target
+    ``x_j + difference(x_j, x_{j+1})``, the next state as the motion reaches it from ``x_j``
+    (an angle may leave [-pi, pi) by less than a step; the planner wraps Pnet's output)."""
     if len(paths) != len(ws_index):
         raise ValueError(f"{len(paths)} paths but {len(ws_index)} workspace indices")
     cols: dict[str, list] = {"ws": [], "x_t": [], "x_goal": [], "x_next": [], "pid": []}
@@ -254,9 +261,13 @@ def waypoint_pairs(paths: Sequence[np.ndarray], ws_index: Sequence[int], bidirec
             continue
         for p in (path, path[::-1]) if bidirectional else (path,):
             k = len(p) - 1
-            cols["x_t"].append(p[:-1])
-            cols["x_next"].append(p[1:])
-            cols["x_goal"].append(np.repeat(p[-1:], k, axis=0))
+            x_t, x_next, goal = p[:-1], p[1:], p[-1:]
+            if space is not None:
+                x_t, goal = space.wrap(x_t), space.wrap(goal)
+                x_next = x_t + space.difference(x_t, x_next)
+            cols["x_t"].append(x_t)
+            cols["x_next"].append(x_next)
+            cols["x_goal"].append(np.repeat(goal, k, axis=0))
             cols["ws"].append(np.full(k, int(w), dtype=np.int64))
             cols["pid"].append(np.full(k, pid, dtype=np.int64))
     if not cols["x_t"]:

@@ -315,9 +315,7 @@ def check_settings(
     if not isinstance(dropout, bool):
         raise ValueError(f"config key planner.dropout: expected true or false, got {dropout!r}")
     if replanning not in REPLANNING:
-        raise ValueError(
-            f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}"
-        )
+        raise ValueError(f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}")
     ablated = ablation_of(proposal, encoding, dropout, replanning)
     if ablated and name in BASE_NAMES:
         raise ValueError(
