@@ -147,8 +147,20 @@ class EuclideanSpace(StateSpace):
     def ompl_codec(self):
         n = self.dim
 
-        def to_tuple(s):
-            return tuple(s[i] for i in range(n))
+        if n == 2:  # the expert's RRT* converts ~23k states per path: no generator for the usual sizes
+
+            def to_tuple(s):
+                return (s[0], s[1])
+
+        elif n == 3:
+
+            def to_tuple(s):
+                return (s[0], s[1], s[2])
+
+        else:
+
+            def to_tuple(s):
+                return tuple(s[i] for i in range(n))
 
         def set_state(s, q):
             for i in range(n):
