@@ -538,3 +538,31 @@ def test_table1_experiment_and_report(tmp_path, run_cli):
     con.close()
     readme = (out / "README.md").read_text()
     assert "Scale: tiny" in readme and "Compared with the paper" in readme
+
+
+def test_learning_curve_cli(tmp_path, run_cli):
+    """Two training-set sizes (tiny: 2 workspaces x 5 and x 10 paths), then the learning
+    curve from their logs: one row per size and split, the figure written."""
+    run_cli(
+        "harness",
+        "-m",
+        "+env=s2d",
+        "+planner=mpnet_nr",
+        "scale=tiny",
+        "scale.train.paths=5,10",
+        "rerun=false",
+        "progress=false",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        "hydra.sweep.subdir=p${scale.train.paths}",
+        f"cache_dir={tmp_path / 'cache'}",
+    )
+    p = run_cli("harness.report.learning_curve", str(tmp_path / "sweep"), "--out", str(tmp_path / "lc"))
+    rows = list(csv.DictReader((tmp_path / "lc" / "learning_curve.csv").open()))
+    assert sorted((r["split"], r["train_paths"]) for r in rows) == [
+        ("seen", "10"),
+        ("seen", "20"),
+        ("unseen", "10"),
+        ("unseen", "20"),
+    ]
+    assert all(r["queries"] == "4" for r in rows) and "wrote" in p.stdout
+    assert (tmp_path / "lc" / "learning_curve.png").stat().st_size > 0
