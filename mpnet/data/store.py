@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import shutil
+import time
 import uuid
 from collections.abc import Callable
 from pathlib import Path
@@ -77,12 +78,14 @@ def ensure(
         tmp = base / f".{key}.tmp-{uuid.uuid4().hex[:8]}"
         tmp.mkdir()
         try:
+            t0 = time.perf_counter()
             fields = build(tmp)
             manifest = {
                 "kind": kind,
                 "key": key,
                 "config": config,
                 "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+                "build_wall_s": round(time.perf_counter() - t0, 3),
                 **(provenance() if provenance else {}),
                 **fields,
             }
