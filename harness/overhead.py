@@ -43,6 +43,8 @@ def main(cfg: DictConfig) -> None:
     print(f"\nharness overhead, {cfg.env.name} / {cfg.planner.name}, {len(plan)} queries")
     print(_row("planner (time_s)", plan, plan))
     print(_row("harness in the loop", timing.harness_s, plan))
+    if any(timing.diagnostics_s):
+        print(_row("diagnostics (untimed)", timing.diagnostics_s, plan))
     print(
         f"{'log process (CPU)':<22} mean   {timing.log_cpu_s / len(plan) * 1e3:8.3f} ms per query "
         f"(re-check and writing, beside the loop)   total/planning {timing.log_cpu_s / sum(plan) * 100:6.1f}%"

@@ -23,11 +23,13 @@ from mpnet.planners.base import Planner, Problem, Result
 @dataclass
 class QueryTiming:
     """Where a query's wall time went in the planning loop: the planner, the harness
-    (set-up, bookkeeping, the hand-off to the log process); and the log process's CPU
-    time for the whole run (judging and writing)."""
+    (set-up, bookkeeping, the hand-off to the log process), the planner's diagnostics
+    after the clock (MPNet); and the log process's CPU time for the whole run (judging
+    and writing)."""
 
     plan_s: list[float] = field(default_factory=list)
     harness_s: list[float] = field(default_factory=list)
+    diagnostics_s: list[float] = field(default_factory=list)
     log_cpu_s: float = 0.0
 
 
@@ -63,7 +65,9 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
         rec.setdefault(k, _jsonable(v))
     diagnose = getattr(planner, "diagnose", None)
     if diagnose is not None:  # after the clock: what the planner proposed (MPNet), for the log
+        t_diag = time.perf_counter()
         rec["diagnostics"] = {k: _jsonable(v) for k, v in diagnose(problem, res).items()}
+        rec["diagnostics"]["seconds"] = time.perf_counter() - t_diag
     return rec
 
 
@@ -178,8 +182,10 @@ def run_bench(
                 log.add_query(rec)
                 bar.update(1)
                 if timing is not None:
+                    diag_s = rec.get("diagnostics", {}).get("seconds", 0.0)
                     timing.plan_s.append(rec["time_s"])
-                    timing.harness_s.append(time.perf_counter() - t0 - rec["time_s"])
+                    timing.diagnostics_s.append(diag_s)
+                    timing.harness_s.append(time.perf_counter() - t0 - rec["time_s"] - diag_s)
     finally:
         limits.restore_original_limits()
         bar.close()
