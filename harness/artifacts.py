@@ -9,7 +9,7 @@ from pathlib import Path
 from omegaconf import DictConfig
 from tqdm import tqdm
 
-from harness.config import data_params, env_spec, lightning_params, model_params, reference_params
+from harness.config import data_params, env_spec, geometry_params, lightning_params, model_params, reference_params
 from harness.provenance import artifact_provenance
 from mpnet.data.dataset import build_dataset, load_dataset
 from mpnet.data.queries import make_testset
@@ -55,6 +55,7 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
         "solvable_s": float(cfg.env.solvable_s),
         "splits": {s: list(v) for s, v in sizes.items()},
         "reference": reference_params(cfg, spec),
+        **({"geometry": geometry_params(cfg.env)} if geometry_params(cfg.env) else {}),
     }
     blocked_only = bool(cfg.scale.test.get("blocked_only", True))
     if not blocked_only:  # only then in the key, so that existing test sets keep theirs

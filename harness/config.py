@@ -17,10 +17,19 @@ from mpnet.data.dataset import DataParams
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
 
+# Env knobs that change what the checker answers (envs whose checker samples motions: the
+# arm): they are part of every data and test-set cache key when the env config has them.
+GEOMETRY_KEYS = ("motion_step", "planning_margin")
+
+
+def geometry_params(env_cfg) -> dict:
+    return {k: float(env_cfg[k]) for k in GEOMETRY_KEYS if env_cfg.get(k) is not None}
+
 
 def env_spec(env_cfg) -> EnvSpec:
-    """The env's fixed geometry with the config's validation step."""
-    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step))
+    """The env's fixed geometry with the config's validation step (and motion step and
+    planning margin, where the env has them)."""
+    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **geometry_params(env_cfg))
 
 
 def _number(key: str, value, positive: bool = True) -> None:
@@ -38,6 +47,17 @@ def check_config(cfg: DictConfig) -> None:
     _number("budget_s", cfg.budget_s)
     _number("env.validation_step", cfg.env.validation_step)
     _number("env.solvable_s", cfg.env.solvable_s)
+    if cfg.env.get("motion_step") is not None:
+        _number("env.motion_step", cfg.env.motion_step)
+        if cfg.env.validation_step * 10 > cfg.env.motion_step * (1 + 1e-9):
+            raise UsageError(
+                f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
+                f"({cfg.env.motion_step}), got {cfg.env.validation_step}"
+            )
+    if cfg.env.get("planning_margin") is not None:
+        _number("env.planning_margin", cfg.env.planning_margin, positive=False)
+        if cfg.env.planning_margin < 0:
+            raise UsageError(f"config key env.planning_margin: expected a number >= 0, got {cfg.env.planning_margin}")
     if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
         raise UsageError(f"config key seed: expected an integer >= 0, got {cfg.seed!r}")
     splits = cfg.splits
@@ -74,6 +94,7 @@ def data_params(cfg: DictConfig) -> DataParams:
         expert_max_seconds=float(cfg.env.expert.max_seconds),
         expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)),
         expert_contract=bool(cfg.env.expert.get("contract", False)),
+        geometry=geometry_params(cfg.env),
     )
 
 

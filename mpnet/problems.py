@@ -31,15 +31,21 @@ from typing import Any
 
 import numpy as np
 
+from mpnet.envs.shapes import IDENTITY, TYPES, Primitive
 from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Query, Workspace
 
 FORMAT = "mpnet-bench/problems@1"
+# @2 adds posed primitives to 3D workspaces: {"type": box|cylinder|sphere, "center", "size"
+# (a cylinder's [diameter, diameter, height], a sphere's [diameter] * 3), "orientation"
+# [x, y, z, w]}; an obstacle without type and orientation is an axis-aligned box, as in @1.
+FORMAT_2 = "mpnet-bench/problems@2"
 SPLIT = "file"
 
 __all__ = [
     "FORMAT",
+    "FORMAT_2",
     "SPLIT",
     "ProblemFileError",
     "load_problems",
@@ -229,9 +235,10 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
         c.fail(f"the top level must be a JSON object, got {_type_name(doc)}")
 
     if "format" not in doc:
-        c.fail(f"missing key 'format' (expected {FORMAT!r})")
-    if doc["format"] != FORMAT:
-        c.fail(f"format is {_show(doc['format'])}, expected {FORMAT!r}")
+        c.fail(f"missing key 'format' (expected {FORMAT!r} or {FORMAT_2!r})")
+    if doc["format"] not in (FORMAT, FORMAT_2):
+        c.fail(f"format is {_show(doc['format'])}, expected {FORMAT!r} or {FORMAT_2!r}")
+    posed = doc["format"] == FORMAT_2
 
     if "env" not in doc:
         c.fail(f"missing key 'env' (the env this file is for; one of {', '.join(sorted(SPECS))})")
@@ -267,7 +274,7 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
         seen_ids[wid] = wi
 
         raw_obs = c.lst(c.key(w, "obstacles"), "obstacles")
-        centers, sizes = [], []
+        centers, sizes, primitives = [], [], []
         for oi, o in enumerate(raw_obs):
             c.where = f"obstacle #{oi}"
             o = c.obj(o, "an obstacle")
@@ -276,8 +283,11 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
             for d, s in enumerate(size):
                 if s <= 0:
                     c.fail(f"size[{d}] is {s:g}; box sizes must be positive")
-            centers.append(center)
-            sizes.append(size)
+            if posed and ("type" in o or "orientation" in o):
+                primitives.append(_primitive(c, o, center, size))
+            else:
+                centers.append(center)
+                sizes.append(size)
         c.where = None
 
         raw_q = c.lst(c.key(w, "queries"), "queries")
@@ -297,7 +307,7 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
         c.qi = None
         shape = (len(centers), spec.workspace_dim)  # an empty workspace keeps its dimension
         workspaces.append(
-            Workspace(id=wid, split=SPLIT, centers=np.reshape(centers, shape), sizes=np.reshape(sizes, shape))
+            Workspace(wid, SPLIT, np.reshape(centers, shape), np.reshape(sizes, shape), tuple(primitives))
         )
 
     c.wi = c.wid = c.qi = c.where = None
@@ -309,6 +319,23 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
     if not queries:
         c.fail("the file has no queries (every workspace's 'queries' list is empty)")
     return TestSet(spec=spec, workspaces=workspaces, queries=queries)
+
+
+def _primitive(c: _Checker, o: dict, center: list, size: list) -> Primitive:
+    """A posed obstacle of an @2 file (its center and size already checked)."""
+    if c.spec.workspace_dim != 3:
+        c.fail(f"posed obstacles (type, orientation) need a 3D env, env {c.spec.name} is {c.spec.workspace_dim}D")
+    kind = o.get("type", "box")
+    if kind not in TYPES:
+        c.fail(f"type is {_show(kind)}; expected one of {', '.join(TYPES)}")
+    q = c.vector(o["orientation"], "orientation", 4, "a quaternion [x, y, z, w]") if "orientation" in o else IDENTITY
+    if math.hypot(*q) < 1e-9:
+        c.fail("orientation is a zero quaternion")
+    if kind == "cylinder" and not math.isclose(size[0], size[1], rel_tol=1e-9):
+        c.fail(f"a cylinder's size is [diameter, diameter, height], got {size}")
+    if kind == "sphere" and not all(math.isclose(size[0], x, rel_tol=1e-9) for x in size):
+        c.fail(f"a sphere's size is [diameter] * 3, got {size}")
+    return Primitive(kind, center, size, q)
 
 
 def _reject_leftover_non_finite(doc, c: _Checker, raw_ws: list) -> None:
@@ -390,7 +417,8 @@ def problems_document(testset: TestSet, split: str | None = None) -> dict:
         if q.reference_cost is not None:
             item["reference_cost"] = float(q.reference_cost)
         qs.append(item)
-    return {"format": FORMAT, "env": spec.name, "workspaces": out}
+    posed = any(w.primitives for w in wss)
+    return {"format": FORMAT_2 if posed else FORMAT, "env": spec.name, "workspaces": out}
 
 
 def dumps_problems(doc: dict) -> str:

@@ -19,11 +19,12 @@ ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "s
 
 @pytest.fixture(scope="module")
 def models_dirs(tmp_path_factory):
-    """A tiny Pnet checkpoint per state dimension, in the layout the reader expects."""
+    """A tiny Pnet checkpoint per state dimension (its workspace's dimension beside it), in
+    the layout the reader expects."""
     out = {}
-    for dim in (2, 3):
+    for dim, wdim in ((2, 2), (3, 3), (7, 3)):
         folder = tmp_path_factory.mktemp(f"models{dim}")
-        enet, pnet = Enet(10 * dim, (8,), 4), Pnet(4 + 2 * dim, dim, (8,))
+        enet, pnet = Enet(10 * wdim, (8,), 4), Pnet(4 + 2 * dim, dim, (8,))
         state = {
             **{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
             **{f"encoder.{k}": v for k, v in enet.state_dict().items()},

@@ -19,7 +19,7 @@ from mpnet.envs.spec import EnvSpec
 from mpnet.envs.spec import TestSet as TSet  # not "Test*": pytest would try to collect it
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Query, Workspace
-from mpnet.problems import FORMAT, ProblemFileError, dump_problems, load_problems
+from mpnet.problems import FORMAT, FORMAT_2, ProblemFileError, dump_problems, load_problems
 
 DATA = Path(__file__).parent / "data" / "problems"
 
@@ -30,7 +30,7 @@ BAD = {
     "bad_not_json.json": ("s2d", ["not valid JSON", "line 5 column 48"]),
     "bad_top_level.json": ("s2d", ["top level must be a JSON object", "got a list"]),
     "bad_missing_format.json": ("s2d", ["missing key 'format'", FORMAT]),
-    "bad_wrong_format.json": ("s2d", ["mpnet-bench/problems@2", f"expected {FORMAT!r}"]),
+    "bad_wrong_format.json": ("s2d", ["mpnet-bench/problems@9", f"expected {FORMAT!r} or {FORMAT_2!r}"]),
     "bad_missing_env.json": ("s2d", ["missing key 'env'"]),
     "bad_unknown_env.json": ("s2d", ["unknown env 's4d'", "c2d, c3d, rigid, s2d"]),
     "bad_env_mismatch.json": ("s2d", ["'c2d'", "'s2d'"]),

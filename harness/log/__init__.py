@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+from harness.log.arm_painter import ArmPainter
 from harness.log.csv import CSV_FIXED, CSV_NAME
 from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
@@ -19,6 +20,7 @@ from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_s
 from harness.log.writer import TrialLog
 
 __all__ = [
+    "ArmPainter",
     "CSV_FIXED",
     "CSV_NAME",
     "FORMAT",

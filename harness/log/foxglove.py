@@ -67,12 +67,10 @@ def workspace_scene(painter, msg: dict, t: int) -> bytes:
     """Clear the scene and draw the workspace of a /workspace message (obstacles, bounds)."""
     st = stamp(t)
     split, wid = msg["split"], msg["workspace_id"]
-    cubes, lines = painter.foxglove_workspace(msg)
     ent = entity(
         f"workspace/{split}/{wid}",
         st,
-        cubes=cubes,
-        lines=lines,
+        **painter.foxglove_scene(msg),
         metadata=[{"key": "workspace_id", "value": wid}, {"key": "split", "value": split}],
     )
     return dumps({"deletions": [{"timestamp": st, "type": 1, "id": ""}], "entities": [ent]})
@@ -91,7 +89,7 @@ def query_scene(painter, msg: dict, t: int) -> bytes:
     pts = ",".join([P3 % (fx(p[0]), fx(p[1]), fx(p[2]) if len(p) > 2 else "0.0") for p in trace])
     spheres = ",".join(
         [
-            _SPHERE % (fx(p[0]), fx(p[1]), fx(p[2]) if len(p) > 2 else "0.0", c)
+            _SPHERE % (fx(p[0]), fx(p[1]), fx(p[2]) if len(p) > 2 else "0.0", *(repr(painter.marker_size),) * 3, c)
             for p, c in ((start, _J_START), (goal, _J_GOAL))
             if p is not None
         ]
@@ -105,7 +103,7 @@ def query_scene(painter, msg: dict, t: int) -> bytes:
         meta,
         cubes,
         spheres,
-        _STRIP % (pts, _J_SUCCESS if ok else _J_FAILURE),
+        _STRIP % (repr(painter.line_width), pts, _J_SUCCESS if ok else _J_FAILURE),
     )
     return ('{"deletions":[],"entities":[%s]}' % ent).encode()  # noqa: UP031  (the templates above are %-style)
 
@@ -125,13 +123,11 @@ _J_ID_QUAT = json.dumps(ID_QUAT, separators=(",", ":"))
 P3 = '{"x":%s,"y":%s,"z":%s}'
 # A cube turned about z: position x, y, z, quaternion z, w, size x, y, z (JSON number texts), color (JSON).
 YAW_CUBE = '{"pose":{"position":' + P3 + ',"orientation":{"x":0.0,"y":0.0,"z":%s,"w":%s}},"size":' + P3 + ',"color":%s}'
-_SPHERE = (
-    '{"pose":{"position":' + P3 + ',"orientation":' + _J_ID_QUAT + '},"size":{"x":0.8,"y":0.8,"z":0.8},"color":%s}'
-)
+_SPHERE = '{"pose":{"position":' + P3 + ',"orientation":' + _J_ID_QUAT + '},"size":' + P3 + ',"color":%s}'
 _STRIP = (
     '{"type":0,"pose":'
     + json.dumps(ORIGIN_POSE, separators=(",", ":"))
-    + ',"thickness":0.15,"scale_invariant":false,"points":[%s],"color":%s,"colors":[],"indices":[]}'
+    + ',"thickness":%s,"scale_invariant":false,"points":[%s],"color":%s,"colors":[],"indices":[]}'
 )
 _ENTITY = (
     '{"timestamp":{"sec":%d,"nsec":%d},"frame_id":"' + FRAME_ID + '","id":%s,'

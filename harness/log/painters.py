@@ -51,6 +51,8 @@ class Painter:
     # reference cost is the exact shortest path (2D point robots) rather than a planned one.
     cost_metric: ClassVar[str] = "the env's path cost"
     exact_reference: ClassVar[bool] = False
+    marker_size: ClassVar[float] = 0.8  # start and goal markers' diameter (workspace units)
+    line_width: ClassVar[float] = 0.15  # path strips' width
 
     def __init__(self, robot: dict | str):
         self.robot = robot
@@ -70,6 +72,12 @@ class Painter:
     def foxglove_workspace(self, msg: dict) -> tuple[list[dict], list[dict]]:
         """Cube and line primitives of a /workspace message: its obstacles and bounds."""
         raise NotImplementedError
+
+    def foxglove_scene(self, msg: dict) -> dict:
+        """Foxglove primitive lists by SceneEntity field ("cubes", "lines", ...) of a
+        /workspace message (painters with posed obstacles add "cylinders", "spheres")."""
+        cubes, lines = self.foxglove_workspace(msg)
+        return {"cubes": cubes, "lines": lines}
 
     def foxglove_bodies(self, msg: dict) -> str:
         """JSON text of the cube primitives (comma-separated) that show the robot's body
@@ -97,28 +105,36 @@ class Painter:
         s = np.array([o["size"][:d] for o in obs], float).reshape(-1, d)
         return self.rerun_types(rr)[0](centers=c, sizes=s, colors=[rgba8(C_OBSTACLE)])
 
-    def rerun_queries(self, rr, msgs: list[dict]) -> list[tuple[str, Any]]:
-        """(entity path, columns) with one row per /query message: path strips labelled
-        with the outcome, start and goal points."""
+    def rerun_obstacle_entities(self, rr, msg: dict) -> list[tuple[str, Any]]:
+        """(sub-entity, archetype) pairs of a /workspace message's obstacles ("" for one)."""
+        return [("", self.rerun_obstacles(rr, msg))]
+
+    def rerun_trace_strips(self, msgs: list[dict]) -> tuple[list[np.ndarray], np.ndarray]:
+        """Each query's path as workspace points, and its start and goal (2 rows per query)."""
         d = self.workspace_dim
-        _, strips_t, points_t = self.rerun_types(rr)
-        n = len(msgs)
-        ok = np.array([bool(m.get("success")) for m in msgs])
-        colors = np.where(ok[:, None], np.array(rgba8(C_SUCCESS), np.uint8), np.array(rgba8(C_FAILURE), np.uint8))
         strips = [
             np.asarray(m.get("path") or np.zeros((0, d)), float).reshape(-1, max(len(m["start"]), d))[:, :d]
             for m in msgs
         ]
+        return strips, np.array([[m["start"][:d], m["goal"][:d]] for m in msgs], float).reshape(2 * len(msgs), d)
+
+    def rerun_queries(self, rr, msgs: list[dict]) -> list[tuple[str, Any]]:
+        """(entity path, columns) with one row per /query message: path strips labelled
+        with the outcome, start and goal points."""
+        _, strips_t, points_t = self.rerun_types(rr)
+        n = len(msgs)
+        ok = np.array([bool(m.get("success")) for m in msgs])
+        colors = np.where(ok[:, None], np.array(rgba8(C_SUCCESS), np.uint8), np.array(rgba8(C_FAILURE), np.uint8))
+        strips, ends = self.rerun_trace_strips(msgs)
         labels = [f"{m['query_id']}: " + ("ok" if m.get("success") else str(m.get("failure"))) for m in msgs]
-        ends = np.array([[m["start"][:d], m["goal"][:d]] for m in msgs], float).reshape(2 * n, d)
         end_colors = np.tile(np.array([rgba8(C_START), rgba8(C_GOAL)], np.uint8), (n, 1))
         return [
             ("scene/world/path", strips_t.columns(strips=strips, colors=colors, labels=labels)),
             (
                 "scene/world/endpoints",
-                points_t.columns(positions=ends, colors=end_colors, radii=np.full(2 * n, 0.4, np.float32)).partition(
-                    [2] * n
-                ),
+                points_t.columns(
+                    positions=ends, colors=end_colors, radii=np.full(2 * n, self.marker_size / 2, np.float32)
+                ).partition([2] * n),
             ),
         ]
 

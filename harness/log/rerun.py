@@ -48,11 +48,9 @@ class RerunSink:
         )
 
     def workspace(self, ws_msg: dict):
-        self.rec.log(
-            ["workspaces", ws_msg["split"], ws_msg["workspace_id"], "obstacles"],
-            self.painter.rerun_obstacles(self.rr, ws_msg),
-            static=True,
-        )
+        for sub, archetype in self.painter.rerun_obstacle_entities(self.rr, ws_msg):
+            path = ["workspaces", ws_msg["split"], ws_msg["workspace_id"], "obstacles"] + ([sub] if sub else [])
+            self.rec.log(path, archetype, static=True)
 
     def query(self, i: int, msg: dict, ws_msg: dict):
         self.pending.append((i, msg, ws_msg))
@@ -79,7 +77,8 @@ class RerunSink:
             key = (ws["split"], ws["workspace_id"])
             if key != self.shown_ws:
                 rec.set_time("query", sequence=i)
-                rec.log("scene/world/obstacles", self.painter.rerun_obstacles(rr, ws))
+                for sub, archetype in self.painter.rerun_obstacle_entities(rr, ws):
+                    rec.log("scene/world/obstacles" + (f"/{sub}" if sub else ""), archetype)
                 self.shown_ws = key
         idx = [rr.TimeColumn("query", sequence=[i for i, _, _ in items])]
         msgs = [m for _, m, _ in items]

@@ -40,9 +40,13 @@ class DataParams:
     expert_max_seconds: float
     expert_blocked_only: bool = True
     expert_contract: bool = False
+    geometry: dict | None = None  # the env's motion step and planning margin, where it has them
 
     def key_config(self) -> dict:
-        return {"format": FORMAT, **self.__dict__}
+        key = {"format": FORMAT, **self.__dict__}
+        if not self.geometry:  # envs without them keep their keys
+            key.pop("geometry")
+        return key
 
 
 @dataclass

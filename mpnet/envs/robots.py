@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
+from mpnet.envs.panda import PandaChecker
 from mpnet.envs.rigid import FclRigidChecker, RigidChecker
 from mpnet.envs.workspace import Workspace
 
@@ -15,13 +16,15 @@ class Robot:
 
     kind: str = ""
     checkers: dict[str, type[CollisionChecker]] = {}
+    default_backend: str = "native"
 
     def to_json(self) -> dict:
         return {"kind": self.kind}
 
     def make_checker(
-        self, spec, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str = "native"
+        self, spec, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str | None = None
     ) -> CollisionChecker:
+        backend = backend or self.default_backend
         try:
             cls = self.checkers[backend]
         except KeyError:
@@ -54,3 +57,18 @@ class RectangleRobot(Robot):
 
     def to_json(self) -> dict:
         return {"kind": self.kind, "size": list(self.size)}
+
+
+class ArmRobot(Robot):
+    """A serial arm by name (arm7: the Franka Panda of pybullet_data). Its state is the
+    joint vector; pybullet is the reference checker."""
+
+    kind = "arm"
+    checkers = {"pybullet": PandaChecker}
+    default_backend = "pybullet"
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def to_json(self) -> dict:
+        return {"kind": self.kind, "name": self.name}

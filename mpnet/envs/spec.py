@@ -32,6 +32,12 @@ class EnvSpec:
     validation_step: float = 0.01
     exact_reference: bool = False
     sample_cloud: Callable = point_cloud
+    # Checkers that sample motions (the arm) sample them this far apart; None: continuous.
+    motion_step: float | None = None
+    # Obstacles inflated by this much while planning (metres for the arm); the re-check uses none.
+    planning_margin: float = PLANNING_MARGIN
+    # Per-axis scale the networks divide cloud points by; None: the workspace axes' state bounds.
+    cloud_scale: tuple[float, ...] | None = None
 
     @property
     def state_dim(self) -> int:
@@ -63,12 +69,16 @@ class EnvSpec:
         return self.space.distance(a, b)
 
     def workspace_scale(self) -> list[float]:
-        """Per-axis scale the networks divide cloud points by: the workspace's largest
-        absolute bound (the state bounds of the workspace axes)."""
+        """Per-axis scale the networks divide cloud points by: `cloud_scale`, or the
+        workspace's largest absolute bound (the state bounds of the workspace axes)."""
+        if self.cloud_scale is not None:
+            return list(self.cloud_scale)
         return [max(abs(lo), abs(hi)) for lo, hi in self.space.bounds[: self.workspace_dim]]
 
-    def make_checker(self, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str = "native") -> CollisionChecker:
-        return self.robot.make_checker(self, ws, margin, backend)
+    def make_checker(self, ws: Workspace, margin: float | None = None, backend: str | None = None) -> CollisionChecker:
+        """The robot's checker for `ws` (margin None: the planning margin; backend None:
+        the robot's default)."""
+        return self.robot.make_checker(self, ws, self.planning_margin if margin is None else margin, backend)
 
     def cloud_size(self, points_per_block: int) -> int:
         return points_per_block * self.blocks

@@ -6,15 +6,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mpnet.envs.shapes import Primitive
+
 
 @dataclass
 class Workspace:
-    """Axis-aligned box obstacles, stored as min and max corners (closed boxes)."""
+    """Axis-aligned box obstacles, stored as min and max corners (closed boxes), and, in 3D
+    workspaces (problems@2, the arm), posed primitives: oriented boxes, cylinders, spheres."""
 
     id: str
     split: str
     centers: np.ndarray
     sizes: np.ndarray
+    primitives: tuple[Primitive, ...] = ()
     lo: np.ndarray = field(init=False, repr=False)
     hi: np.ndarray = field(init=False, repr=False)
 
@@ -24,13 +28,24 @@ class Workspace:
         self.sizes = np.asarray(self.sizes, float).reshape(self.centers.shape)
         self.lo = self.centers - self.sizes / 2
         self.hi = self.centers + self.sizes / 2
+        self.primitives = tuple(self.primitives)
+        if self.primitives and self.dim != 3:
+            raise ValueError(f"workspace {self.id!r}: posed primitives need a 3D workspace")
 
     @property
     def dim(self) -> int:
         return self.centers.shape[1]
 
+    def all_primitives(self) -> list[Primitive]:
+        """Every obstacle as a primitive (the axis-aligned boxes first)."""
+        return [Primitive("box", c, s) for c, s in zip(self.centers.tolist(), self.sizes.tolist())] + list(
+            self.primitives
+        )
+
     def obstacles_json(self) -> list[dict]:
-        return [{"center": c.tolist(), "size": s.tolist()} for c, s in zip(self.centers, self.sizes)]
+        """Axis-aligned boxes as {center, size} (problems@1), then the primitives (@2)."""
+        boxes = [{"center": c.tolist(), "size": s.tolist()} for c, s in zip(self.centers, self.sizes)]
+        return boxes + [p.to_json() for p in self.primitives]
 
 
 @dataclass

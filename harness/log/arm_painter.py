@@ -1,0 +1,193 @@
+"""How the arm is drawn: posed obstacles (oriented boxes, cylinders, spheres) in the base
+frame, the end-effector trace of each path, and the arm's links as boxes at states along
+the path (from pybullet's collision meshes), in Foxglove and Rerun.
+
+The joint-space path is what the log holds; everything spatial here comes from the
+Panda's forward kinematics (mpnet.envs.panda)."""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from harness.log.foxglove import LINE_LIST, cube, line, p3, rgba
+from harness.log.painters import Painter, register
+from harness.log.style import C_BOUNDS, C_OBSTACLE, C_ROBOT, rgba8
+from mpnet.envs.panda import panda_world
+from mpnet.envs.shapes import IDENTITY, quat_matrix
+
+TRACE_STEP = 0.05  # joint-space step of the end-effector trace (rad)
+GHOSTS = 6  # arm poses drawn along each path (start and goal included)
+
+
+@cache
+def link_boxes() -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """(link index in the pose list, centre, size) of each link's collision mesh, as a box
+    in the link's frame."""
+    w = panda_world()
+    out = []
+    for k, link in enumerate(w.links):
+        n, verts = w.pb.getMeshData(w.robot, link, physicsClientId=w.client)
+        if n:
+            v = np.asarray(verts, float)
+            out.append((k, (v.min(0) + v.max(0)) / 2, v.max(0) - v.min(0)))
+    return out
+
+
+def arm_boxes(q) -> list[tuple[np.ndarray, list[float], np.ndarray]]:
+    """(centre, quaternion, size) of every link box at configuration q."""
+    poses = panda_world().link_poses(q)
+    out = []
+    for k, c, s in link_boxes():
+        pos, quat = poses[k]
+        out.append((np.asarray(pos) + quat_matrix(quat) @ c, quat, s))
+    return out
+
+
+def _states(msg: dict) -> np.ndarray:
+    path = msg.get("path") or [msg["start"], msg["goal"]]
+    return np.asarray(path, float).reshape(len(path), -1)
+
+
+def _dense(states: np.ndarray, step: float) -> np.ndarray:
+    """The joint-space path sampled at `step` (the trace of a straight joint motion bends)."""
+    out = [states[:1]]
+    for a, b in zip(states[:-1], states[1:]):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        out.append(a + np.linspace(0, 1, n + 1)[1:, None] * (b - a))
+    return np.concatenate(out)
+
+
+def ghost_states(msg: dict) -> np.ndarray:
+    """GHOSTS states evenly spaced along the path (by joint-space length)."""
+    s = _dense(_states(msg), TRACE_STEP)
+    return s[np.unique(np.linspace(0, len(s) - 1, GHOSTS).round().astype(int))]
+
+
+def _fquat(q) -> dict:
+    return {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "w": float(q[3])}
+
+
+@register
+class ArmPainter(Painter):
+    """A serial arm in 3D (arm7): state = joint vector; the trace is the hand's position."""
+
+    kind = "arm"
+    workspace_dim = 3
+    cost_metric = "joint-space Euclidean length (rad)"
+    marker_size = 0.04  # start and goal spheres (metres)
+    line_width = 0.008
+
+    def trace(self, msg):
+        w = panda_world()
+        path = msg.get("path") or []
+        pts = [w.hand_position(q) for q in _dense(np.asarray(path, float), TRACE_STEP)] if len(path) else []
+        return pts, w.hand_position(msg["start"]), w.hand_position(msg["goal"])
+
+    def footprints(self, states):
+        return np.zeros((0, 0, 3))
+
+    # -------------------------------------------------------------- Foxglove
+    def foxglove_scene(self, msg: dict) -> dict:
+        prims: dict[str, list] = {"cubes": [], "cylinders": [], "spheres": []}
+        for o in msg["obstacles"]:
+            pose = {"position": p3(o["center"]), "orientation": _fquat(o.get("orientation", IDENTITY))}
+            kind = {"box": "cubes", "cylinder": "cylinders", "sphere": "spheres"}[o.get("type", "box")]
+            item = {"pose": pose, "size": p3(o["size"]), "color": rgba(C_OBSTACLE)}
+            if kind == "cylinders":
+                item.update(bottom_scale=1.0, top_scale=1.0)
+            prims[kind].append(item)
+        axes = [[0, 0, 0], [0.2, 0, 0], [0, 0, 0], [0, 0.2, 0], [0, 0, 0], [0, 0, 0.2]]
+        prims["lines"] = [line(LINE_LIST, axes, C_BOUNDS, 0.005)]
+        return prims
+
+    def foxglove_bodies(self, msg):
+        import json
+
+        return ",".join(
+            json.dumps(cube(p3(c), p3(s), C_ROBOT, _fquat(q)), separators=(",", ":"))
+            for state in ghost_states(msg)
+            for c, q, s in arm_boxes(state)
+        )
+
+    # ----------------------------------------------------------------- Rerun
+    def rerun_types(self, rr):
+        return rr.Boxes3D, rr.LineStrips3D, rr.Points3D
+
+    def rerun_static(self, rr, bounds):
+        return [
+            ("scene/world/base", rr.Arrows3D(vectors=np.eye(3) * 0.2, colors=[(255, 0, 0), (0, 255, 0), (0, 0, 255)]))
+        ]
+
+    def rerun_view(self, rrb, bounds):
+        eye = rrb.EyeControls3D(position=[1.9, -1.5, 1.3], look_target=[0.3, 0.0, 0.3], eye_up=[0.0, 0.0, 1.0])
+        return rrb.Spatial3DView(name="scene", origin="/scene", eye_controls=eye)
+
+    def rerun_obstacle_entities(self, rr, msg: dict) -> list[tuple[str, Any]]:
+        by: dict[str, list] = {"box": [], "cylinder": [], "sphere": []}
+        for o in msg["obstacles"]:
+            by[o.get("type", "box")].append(o)
+
+        def arr(items, key, default=None, n=3):
+            return np.array([o.get(key, default) for o in items], float).reshape(-1, n)
+
+        color = [rgba8(C_OBSTACLE)]
+        b, c, s = by["box"], by["cylinder"], by["sphere"]
+        return [
+            (
+                "boxes",
+                rr.Boxes3D(
+                    centers=arr(b, "center"),
+                    sizes=arr(b, "size"),
+                    quaternions=arr(b, "orientation", IDENTITY, 4),
+                    colors=color,
+                    fill_mode="solid",
+                ),
+            ),
+            (
+                "cylinders",
+                rr.Cylinders3D(
+                    centers=arr(c, "center"),
+                    lengths=arr(c, "size")[:, 2],
+                    radii=arr(c, "size")[:, 0] / 2,
+                    quaternions=arr(c, "orientation", IDENTITY, 4),
+                    colors=color,
+                    fill_mode="solid",
+                ),
+            ),
+            (
+                "spheres",
+                rr.Ellipsoids3D(
+                    centers=arr(s, "center"), half_sizes=arr(s, "size") / 2, colors=color, fill_mode="solid"
+                ),
+            ),
+        ]
+
+    def rerun_queries(self, rr, msgs):
+        out = super().rerun_queries(rr, msgs)  # end-effector traces (via trace) and end points
+        boxes = [[b for st in ghost_states(m) for b in arm_boxes(st)] for m in msgs]
+        lens = [len(b) for b in boxes]
+        flat = [b for bs in boxes for b in bs]
+        out.append(
+            (
+                "scene/world/arm",
+                rr.Boxes3D.columns(
+                    centers=np.array([b[0] for b in flat]),
+                    quaternions=np.array([b[1] for b in flat]),
+                    half_sizes=np.array([b[2] for b in flat]) / 2,
+                    colors=np.tile(np.array(rgba8(C_ROBOT), np.uint8), (len(flat), 1)),
+                ).partition(lens),
+            )
+        )
+        return out
+
+    def rerun_trace_strips(self, msgs) -> tuple[list[np.ndarray], np.ndarray]:
+        """End-effector traces and the start/goal hand positions of each query."""
+        strips, ends = [], []
+        for m in msgs:
+            pts, s, g = self.trace(m)
+            strips.append(np.asarray(pts, float).reshape(-1, 3))
+            ends += [s, g]
+        return strips, np.asarray(ends, float).reshape(-1, 3)
