@@ -128,6 +128,8 @@ def model_params(cfg: DictConfig) -> dict:
         "val_fraction": float(t.val_fraction),
         "patience": int(t.patience),
     }
+    if f.get("end_to_end"):  # Enet trained with Pnet (the arm); absent otherwise, so other keys stay
+        params["end_to_end"] = True
     if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
         params["limit_batches"] = int(f.limit_batches)
     return params

@@ -61,7 +61,8 @@ def _trainer(
 
 
 def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
-    """Train Enet as a contractive autoencoder, then Pnet on its frozen codes; returns the
+    """Train Enet as a contractive autoencoder, then Pnet on its frozen codes; or, with
+    `end_to_end` (the paper's arm), Enet and Pnet together on Pnet's loss. Returns the
     manifest fields."""
     import logging
 
@@ -69,23 +70,35 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
 
     # Lightning's hardware banners and tips would flood the Hydra log on every fit.
     logging.getLogger("lightning.pytorch").setLevel(logging.WARNING)
-    from mpnet.models import (
-        CloudDataModule,
-        ContractiveAE,
-        Decoder,
-        Enet,
-        EnetModule,
-        MPNetDataModule,
-        Pnet,
-        PnetModule,
-        waypoint_pairs,
-    )
+    from mpnet.models import Enet
 
     L.seed_everything(params["seed"], workers=True, verbose=False)
     flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
+    if params.get("end_to_end"):
+        enet = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"])
+        pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen=False)
+        return {
+            "files": [PNET_FILE],
+            "fit": {"pnet": pnet_fit, "bytes": {PNET_FILE: (folder / PNET_FILE).stat().st_size}},
+        }
+    enet, enet_fit = _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train)
+    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen=True)
+    return {
+        "files": [ENET_FILE, PNET_FILE],
+        "fit": {
+            "enet": enet_fit,
+            "pnet": pnet_fit,
+            "bytes": {f: (folder / f).stat().st_size for f in (ENET_FILE, PNET_FILE)},
+        },
+    }
+
+
+def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train):
+    """Enet as a contractive autoencoder on the training and extra layouts' clouds."""
+    from mpnet.models import CloudDataModule, ContractiveAE, Decoder, Enet, EnetModule
+
     ae_clouds = np.concatenate([data.ae_clouds.reshape(len(data.ae_clouds), -1), flat_train])
     in_dim = flat_train.shape[1]
-
     t0 = time.perf_counter()
     enet = Enet(in_dim, params["enet_hidden"], params["latent"])
     ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
@@ -97,26 +110,39 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
         ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"], params["seed"])
     )
     ae_best = EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")
-    ae_seconds, ae_epochs = time.perf_counter() - t0, trainer.current_epoch
+    return ae_best.encoder, {
+        "seconds": time.perf_counter() - t0,
+        "epochs": trainer.current_epoch,
+        "best_val_loss": float(ckpt.best_model_score),
+        "clouds": len(ae_clouds),
+    }
+
+
+def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen: bool) -> dict:
+    """Pnet on the expert paths' waypoint pairs; Enet frozen (its codes computed once) or
+    trained with it (each batch encodes the training clouds)."""
+    import torch
+
+    from mpnet.models import MPNetDataModule, Pnet, PnetModule, waypoint_pairs
 
     t1 = time.perf_counter()
     pairs = waypoint_pairs(data.paths.paths(), data.paths.workspace, space=spec.space)  # the planner's angles
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
     module = PnetModule(
         pnet,
-        ae_best.encoder,
+        enet,
         lr=params["lr"],
         optimizer=params["optimizer"],
-        freeze_encoder=True,
+        freeze_encoder=frozen,
         state_scale=spec.space.scale(),
         cloud_scale=spec.workspace_scale(),
     )
-    import torch
-
-    with torch.no_grad():  # the encoder is frozen: each workspace's code once, not once per batch
-        codes = module.encode(torch.from_numpy(np.ascontiguousarray(flat_train, np.float32))).numpy()
+    features = np.ascontiguousarray(flat_train, np.float32)
+    if frozen:
+        with torch.no_grad():  # the encoder is frozen: each workspace's code once, not once per batch
+            features = module.encode(torch.from_numpy(features)).numpy()
     dm = MPNetDataModule(
-        codes,
+        features,
         pairs.ws_index,
         pairs.x_t,
         pairs.x_goal,
@@ -125,28 +151,16 @@ def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, fold
         params["val_fraction"],
         params["seed"],
         groups=pairs.path_id,
-        features="codes",
+        features="codes" if frozen else "clouds",
     )
-    trainer, ckpt2 = _trainer(
+    trainer, ckpt = _trainer(
         folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress, params.get("limit_batches")
     )
     trainer.fit(module, datamodule=dm)
-    pnet_seconds, pnet_epochs = time.perf_counter() - t1, trainer.current_epoch
     return {
-        "files": [ENET_FILE, PNET_FILE],
-        "fit": {
-            "enet": {
-                "seconds": ae_seconds,
-                "epochs": ae_epochs,
-                "best_val_loss": float(ckpt.best_model_score),
-                "clouds": len(ae_clouds),
-            },
-            "pnet": {
-                "seconds": pnet_seconds,
-                "epochs": pnet_epochs,
-                "best_val_loss": float(ckpt2.best_model_score),
-                "pairs": len(pairs.x_t),
-            },
-            "bytes": {f: (folder / f).stat().st_size for f in (ENET_FILE, PNET_FILE)},
-        },
+        "seconds": time.perf_counter() - t1,
+        "epochs": trainer.current_epoch,
+        "best_val_loss": float(ckpt.best_model_score),
+        "pairs": len(pairs.x_t),
+        "end_to_end": not frozen,
     }

@@ -260,6 +260,7 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
     workspaces: list[Workspace] = []
     queries: list[Query] = []
     seen_ids: dict[str, int] = {}
+    query_ids: set[str] = set()
     for wi, w in enumerate(raw_ws):
         c.wi, c.wid, c.qi, c.where = wi, None, None, None
         w = c.obj(w, "a workspace")
@@ -301,9 +302,15 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
                 ref = c.number(ref, "reference_cost")
                 if ref <= 0:
                     c.fail(f"reference_cost is {ref:g}; it must be positive")
-            queries.append(
-                Query(id=query_id(wid, qi), workspace_id=wid, split=SPLIT, start=start, goal=goal, reference_cost=ref)
-            )
+            qid = query_id(wid, qi)
+            if posed and "id" in q:  # @2: a query may keep its own id (MotionBenchMaker's box_panda/0001)
+                qid = q["id"]
+                if not isinstance(qid, str) or not qid.strip():
+                    c.fail(f"id must be a non-empty string, got {_got(qid)}")
+                if qid in query_ids:
+                    c.fail(f"duplicate query id {qid!r}; ids must be unique")
+            query_ids.add(qid)
+            queries.append(Query(id=qid, workspace_id=wid, split=SPLIT, start=start, goal=goal, reference_cost=ref))
         c.qi = None
         shape = (len(centers), spec.workspace_dim)  # an empty workspace keeps its dimension
         workspaces.append(
@@ -414,10 +421,12 @@ def problems_document(testset: TestSet, split: str | None = None) -> dict:
                 "which the test set does not hold"
             )
         item = {"start": [float(x) for x in q.start], "goal": [float(x) for x in q.goal]}
+        if q.id != query_id(q.workspace_id, len(qs)):  # kept only where it is not the derived one (@2)
+            item = {"id": q.id, **item}
         if q.reference_cost is not None:
             item["reference_cost"] = float(q.reference_cost)
         qs.append(item)
-    posed = any(w.primitives for w in wss)
+    posed = any(w.primitives for w in wss) or any("id" in q for w in out for q in w["queries"])
     return {"format": FORMAT_2 if posed else FORMAT, "env": spec.name, "workspaces": out}
 
 

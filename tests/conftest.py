@@ -50,3 +50,9 @@ def run_cli(repo):
         return p
 
     return run
+
+
+@pytest.fixture(scope="session")
+def mbm_dir(repo) -> Path:
+    """Six MotionBenchMaker Panda problems (scene/request YAML pairs), test data only."""
+    return repo / "tests" / "data" / "mbm"

@@ -37,13 +37,8 @@ def recheck(msgs):
     for t, q in msgs:
         if t == "/query" and q["success"]:
             w = wss[(q["split"], q["workspace_id"])]
-            ws = Workspace(
-                w["workspace_id"],
-                w["split"],
-                [o["center"] for o in w["obstacles"]],
-                [o["size"] for o in w["obstacles"]],
-            )
-            assert verify_path(spec, ws, q["path"], q["start"], q["goal"], 0.01) is None
+            ws = Workspace.from_json(w["workspace_id"], w["split"], w["obstacles"], spec.workspace_dim)
+            assert verify_path(spec, ws, q["path"], q["start"], q["goal"], min(0.01, spec.validation_step)) is None
             n += 1
     return n
 

@@ -16,6 +16,7 @@ from harness.cli import UsageError
 from harness.config import check_config, env_spec
 from harness.log import LogProcess
 from harness.provenance import run_info
+from mpnet.mbm import is_mbm, load_mbm
 from mpnet.planners.base import Planner
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
@@ -86,7 +87,8 @@ def runtime_objects(cfg: DictConfig, spec) -> dict:
 def build_testset(cfg: DictConfig, spec):
     """The problem file's test set, or the scale's generated splits (from the cache)."""
     if cfg.problems:
-        testset = load_problems(str(cfg.problems), spec)
+        path = str(cfg.problems)
+        testset = load_mbm(path, spec) if is_mbm(path) else load_problems(path, spec)
         if spec.exact_reference:  # exact references cost microseconds: fill the ones the file lacks
             reference_costs(
                 spec,

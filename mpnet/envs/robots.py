@@ -67,8 +67,11 @@ class ArmRobot(Robot):
     checkers = {"pybullet": PandaChecker}
     default_backend = "pybullet"
 
-    def __init__(self, name: str):
+    def __init__(self, name: str, urdf: str, fingers: float):
         self.name = name
+        self.urdf = urdf
+        self.fingers = fingers
 
     def to_json(self) -> dict:
-        return {"kind": self.kind, "name": self.name}
+        """Name, the pybullet_data URDF, and the fixed finger joints (what a re-check needs)."""
+        return {"kind": self.kind, "name": self.name, "urdf": self.urdf, "fingers": self.fingers}

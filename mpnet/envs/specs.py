@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from mpnet.envs.arm_scenes import ArmScenes, arm_cloud
 from mpnet.envs.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
+from mpnet.envs.panda import FINGERS_OPEN, URDF
 from mpnet.envs.panda import LIMITS as PANDA_LIMITS
 from mpnet.envs.robots import ArmRobot, PointRobot, RectangleRobot
 from mpnet.envs.spaces import EuclideanSpace, SE2Space
@@ -23,7 +24,7 @@ SPECS: dict[str, EnvSpec] = {
     "arm7": EnvSpec(
         "arm7",
         EuclideanSpace(PANDA_LIMITS),
-        ArmRobot("panda"),
+        ArmRobot("panda", URDF, FINGERS_OPEN),
         3,
         ArmScenes(),
         blocks=10,

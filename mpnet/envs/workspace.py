@@ -42,6 +42,24 @@ class Workspace:
             self.primitives
         )
 
+    @classmethod
+    def from_json(cls, id: str, split: str, obstacles: list[dict], dim: int) -> Workspace:
+        """The workspace of a logged obstacle list (obstacles_json's output)."""
+        boxes = [o for o in obstacles if "type" not in o and "orientation" not in o]
+        prims = tuple(
+            Primitive(o.get("type", "box"), o["center"], o["size"], o.get("orientation", (0.0, 0.0, 0.0, 1.0)))
+            for o in obstacles
+            if "type" in o or "orientation" in o
+        )
+        shape = (len(boxes), dim)
+        return cls(
+            id,
+            split,
+            np.reshape([o["center"] for o in boxes], shape),
+            np.reshape([o["size"] for o in boxes], shape),
+            prims,
+        )
+
     def obstacles_json(self) -> list[dict]:
         """Axis-aligned boxes as {center, size} (problems@1), then the primitives (@2)."""
         boxes = [{"center": c.tolist(), "size": s.tolist()} for c, s in zip(self.centers, self.sizes)]

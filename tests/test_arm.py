@@ -1,0 +1,236 @@
+"""arm7: the Panda's pybullet checker, posed primitives, the scene generator, problems@2
+and MotionBenchMaker's problems."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpnet.envs.panda import LIMITS, coarse_to_fine, panda_world
+from mpnet.envs.shapes import Primitive, quat_matrix, surface_cloud, yaw_quat
+from mpnet.envs.specs import get_spec
+from mpnet.envs.workspace import Workspace
+from mpnet.mbm import load_mbm
+from mpnet.motion import verify_path
+from mpnet.problems import FORMAT_2, ProblemFileError, dump_problems, load_problems
+
+ARM = get_spec("arm7")
+HOME = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]  # MotionBenchMaker's start
+
+
+def ws_of(*prims: Primitive, wid: str = "t") -> Workspace:
+    return Workspace(wid, "file", np.zeros((0, 3)), np.zeros((0, 3)), prims)
+
+
+EMPTY = ws_of()
+
+
+def test_limits_are_the_urdfs():
+    assert np.allclose(panda_world().limits(), LIMITS)
+    assert ARM.bounds == tuple(LIMITS) and ARM.state_dim == 7 and ARM.workspace_dim == 3
+
+
+def test_only_the_always_touching_pair_is_allowed():
+    # link 6 and the hand touch in every configuration of this model; nothing else may be ignored
+    assert panda_world().allowed == frozenset({(6, 8)})
+
+
+def test_self_collision_is_checked():
+    ch = ARM.make_checker(EMPTY)
+    rng = np.random.default_rng(0)
+    ok = ch.states_valid([ARM.space.sample(rng) for _ in range(300)])
+    assert ch.is_valid(HOME)
+    assert 0.5 < ok.mean() < 1.0  # some random configurations fold the arm into itself
+
+
+def test_obstacles_of_every_type_collide_with_the_hand():
+    hand = panda_world().hand_position(HOME)
+    far = [c + 2.0 for c in hand]
+    for prim in (
+        Primitive("box", hand, (0.1, 0.1, 0.1), yaw_quat(0.3)),
+        Primitive.cylinder(hand, 0.05, 0.1, orientation=(0.3, 0.0, 0.0, 0.95)),
+        Primitive.sphere(hand, 0.05),
+    ):
+        assert not ARM.make_checker(ws_of(prim)).is_valid(HOME), prim.type
+        moved = Primitive(prim.type, far, prim.size, prim.orientation)
+        assert ARM.make_checker(ws_of(moved)).is_valid(HOME), prim.type
+
+
+def test_orientation_matters():
+    """A thin plate beside the hand: turned by 90 degrees about z it reaches the hand."""
+    hand = np.array(panda_world().hand_position(HOME))
+    plate = (0.02, 0.6, 0.3)
+    beside = hand + [0.15, 0.0, 0.0]
+    assert ARM.make_checker(ws_of(Primitive("box", beside, plate))).is_valid(HOME)
+    assert not ARM.make_checker(ws_of(Primitive("box", beside, plate, yaw_quat(math.pi / 2)))).is_valid(HOME)
+
+
+def test_checkers_of_two_workspaces_take_turns_with_one_world():
+    hand = panda_world().hand_position(HOME)
+    blocked, free = ARM.make_checker(ws_of(Primitive.sphere(hand, 0.05))), ARM.make_checker(EMPTY)
+    for _ in range(3):
+        assert not blocked.is_valid(HOME) and free.is_valid(HOME)
+
+
+def test_motion_through_a_wall_is_blocked_and_counted():
+    a, b = list(HOME), list(HOME)
+    a[0], b[0] = -1.2, 1.2  # swing the arm about its base
+    wall = Primitive("box", (0.6, 0.0, 0.5), (0.6, 0.02, 1.0))
+    ch = ARM.make_checker(ws_of(wall))
+    assert ch.is_valid(a) and ch.is_valid(b) and not ch.motion_valid(a, b)
+    assert ARM.make_checker(EMPTY).motion_valid(a, b)
+    counts = ch.counts()
+    assert counts["motion_checks"] == 1 and counts["configurations_checked"] >= 3
+    assert verify_path(ARM, ws_of(wall), [a, b], a, b) == "collision"
+    assert verify_path(ARM, EMPTY, [a, b], a, b) is None
+
+
+def test_out_of_bounds_states_are_invalid():
+    q = list(HOME)
+    q[3] = 0.1  # joint 4's upper limit is 0
+    ch = ARM.make_checker(EMPTY)
+    assert not ch.is_valid(q) and not ch.motion_valid(HOME, q)
+
+
+@given(st.integers(1, 300))
+def test_coarse_to_fine_visits_every_state_once(n):
+    order = coarse_to_fine(n)
+    assert sorted(order) == list(range(n + 1)) and order[:2] == (0, n)
+
+
+@settings(deadline=None, max_examples=30)
+@given(
+    st.sampled_from(["box", "cylinder", "sphere"]),
+    st.lists(st.floats(0.05, 1.0), min_size=3, max_size=3),
+    st.lists(st.floats(-1, 1), min_size=4, max_size=4).filter(lambda q: np.linalg.norm(q) > 0.1),
+)
+def test_surface_points_lie_on_the_surface(kind, dims, quat):
+    size = {"box": dims, "cylinder": [dims[0], dims[0], dims[1]], "sphere": [dims[0]] * 3}[kind]
+    p = Primitive(kind, (0.3, -0.2, 0.5), size, quat)
+    pts = p.sample_surface(200, np.random.default_rng(1))
+    local = (pts - np.array(p.center)) @ p.rotation()  # back into the primitive's frame
+    half = np.array(p.size) / 2
+    if kind == "box":
+        on_face = np.isclose(np.abs(local) / half, 1.0).any(axis=1)
+        assert on_face.all() and (np.abs(local) <= half + 1e-9).all()
+    elif kind == "cylinder":
+        r = np.hypot(local[:, 0], local[:, 1])
+        assert (np.isclose(r, p.radius) | np.isclose(np.abs(local[:, 2]), p.height / 2)).all()
+        assert (r <= p.radius + 1e-9).all() and (np.abs(local[:, 2]) <= p.height / 2 + 1e-9).all()
+    else:
+        assert np.allclose(np.linalg.norm(local, axis=1), p.radius)
+
+
+def test_quat_matrix_is_a_rotation():
+    r = quat_matrix([0.1, -0.4, 0.3, 0.8])
+    assert np.allclose(r @ r.T, np.eye(3)) and math.isclose(np.linalg.det(r), 1.0)
+    assert np.allclose(quat_matrix(yaw_quat(math.pi / 2)) @ [1, 0, 0], [0, 1, 0])
+
+
+def test_cloud_has_a_fixed_size_and_shares_points_by_area():
+    big, small = Primitive("box", (0, 0, 0), (1, 1, 1)), Primitive("box", (5, 0, 0), (0.1, 0.1, 0.1))
+    pts = surface_cloud([big, small], 1000, np.random.default_rng(0))
+    assert pts.shape == (1000, 3)
+    assert 0 < (pts[:, 0] > 4).sum() < 30  # the small box has 1% of the area
+    ws = ARM.generator.make(3, "seen")
+    assert ARM.cloud(ws, 200, 0).shape == (2000, 3)
+    assert np.array_equal(ARM.cloud(ws, 200, 0), ARM.cloud(ws, 200, 0))
+
+
+def test_generated_workspaces_are_seeded_and_varied():
+    a, b = ARM.generator.make(5, "seen", 0), ARM.generator.make(5, "seen", 0)
+    assert a.primitives == b.primitives
+    assert a.primitives != ARM.generator.make(6, "seen", 0).primitives
+    assert a.primitives != ARM.generator.make(5, "seen", 1).primitives
+    for i in range(20):
+        ws = ARM.generator.make(i, "seen")
+        assert 6 <= len(ws.primitives) <= 40
+        # nothing but the table near the base's axis
+        for p in ws.primitives[1:]:
+            assert math.hypot(p.center[0], p.center[1]) > 0.3 - 1e-9
+
+
+def test_problems_at_2_round_trip(tmp_path, mbm_dir):
+    ts = load_mbm(mbm_dir, ARM)
+    dump_problems(tmp_path / "p.json", ts)
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert doc["format"] == FORMAT_2
+    back = load_problems(tmp_path / "p.json", ARM)
+    assert [q.id for q in back.queries] == [q.id for q in ts.queries]
+    assert [w.primitives for w in back.workspaces] == [w.primitives for w in ts.workspaces]
+    ws = back.workspaces[0]
+    assert Workspace.from_json(ws.id, ws.split, ws.obstacles_json(), 3).primitives == ws.primitives
+
+
+@pytest.mark.parametrize(
+    "obstacle,needle",
+    [
+        ({"type": "cone", "center": [0, 0, 0], "size": [1, 1, 1]}, 'type is "cone"'),
+        ({"type": "cylinder", "center": [0, 0, 0], "size": [1, 2, 1]}, "cylinder's size"),
+        ({"type": "sphere", "center": [0, 0, 0], "size": [1, 1, 2]}, "sphere's size"),
+        ({"center": [0, 0, 0], "size": [1, 1, 1], "orientation": [0, 0, 0, 0]}, "zero quaternion"),
+        ({"center": [0, 0, 0], "size": [1, 1, 1], "orientation": [0, 0, 1]}, "orientation has 3 numbers"),
+    ],
+)
+def test_bad_posed_obstacles(tmp_path, obstacle, needle):
+    doc = {
+        "format": FORMAT_2,
+        "env": "arm7",
+        "workspaces": [{"id": "w", "obstacles": [obstacle], "queries": [{"start": HOME, "goal": HOME}]}],
+    }
+    (tmp_path / "p.json").write_text(json.dumps(doc))
+    with pytest.raises(ProblemFileError) as e:
+        load_problems(tmp_path / "p.json", ARM)
+    assert needle in str(e.value) and "obstacle #0" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_posed_obstacles_need_a_3d_env(tmp_path):
+    doc = {
+        "format": FORMAT_2,
+        "env": "s2d",
+        "workspaces": [
+            {
+                "id": "w",
+                "obstacles": [{"type": "box", "center": [0, 0], "size": [1, 1]}],
+                "queries": [{"start": [5, 5], "goal": [-5, -5]}],
+            }
+        ],
+    }
+    (tmp_path / "p.json").write_text(json.dumps(doc))
+    with pytest.raises(ProblemFileError, match="need a 3D env"):
+        load_problems(tmp_path / "p.json", get_spec("s2d"))
+
+
+def test_mbm_problems_load_with_their_names(mbm_dir):
+    ts = load_mbm(mbm_dir, ARM)
+    assert [q.id for q in ts.queries][:2] == ["bookshelf_small_panda/0001", "bookshelf_small_panda/0002"]
+    assert len(ts.queries) == 6 and all(q.workspace_id == q.id for q in ts.queries)
+    box = next(w for w in ts.workspaces if w.id == "box_panda/0001")
+    assert {p.type for p in box.primitives} == {"box", "cylinder"}
+    one = load_mbm(mbm_dir / "box_panda", ARM)
+    assert [q.id for q in one.queries] == ["box_panda/0001", "box_panda/0002"]
+    single = load_mbm(mbm_dir / "box_panda" / "scene0002.yaml", ARM)
+    assert [q.id for q in single.queries] == ["box_panda/0002"]
+    assert np.allclose(single.queries[0].start, HOME, atol=1e-3)
+
+
+def test_mbm_errors_are_one_line(tmp_path, mbm_dir):
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "scene0001.yaml").write_text("world: [unclosed")
+    (tmp_path / "s" / "request0001.yaml").write_text((mbm_dir / "box_panda" / "request0001.yaml").read_text())
+    with pytest.raises(ProblemFileError) as e:
+        load_mbm(tmp_path / "s", ARM)
+    assert "scene0001.yaml: cannot read it as YAML" in str(e.value) and "\n" not in str(e.value)
+    (tmp_path / "s" / "request0001.yaml").write_text("start_state: {}")
+    with pytest.raises(ProblemFileError, match="request0001.yaml: not a MoveIt request"):
+        load_mbm(tmp_path / "s", ARM)
+    with pytest.raises(ProblemFileError, match="need env arm7"):
+        load_mbm(mbm_dir, get_spec("c3d"))
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ProblemFileError, match="no MotionBenchMaker"):
+        load_mbm(tmp_path / "empty", ARM)
