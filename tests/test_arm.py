@@ -234,3 +234,33 @@ def test_mbm_errors_are_one_line(tmp_path, mbm_dir):
     (tmp_path / "empty").mkdir()
     with pytest.raises(ProblemFileError, match="no MotionBenchMaker"):
         load_mbm(tmp_path / "empty", ARM)
+
+
+def _tar(members: dict[str, bytes], mode: str) -> bytes:
+    import io
+    import tarfile
+
+    buf = io.BytesIO()
+    with tarfile.open(fileobj=buf, mode=mode) as t:
+        for name, data in members.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            t.addfile(info, io.BytesIO(data))
+    return buf.getvalue()
+
+
+def test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist(tmp_path, mbm_dir, capsys):
+    from harness.fetch_mbm import main
+
+    pair = {
+        f"problems/box_panda/{n}0001.yaml": (mbm_dir / "box_panda" / f"{n}0001.yaml").read_bytes()
+        for n in ("scene", "request")
+    }
+    sdist = _tar({"vamp_planner-0.6.4/resources/panda/problems.tar.bz2": _tar(pair, "w:bz2")}, "w:gz")
+    (tmp_path / "v.tar.gz").write_bytes(sdist)
+    assert main([str(tmp_path / "out"), "--sdist", str(tmp_path / "v.tar.gz")]) == 0
+    assert "box_panda: 1 problems" in capsys.readouterr().out
+    assert [q.id for q in load_mbm(tmp_path / "out" / "problems", ARM).queries] == ["box_panda/0001"]
+    (tmp_path / "bad.tar.gz").write_bytes(_tar({"x/README": b"no problems"}, "w:gz"))
+    assert main([str(tmp_path / "out2"), "--sdist", str(tmp_path / "bad.tar.gz")]) == 1
+    assert "has no resources/panda/problems.tar.bz2" in capsys.readouterr().err

@@ -192,6 +192,19 @@ def test_problem_files_all_envs(tmp_path, env, run_cli, problems_dir):
     assert {m["split"] for t, m in msgs if t == "/workspace"} == {"file"}
 
 
+def test_mbm_problems_run_named_by_scene(tmp_path, run_cli, mbm_dir):
+    """MotionBenchMaker's scene/request folders run through problems=, ids name the scene file."""
+    run_cli("harness", "+env=arm7", "+planner=rrt_connect", f"problems={mbm_dir}", f"hydra.run.dir={tmp_path}")
+    _, msgs = read_mcap(tmp_path / "trials.mcap")
+    queries = [m for t, m in msgs if t == "/query"]
+    assert sorted(q["query_id"] for q in queries)[:2] == ["bookshelf_small_panda/0001", "bookshelf_small_panda/0002"]
+    assert len(queries) == 6 and recheck(msgs) >= 5
+    ws = next(m for t, m in msgs if t == "/workspace")
+    assert ws["robot"]["kind"] == "arm" and ws["robot"]["name"] == "panda"
+    assert {o.get("type") for o in ws["obstacles"]} >= {"box", "cylinder"}
+    assert (tmp_path / "trials.rrd").stat().st_size > 0
+
+
 def test_overhead_benchmark(run_cli):
     p = run_cli("harness.overhead", "+env=s2d", "+planner=bit_star", "scale=tiny", "progress=false")
     assert "harness overhead" in p.stdout and "log process" in p.stdout and "ratio" in p.stdout

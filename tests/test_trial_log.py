@@ -543,6 +543,46 @@ def test_point_painter_3d_draws_a_3d_path_as_3d_points():
     assert p.rerun_types(rr) == (rr.Boxes3D, rr.LineStrips3D, rr.Points3D)
 
 
+def test_arm_painter_draws_posed_obstacles_the_hand_trace_and_the_links():
+    import rerun as rr
+
+    from harness.log.arm_painter import GHOSTS, ArmPainter, link_boxes
+    from harness.log.foxglove import workspace_scene
+
+    p = painter_for(SPECS["arm7"].robot_json(), 3)
+    assert type(p) is ArmPainter
+    home = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+    other = [0.8, -0.3, 0.2, -2.0, 0.1, 1.9, 0.5]
+    msg = {"query_id": "q", "split": "file", "start": home, "goal": other, "path": [home, other], "success": True}
+    e = scene_entity(p, msg)
+    assert len(e["lines"][0]["points"]) > 2  # the hand's trace of a straight joint motion bends
+    hand = e["spheres"][0]["pose"]["position"]
+    assert 0.2 < hand["x"] < 0.7 and 0.3 < hand["z"] < 0.8  # the home pose's hand, in metres
+    assert len(e["cubes"]) == GHOSTS * len(link_boxes()) == GHOSTS * 11  # base, 7 links, hand, 2 fingers
+    ws = {
+        "workspace_id": "w",
+        "split": "file",
+        "bounds": SPECS["arm7"].bounds_json(),
+        "robot": SPECS["arm7"].robot_json(),
+        "obstacles": [
+            {"center": [0.5, 0.0, 0.0], "size": [0.2, 0.2, 0.2]},
+            {"type": "cylinder", "center": [0.5, 0.3, 0.1], "size": [0.1, 0.1, 0.3], "orientation": [0, 0, 0, 1]},
+            {"type": "sphere", "center": [0.5, -0.3, 0.1], "size": [0.1, 0.1, 0.1], "orientation": [0, 0, 0, 1]},
+        ],
+    }
+    scene = json.loads(workspace_scene(p, ws, 1))
+    jsonschema.validate(scene, scene_update_schema())
+    (ent,) = scene["entities"]
+    assert (len(ent["cubes"]), len(ent["cylinders"]), len(ent["spheres"])) == (1, 1, 1)
+    kinds = dict(p.rerun_obstacle_entities(rr, ws))
+    assert isinstance(kinds["cylinders"], rr.Cylinders3D) and isinstance(kinds["spheres"], rr.Ellipsoids3D)
+    assert [n for n, _ in p.rerun_queries(rr, [msg])] == [
+        "scene/world/path",
+        "scene/world/endpoints",
+        "scene/world/arm",
+    ]
+
+
 # --------------------------------------------------------------------------- judge
 
 

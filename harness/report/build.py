@@ -11,6 +11,7 @@ from harness.report.equal_quality import equal_quality_table
 from harness.report.facts import planner_facts
 from harness.report.figures import write_figures
 from harness.report.load import duplicate_warnings, load, queries_frame
+from harness.report.problem_sets import problem_set_table, render_problem_sets
 from harness.report.readme import provenance, readme_text, reference_notes
 from harness.report.render import (
     render_ablations,
@@ -77,6 +78,7 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
         "ablations": (ablation_table(res, facts), lambda d: render_ablations(d, facts)),
         "equal_quality": (eq, lambda d: render_equal_quality(d, facts)),
         "diagnostics": (diagnostics_table(files), render_diagnostics),
+        "problem_sets": (problem_set_table(q, facts), lambda d: render_problem_sets(d, facts)),
     }
     extra = {"reference_notes": refs}
     for name, (df, render) in optional.items():

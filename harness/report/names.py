@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import re
 
-ENV_ORDER = ("s2d", "c2d", "c3d", "rigid")
-ENV_LABELS = {"s2d": "Simple 2D", "c2d": "Complex 2D", "c3d": "Complex 3D", "rigid": "Rigid body"}
+ENV_ORDER = ("s2d", "c2d", "c3d", "rigid", "arm7")
+# arm7 is the Franka Panda of pybullet_data: the paper's Baxter model is not installable.
+ENV_LABELS = {
+    "s2d": "Simple 2D",
+    "c2d": "Complex 2D",
+    "c3d": "Complex 3D",
+    "rigid": "Rigid body",
+    "arm7": "7-DOF arm (Panda, not the paper's Baxter)",
+}
 SPLIT_ORDER = ("seen", "unseen")
 PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
 KNOWN_EXTRAS = ("rrt_star", "rrt_connect")

@@ -119,9 +119,10 @@ class MPNetPlanner:
         bad = check_endpoints(problem)
         if bad is not None:
             return bad
-        stats = {"pnet_calls": 0, "replans": 0, "fallback_used": False}
+        stats = {"pnet_calls": 0, "replans": 0, "fallback_used": False, "pnet_s": 0.0, "fallback_s": 0.0}
         z = self.encode(self.cloud(problem.workspace))
-        self.last_code = z
+        stats["encode_s"] = time.perf_counter() - t0  # where a query's time goes: the cloud and Enet,
+        self.last_code = z  # Pnet (pnet_s), HR's classical planner (fallback_s); the rest is checking
         checker = problem.checker
         forgiving = self.replanning == "forgiving"
         start, goal = problem.start.astype(float), problem.goal.astype(float)
@@ -146,7 +147,9 @@ class MPNetPlanner:
                 break  # HR: the classical planner takes the path as it stands
         if not is_feasible(checker, path) and self.hybrid:
             stats["fallback_used"] = True
+            t = time.perf_counter()
             path = self.classical_replan(problem, path, deadline, stats)
+            stats["fallback_s"] = time.perf_counter() - t
             if path is not None:
                 path = lazy_states_contraction(checker, path)
         if path is None or not is_feasible(checker, path):
@@ -188,7 +191,9 @@ class MPNetPlanner:
         for _ in range(max_steps):
             if time.perf_counter() > deadline:
                 return None
+            t = time.perf_counter()
             x_new = self.propose(problem, z, a[-1], b[-1])
+            stats["pnet_s"] += time.perf_counter() - t
             stats["pnet_calls"] += 1
             self.trace.append((stage, a[-1], x_new))
             a.append(x_new)
