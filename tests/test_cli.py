@@ -1,6 +1,7 @@
 """End to end: every CLI the README shows, at tiny scale, in subprocesses as a user runs them."""
 
 import csv
+import importlib.util
 import json
 import shutil
 import sqlite3
@@ -574,3 +575,23 @@ def test_learning_curve_cli(tmp_path, run_cli):
     ]
     assert all(r["queries"] == "4" for r in rows) and "wrote" in p.stdout
     assert (tmp_path / "lc" / "learning_curve.png").stat().st_size > 0
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("playwright") is None or shutil.which("chromium") is None,
+    reason="harness.screenshot's optional tools (playwright, chromium) are not installed",
+)
+def test_screenshot_of_a_recording(tmp_path, run_cli, mbm_dir):
+    run_cli(
+        "harness", "+env=arm7", "+planner=rrt_connect", f"problems={mbm_dir / 'box_panda'}", f"hydra.run.dir={tmp_path}"
+    )
+    run_cli("harness.screenshot", str(tmp_path / "trials.rrd"), str(tmp_path / "shot.png"), "--wait", "40")
+    from PIL import Image
+
+    img = np.asarray(Image.open(tmp_path / "shot.png").convert("RGB"), float)
+    assert img.shape[:2] == (1000, 1600) and img.std() > 20  # the viewer drew something, not a blank page
+
+
+def test_screenshot_needs_a_recording(tmp_path, run_cli):
+    p = run_cli("harness.screenshot", str(tmp_path / "none.rrd"), str(tmp_path / "x.png"), check=False)
+    assert p.returncode == 1 and "no recording at" in p.stderr

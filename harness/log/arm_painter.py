@@ -14,7 +14,7 @@ import numpy as np
 
 from harness.log.foxglove import LINE_LIST, cube, line, p3, rgba
 from harness.log.painters import Painter, register
-from harness.log.style import C_BOUNDS, C_OBSTACLE, C_ROBOT, rgba8
+from harness.log.style import C_ARM, C_BOUNDS, C_OBSTACLE, rgba8
 from mpnet.envs.panda import panda_world
 from mpnet.envs.shapes import IDENTITY, quat_matrix
 
@@ -107,7 +107,7 @@ class ArmPainter(Painter):
         import json
 
         return ",".join(
-            json.dumps(cube(p3(c), p3(s), C_ROBOT, _fquat(q)), separators=(",", ":"))
+            json.dumps(cube(p3(c), p3(s), C_ARM, _fquat(q)), separators=(",", ":"))
             for state in ghost_states(msg)
             for c, q, s in arm_boxes(state)
         )
@@ -118,11 +118,12 @@ class ArmPainter(Painter):
 
     def rerun_static(self, rr, bounds):
         return [
-            ("scene/world/base", rr.Arrows3D(vectors=np.eye(3) * 0.2, colors=[(255, 0, 0), (0, 255, 0), (0, 0, 255)]))
+            ("scene/world/base", rr.Arrows3D(vectors=np.eye(3) * 0.2, colors=[(255, 0, 0), (0, 255, 0), (0, 0, 255)])),
+            ("scene/world/arm", rr.Boxes3D.from_fields(fill_mode="solid")),  # translucent links, not wireframes
         ]
 
     def rerun_view(self, rrb, bounds):
-        eye = rrb.EyeControls3D(position=[1.9, -1.5, 1.3], look_target=[0.3, 0.0, 0.3], eye_up=[0.0, 0.0, 1.0])
+        eye = rrb.EyeControls3D(position=[1.7, -1.3, 1.2], look_target=[0.25, 0.0, 0.35], eye_up=[0.0, 0.0, 1.0])
         return rrb.Spatial3DView(name="scene", origin="/scene", eye_controls=eye)
 
     def rerun_obstacle_entities(self, rr, msg: dict) -> list[tuple[str, Any]]:
@@ -177,7 +178,7 @@ class ArmPainter(Painter):
                     centers=np.array([b[0] for b in flat]),
                     quaternions=np.array([b[1] for b in flat]),
                     half_sizes=np.array([b[2] for b in flat]) / 2,
-                    colors=np.tile(np.array(rgba8(C_ROBOT), np.uint8), (len(flat), 1)),
+                    colors=np.tile(np.array(rgba8(C_ARM), np.uint8), (len(flat), 1)),
                 ).partition(lens),
             )
         )

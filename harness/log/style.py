@@ -10,6 +10,7 @@ C_FAILURE = (0.9, 0.15, 0.1, 1.0)
 C_START = (0.15, 0.35, 0.95, 1.0)
 C_GOAL = (1.0, 0.6, 0.0, 1.0)
 C_ROBOT = (0.35, 0.35, 0.35, 0.35)
+C_ARM = (0.45, 0.6, 0.85, 0.3)  # the arm's links along a path: translucent, apart from the grey obstacles
 
 THIN_Z = 0.1  # height of a 2D obstacle drawn as a cube; its top face is z = 0
 
