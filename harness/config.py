@@ -66,6 +66,11 @@ def check_config(cfg: DictConfig) -> None:
             f"config key splits: expected a list from [seen, unseen], e.g. splits=[seen], got "
             f"{OmegaConf.to_container(splits) if OmegaConf.is_config(splits) else splits!r}"
         )
+    if cfg.env.get("scales") is not None and cfg.scale.name not in cfg.env.scales:
+        raise UsageError(
+            f"config key scale: env {cfg.env.name} has its sizes at scales {', '.join(cfg.env.scales)} "
+            f"(conf/env_scale/{cfg.env.name}_*.yaml), got {cfg.scale.name!r}"
+        )
     checkers = get_spec(cfg.env.name).robot.checkers
     if cfg.env.collision not in checkers:
         raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {cfg.env.collision!r}")

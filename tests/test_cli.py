@@ -493,7 +493,14 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
     assert not any(m["fallback_used"] for t, m in msgs if t == "/query")
 
 
-@pytest.mark.parametrize("env", ["s2d", "rigid"])
+PAPER_PNETS = {
+    "s2d": [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32],
+    "rigid": [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32],
+    "arm7": [1280, 896, 512, 384, 256, 128, 64, 32],  # the original code's 9-layer arm Pnet
+}
+
+
+@pytest.mark.parametrize("env", sorted(PAPER_PNETS))
 def test_paper_scale_dry_run(tmp_path, env, run_cli):
     """scale=paper composes and runs: the paper's networks, a few batches, a few queries."""
     p = run_cli(
@@ -508,7 +515,8 @@ def test_paper_scale_dry_run(tmp_path, env, run_cli):
     )
     assert "seen" in p.stdout and "unseen" in p.stdout
     manifest = json.loads(next((tmp_path / "cache" / "models").glob("*/manifest.json")).read_text())
-    assert manifest["config"]["pnet_hidden"] == [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32]
+    assert manifest["config"]["pnet_hidden"] == PAPER_PNETS[env]
+    assert manifest["config"].get("end_to_end", False) == (env == "arm7")
     assert manifest["config"]["limit_batches"] == 2
     rows = list(csv.DictReader((tmp_path / "run" / "queries.csv").open()))
     assert len(rows) == 4
@@ -595,3 +603,11 @@ def test_screenshot_of_a_recording(tmp_path, run_cli, mbm_dir):
 def test_screenshot_needs_a_recording(tmp_path, run_cli):
     p = run_cli("harness.screenshot", str(tmp_path / "none.rrd"), str(tmp_path / "x.png"), check=False)
     assert p.returncode == 1 and "no recording at" in p.stderr
+
+
+def test_bench_checkers(run_cli):
+    p = run_cli("harness.bench_checkers", "arm7", "rigid", "--workspaces", "1")
+    rows = {tuple(line.split()[:2]) for line in p.stdout.splitlines()[1:-1]}
+    assert rows == {("arm7", "pybullet"), ("rigid", "native"), ("rigid", "fcl")}
+    bad = run_cli("harness.bench_checkers", "arm8", check=False)
+    assert bad.returncode == 1 and "unknown env 'arm8'" in bad.stderr

@@ -1,0 +1,79 @@
+"""`python -m harness.bench_checkers [ENV ...]`: collision checks per second of every
+checker of each env (by backend), on generated workspaces: single states (random, as a
+sampling planner draws them), and motions between random valid states, each its median and
+p90 over repeats. For envs whose checker samples motions (the arm), also configurations per
+second (a motion costs many).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from mpnet.envs.specs import SPECS, get_spec
+
+STATES, MOTIONS, REPEATS = 2000, 200, 5
+
+
+def bench_checker(spec, backend: str, workspaces: int = 3, seed: int = 0) -> dict:
+    """Rates of one checker: states/s and motions/s (median, p90 over repeats x workspaces)."""
+    rng = np.random.default_rng(seed)
+    state_rates, motion_rates, config_rates = [], [], []
+    for i in range(workspaces):
+        ws = spec.generator.make(i, "seen", seed)
+        ch = spec.make_checker(ws, backend=backend)
+        qs = np.array([spec.space.sample(rng) for _ in range(STATES)])
+        ok = ch.states_valid(qs)  # warm (the arm loads its obstacles)
+        free = qs[ok]
+        for _ in range(REPEATS):
+            t = time.perf_counter()
+            for q in qs.tolist():
+                ch.is_valid(q)
+            state_rates.append(len(qs) / (time.perf_counter() - t))
+            pick = rng.integers(0, len(free), size=(MOTIONS, 2))
+            a, b = free[pick[:, 0]].tolist(), free[pick[:, 1]].tolist()
+            before = ch.counts().get("configurations_checked")
+            t = time.perf_counter()
+            for x, y in zip(a, b):
+                ch.motion_valid(x, y)
+            dt = time.perf_counter() - t
+            motion_rates.append(MOTIONS / dt)
+            if before is not None:
+                config_rates.append((ch.counts()["configurations_checked"] - before) / dt)
+
+    def mp(r):
+        return (float(np.median(r)), float(np.percentile(r, 10))) if r else (float("nan"), float("nan"))
+
+    out = {"states_per_s": mp(state_rates), "motions_per_s": mp(motion_rates)}
+    if config_rates:
+        out["configurations_per_s"] = mp(config_rates)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m harness.bench_checkers", description=__doc__.splitlines()[0])
+    ap.add_argument("envs", nargs="*", default=sorted(SPECS))
+    ap.add_argument("--workspaces", type=int, default=3)
+    args = ap.parse_args(argv)
+    try:
+        specs = [get_spec(e) for e in args.envs]
+    except KeyError as e:
+        print(f"bench_checkers: {e.args[0]}", file=sys.stderr)
+        return 1
+    print("env     backend   states/s median (p90)   motions/s median (p90)   configurations/s median (p90)")
+    for spec in specs:
+        for backend in dict.fromkeys(spec.robot.checkers):
+            r = bench_checker(spec, backend, args.workspaces)
+            cells = [f"{r[k][0]:>10,.0f} ({r[k][1]:,.0f})" for k in ("states_per_s", "motions_per_s")]
+            conf = r.get("configurations_per_s")
+            cells.append(f"{conf[0]:>10,.0f} ({conf[1]:,.0f})" if conf else "")
+            print(f"{spec.name:<7} {backend:<9} {cells[0]:<23} {cells[1]:<24} {cells[2]}")
+    print("p90: the rate 90% of the repeats reached (the 10th percentile of rates).")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
