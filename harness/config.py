@@ -29,7 +29,10 @@ def geometry_params(env_cfg) -> dict:
 def env_spec(env_cfg) -> EnvSpec:
     """The env's fixed geometry with the config's validation step (and motion step and
     planning margin, where the env has them)."""
-    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **geometry_params(env_cfg))
+    extra = geometry_params(env_cfg)
+    if env_cfg.get("planner_range") is not None:  # not geometry: no data or test set depends on it
+        extra["planner_range"] = float(env_cfg.planner_range)
+    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **extra)
 
 
 def _number(key: str, value, positive: bool = True) -> None:
@@ -54,6 +57,8 @@ def check_config(cfg: DictConfig) -> None:
                 f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
                 f"({cfg.env.motion_step}), got {cfg.env.validation_step}"
             )
+    if cfg.env.get("planner_range") is not None:
+        _number("env.planner_range", cfg.env.planner_range)
     if cfg.env.get("planning_margin") is not None:
         _number("env.planning_margin", cfg.env.planning_margin, positive=False)
         if cfg.env.planning_margin < 0:

@@ -125,3 +125,20 @@ def test_endpoints_are_the_query_exactly():
     for alg in sorted(ALGORITHMS):
         res = OmplPlanner(alg, alg).solve(same, 2.0)
         assert res.solved and verify_path(same.spec, WALL, res.path, same.start, same.goal) is None
+
+
+def test_env_planner_range_bounds_tree_edges():
+    """An env's planner_range is the tree planners' maximum edge length unless the config sets one."""
+    from dataclasses import replace
+
+    spec = replace(get_spec("s2d"), planner_range=0.5)
+    ws = Workspace("w", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+    for planner, bound in (
+        (OmplPlanner("rrt_connect", "rrt_connect"), 0.5),
+        (OmplPlanner("rrt_connect", "rrt_connect", range=2.0), 2.0),
+    ):
+        res = planner.solve(
+            Problem(spec, ws, spec.make_checker(ws), np.array([-10.0, 0.0]), np.array([10.0, 0.0])), 5.0
+        )
+        seg = np.linalg.norm(np.diff(np.asarray(res.path), axis=0), axis=1)
+        assert res.path is not None and seg.max() <= bound + 1e-9 and seg.max() > bound / 2

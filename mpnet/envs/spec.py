@@ -36,6 +36,9 @@ class EnvSpec:
     motion_step: float | None = None
     # Obstacles inflated by this much while planning (metres for the arm); the re-check uses none.
     planning_margin: float = PLANNING_MARGIN
+    # OMPL tree planners' default maximum edge length (RRT-Connect, RRT*, Informed-RRT*; a
+    # planner config's `range` overrides it); None: OMPL's own, 0.2 x the space's extent.
+    planner_range: float | None = None
     # Per-axis scale the networks divide cloud points by; None: the workspace axes' state bounds.
     cloud_scale: tuple[float, ...] | None = None
 

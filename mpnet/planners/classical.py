@@ -30,7 +30,7 @@ class OmplPlanner:
     cost_factor x the problem's reference cost; a path that never gets there is no
     solution (timeout). stop="time": run the whole budget and return the best path (a
     budgeted reference run). `range` is the planner's maximum edge length
-    (None: OMPL's default); `params` are OMPL planner parameters by
+    (None: the env's `planner_range`, else OMPL's default); `params` are OMPL planner parameters by
     snake_case name (rewire_factor -> setRewireFactor).
     """
 
@@ -70,8 +70,9 @@ class OmplPlanner:
         if self.stop == "cost":
             pdef.getOptimizationObjective().setCostThreshold(ob.Cost(target))
         planner = ALGORITHMS[self.algorithm](si)
-        if self.range is not None and hasattr(planner, "setRange"):
-            planner.setRange(float(self.range))
+        reach = self.range if self.range is not None else problem.spec.planner_range
+        if reach is not None and hasattr(planner, "setRange"):
+            planner.setRange(float(reach))
         for key, value in self.params.items():
             # OMPL's ParamSet is not bound in the 2.0.1 wheel: call the setter by name.
             setter = getattr(planner, "set" + "".join(w.capitalize() for w in str(key).split("_")), None)
