@@ -45,6 +45,10 @@ QUERY_COLS = (
     "target_planner",
     "target_cost",
     "target_time_s",
+    "configurations_checked",
+    "encode_s",
+    "pnet_s",
+    "fallback_s",
 )
 
 
@@ -179,6 +183,10 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
             "reference_cost",
             "target_cost",
             "target_time_s",
+            "configurations_checked",
+            "encode_s",
+            "pnet_s",
+            "fallback_s",
         ):
             df[c] = _numbers(df[c])
         df["target_planner"] = [v if isinstance(v, str) else None for v in df["target_planner"]]

@@ -46,6 +46,10 @@ RESULT_COLS = KEYS + [
     "cost_over_bit_star_n",
     "cost_over_bit_star_median",
     "collision_checks_median",
+    "configurations_checked_median",
+    "encode_s_median",
+    "pnet_s_median",
+    "fallback_s_median",
     "pnet_calls_median",
     "replans_mean",
     "fallback_rate",
@@ -104,6 +108,10 @@ def results_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
     res["cost_over_bit_star_n"] = pairs.size()
     res["cost_over_bit_star_median"] = pairs.median()
     res["collision_checks_median"] = by["collision_checks"].median()
+    # Checkers that sample motions (the arm) count the configurations they evaluated; MPNet logs
+    # where a query's time goes (the cloud and Enet, Pnet, HR's classical planner; the rest is checks).
+    for c in ("configurations_checked", "encode_s", "pnet_s", "fallback_s"):
+        res[f"{c}_median"] = by[c].median()
     res["pnet_calls_median"] = g["pnet_calls"].median()
     res["replans_mean"] = g["replans"].mean()
     res["fallback_rate"] = g["fallback_used"].mean()
