@@ -13,7 +13,7 @@ from harness.config import data_params, env_spec, geometry_params, lightning_par
 from harness.provenance import artifact_provenance
 from mpnet.data.dataset import build_dataset, load_dataset
 from mpnet.data.queries import make_testset
-from mpnet.data.store import ensure
+from mpnet.data.store import ensure, partial_dir
 from mpnet.envs.spec import TestSet
 from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import dump_problems, load_problems
@@ -33,7 +33,8 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
     def build(folder: Path) -> dict:
         bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
         try:
-            return build_dataset(spec, params, folder, jobs=int(cfg.jobs), progress=bar.update)
+            resume = partial_dir(cfg.cache_dir, "data", params.key_config())  # a build cut short resumes
+            return build_dataset(spec, params, folder, jobs=int(cfg.jobs), progress=bar.update, resume_dir=resume)
         finally:
             bar.close()
 

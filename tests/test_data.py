@@ -144,3 +144,38 @@ def test_cached_testset_is_the_generated_one(tmp_path, compose_config):
     stamp = (folder / "seen.json").stat().st_mtime_ns
     ensure_testset(cfg, progress=False)
     assert (folder / "seen.json").stat().st_mtime_ns == stamp
+
+
+def test_expert_build_cut_short_resumes_from_its_finished_chunks(tmp_path):
+    """Finished chunks are kept; a rerun plans only the missing ones; a damaged one is redone."""
+    spec = get_spec("s2d")
+    wss = [(i, make_workspace(spec, i, "train")) for i in range(3)]
+    args = dict(seed=3, iterations=200, max_seconds=2.0, jobs=1)
+    full = expert_paths(spec, wss, 2, resume_dir=tmp_path, **args)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["chunk_0.npz", "chunk_1.npz", "chunk_2.npz"]
+    with np.load(tmp_path / "chunk_0.npz") as z:  # mark chunk 0: a resumed build must reuse it as it is
+        marked = {k: z[k] for k in z.files}
+    marked["cost"] = marked["cost"] + 1000.0
+    np.savez(tmp_path / "chunk_0.npz", **marked)
+    (tmp_path / "chunk_1.npz").unlink()  # never finished
+    (tmp_path / "chunk_2.npz").write_bytes(b"damaged")
+    done = []
+    again = expert_paths(spec, wss, 2, resume_dir=tmp_path, progress=done.append, **args)
+    assert sum(done) == 3 and np.allclose(again.cost[:2], full.cost[:2] + 1000.0)
+    assert np.array_equal(again.states, full.states) and np.allclose(again.cost[2:], full.cost[2:])
+
+
+def test_partial_pieces_are_removed_once_the_artifact_is_built(tmp_path):
+    from mpnet.data.store import partial_dir
+
+    piece = partial_dir(tmp_path, "thing", {"a": 1})
+    piece.mkdir(parents=True)
+    (piece / "chunk_0.npz").write_bytes(b"x")
+
+    def build(folder):
+        assert piece.exists()  # the build may read its pieces
+        (folder / "f").write_text("1")
+        return {"files": ["f"]}
+
+    ensure(tmp_path, "thing", {"a": 1}, build)
+    assert not piece.exists()

@@ -58,8 +58,11 @@ class Dataset:
     manifest: dict
 
 
-def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, progress=None) -> dict:
-    """Write data.npz into folder; returns the manifest fields."""
+def build_dataset(
+    spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, progress=None, resume_dir: Path | None = None
+) -> dict:
+    """Write data.npz into folder; returns the manifest fields. resume_dir: where finished
+    chunks of expert paths are kept, so that a build cut short resumes."""
     train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
     total = spec.cloud_size(p.points_per_block)
@@ -74,6 +77,7 @@ def build_dataset(spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, pro
         progress=progress,
         blocked_only=p.expert_blocked_only,
         contract=p.expert_contract,
+        resume_dir=resume_dir,
     )
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),

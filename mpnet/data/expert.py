@@ -10,8 +10,10 @@ the same config gives the same paths on any machine and with any number of proce
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -181,28 +183,61 @@ def expert_paths(
     progress=None,
     blocked_only: bool = True,
     contract: bool = False,
+    resume_dir: Path | None = None,
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
-    `progress(n)` is called with the number of workspaces each finished chunk held."""
+    `progress(n)` is called with the number of workspaces each finished chunk held.
+    resume_dir: each finished chunk is saved there, and chunks found there are not planned
+    again (the folder must belong to these arguments: the artifact store keys it)."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
     chunks = [workspaces[i : i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
     tasks = [(spec, c, count, seed, k, iterations, max_seconds, blocked_only, contract) for k, c in enumerate(chunks)]
     results: list[ExpertPaths | None] = [None] * len(tasks)
-    with ProcessPoolExecutor(
-        max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
-    ) as pool:
-        futures = {pool.submit(chunk_worker, t): k for k, t in enumerate(tasks)}
-        from concurrent.futures import as_completed
+    for k in range(len(tasks)):  # chunks a build cut short already finished
+        results[k] = _load_chunk(resume_dir, k)
+        if results[k] is not None and progress is not None:
+            progress(len(chunks[k]))
+    todo = [k for k in range(len(tasks)) if results[k] is None]
+    if todo:
+        with ProcessPoolExecutor(
+            max_workers=max(1, min(jobs, len(todo))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
+        ) as pool:
+            futures = {pool.submit(chunk_worker, tasks[k]): k for k in todo}
+            from concurrent.futures import as_completed
 
-        for fut in as_completed(futures):
-            k = futures[fut]
-            results[k] = fut.result()
-            if progress is not None:
-                progress(len(chunks[k]))
+            for fut in as_completed(futures):
+                k = futures[fut]
+                results[k] = fut.result()
+                _save_chunk(resume_dir, k, results[k])
+                if progress is not None:
+                    progress(len(chunks[k]))
     return ExpertPaths.concat([r for r in results if r is not None], spec.state_dim)
+
+
+_FIELDS = ("states", "offsets", "workspace", "cost", "raw_cost")
+
+
+def _save_chunk(folder: Path | None, k: int, paths: ExpertPaths) -> None:
+    if folder is None:
+        return
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / f".chunk_{k}.tmp.npz"
+    np.savez(tmp, seconds=paths.seconds, raw_states=paths.raw_states, **{f: getattr(paths, f) for f in _FIELDS})
+    os.replace(tmp, folder / f"chunk_{k}.npz")
+
+
+def _load_chunk(folder: Path | None, k: int) -> ExpertPaths | None:
+    path = None if folder is None else folder / f"chunk_{k}.npz"
+    if path is None or not path.exists():
+        return None
+    try:
+        with np.load(path) as z:
+            return ExpertPaths(*(z[f] for f in _FIELDS), float(z["seconds"]), int(z["raw_states"]))
+    except (OSError, ValueError, KeyError):  # a damaged piece is planned again, never used
+        return None
 
 
 def summary(paths: ExpertPaths) -> dict:

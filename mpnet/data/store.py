@@ -46,6 +46,13 @@ def read_manifest(folder: Path, key: str) -> dict:
     return manifest
 
 
+def partial_dir(root: str | Path, kind: str, config: dict) -> Path:
+    """Where a long build of this artifact keeps its finished pieces (e.g. expert paths per
+    chunk of workspaces), so that a build cut short resumes: same content key, same pieces.
+    `ensure` removes it once the artifact is in place."""
+    return Path(root) / kind / f".{content_key({'kind': kind, **config})}.partial"
+
+
 def ensure(
     root: str | Path,
     kind: str,
@@ -91,6 +98,7 @@ def ensure(
             }
             (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True, default=str))
             os.replace(tmp, folder)
+            shutil.rmtree(base / f".{key}.partial", ignore_errors=True)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
