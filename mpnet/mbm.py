@@ -36,6 +36,8 @@ def is_mbm(path: str | Path) -> bool:
 
 def _pairs(path: Path) -> list[tuple[str, Path, Path]]:
     """(problem id, scene file, request file), sorted by id."""
+    if not path.exists():
+        raise ProblemFileError(path, "no such file or folder")
     if path.is_file():
         m = re.search(r"(scene|request)(\d+)\.ya?ml$", path.name)
         if not m:

@@ -202,8 +202,14 @@ def test_posed_obstacles_need_a_3d_env(tmp_path):
         ],
     }
     (tmp_path / "p.json").write_text(json.dumps(doc))
-    with pytest.raises(ProblemFileError, match="need a 3D env"):
+    with pytest.raises(ProblemFileError, match="need an env whose checker handles them"):
         load_problems(tmp_path / "p.json", get_spec("s2d"))
+    doc["env"] = "c3d"  # 3D, but its point checker knows only axis-aligned boxes
+    doc["workspaces"][0]["obstacles"] = [{"type": "sphere", "center": [0, 0, 0], "size": [4, 4, 4]}]
+    doc["workspaces"][0]["queries"] = [{"start": [5, 5, 5], "goal": [-5, -5, -5]}]
+    (tmp_path / "p.json").write_text(json.dumps(doc))
+    with pytest.raises(ProblemFileError, match="need an env whose checker handles them"):
+        load_problems(tmp_path / "p.json", get_spec("c3d"))
 
 
 def test_mbm_problems_load_with_their_names(mbm_dir):
@@ -234,6 +240,8 @@ def test_mbm_errors_are_one_line(tmp_path, mbm_dir):
     (tmp_path / "empty").mkdir()
     with pytest.raises(ProblemFileError, match="no MotionBenchMaker"):
         load_mbm(tmp_path / "empty", ARM)
+    with pytest.raises(ProblemFileError, match="no such file or folder"):
+        load_mbm(tmp_path / "typo.yaml", ARM)
 
 
 def _tar(members: dict[str, bytes], mode: str) -> bytes:

@@ -62,7 +62,8 @@ RUN_SCHEMA = {
 WORKSPACE_SCHEMA = {
     "$schema": "http://json-schema.org/draft-07/schema#",
     "title": "mpnet_bench.Workspace",
-    "description": "A workspace used by the run: bounds, axis-aligned box obstacles, robot.",
+    "description": "A workspace used by the run: bounds, obstacles (axis-aligned boxes, or posed boxes, "
+    "cylinders and spheres: size is the extent in the primitive's frame), robot.",
     "type": "object",
     "properties": {
         "workspace_id": {"type": "string"},
@@ -74,11 +75,27 @@ WORKSPACE_SCHEMA = {
         },
         "obstacles": {
             "type": "array",
-            "items": {"type": "object", "properties": {"center": _VEC, "size": _VEC}, "required": ["center", "size"]},
+            "items": {
+                "type": "object",
+                "properties": {
+                    "center": _VEC,
+                    "size": _VEC,
+                    "type": {"enum": ["box", "cylinder", "sphere"], "description": "problems@2; absent: a box"},
+                    "orientation": {
+                        "type": "array",
+                        "items": _NUM,
+                        "minItems": 4,
+                        "maxItems": 4,
+                        "description": "quaternion [x, y, z, w] (problems@2); absent: axis-aligned",
+                    },
+                },
+                "required": ["center", "size"],
+            },
         },
         "robot": {
             "type": ["object", "string"],
-            "description": '{"kind": "point"}, {"kind": "rectangle", "size": [w, h]} or the arm\'s name',
+            "description": '{"kind": "point"}, {"kind": "rectangle", "size": [w, h]} or '
+            '{"kind": "arm", "name": "panda", "urdf": ..., "fingers": ...}',
         },
     },
     "required": ["workspace_id", "split", "bounds", "obstacles", "robot"],

@@ -17,6 +17,7 @@ class Robot:
     kind: str = ""
     checkers: dict[str, type[CollisionChecker]] = {}
     default_backend: str = "native"
+    posed_obstacles: bool = False  # whether its checkers handle posed primitives (problems@2)
 
     def to_json(self) -> dict:
         return {"kind": self.kind}
@@ -66,6 +67,7 @@ class ArmRobot(Robot):
     kind = "arm"
     checkers = {"pybullet": PandaChecker}
     default_backend = "pybullet"
+    posed_obstacles = True
 
     def __init__(self, name: str, urdf: str, fingers: float):
         self.name = name
