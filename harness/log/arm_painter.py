@@ -7,6 +7,7 @@ Panda's forward kinematics (mpnet.envs.panda)."""
 
 from __future__ import annotations
 
+import json
 from functools import cache
 from typing import Any
 
@@ -104,8 +105,6 @@ class ArmPainter(Painter):
         return prims
 
     def foxglove_bodies(self, msg):
-        import json
-
         return ",".join(
             json.dumps(cube(p3(c), p3(s), C_ARM, _fquat(q)), separators=(",", ":"))
             for state in ghost_states(msg)

@@ -169,15 +169,12 @@ class PandaChecker(CollisionChecker):
         self.configurations += 1
         return not self.world.collides(q, self.margin)
 
-    def _in_bounds(self, q) -> bool:
-        return all(lo <= v <= hi for v, lo, hi in zip(q, self._lower, self._upper))
-
     def _state_free(self, q) -> bool:
-        return self._in_bounds(q) and self._free(q)
+        return self.spec.space.in_bounds(q) and self._free(q)
 
     def _motion_free(self, a, b) -> bool:
         # Joint limits are a box: the segment is inside when both ends are.
-        if not (self._in_bounds(a) and self._in_bounds(b)):
+        if not (self.spec.space.in_bounds(a) and self.spec.space.in_bounds(b)):
             return False
         a = np.asarray(a, float)
         d = np.asarray(b, float) - a

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mpnet.envs.shapes import Primitive
+from mpnet.envs.shapes import IDENTITY, Primitive
 
 
 @dataclass
@@ -47,7 +47,7 @@ class Workspace:
         """The workspace of a logged obstacle list (obstacles_json's output)."""
         boxes = [o for o in obstacles if "type" not in o and "orientation" not in o]
         prims = tuple(
-            Primitive(o.get("type", "box"), o["center"], o["size"], o.get("orientation", (0.0, 0.0, 0.0, 1.0)))
+            Primitive(o.get("type", "box"), o["center"], o["size"], o.get("orientation", IDENTITY))
             for o in obstacles
             if "type" in o or "orientation" in o
         )
