@@ -70,6 +70,33 @@ def test_orientation_matters():
     assert not ARM.make_checker(ws_of(Primitive("box", beside, plate, yaw_quat(math.pi / 2)))).is_valid(HOME)
 
 
+def test_an_obstacle_on_the_base_blocks_every_configuration():
+    """The fixed base and a static obstacle are never paired by Bullet's broadphase."""
+    ch = ARM.make_checker(ws_of(Primitive("box", (0.0, 0.0, 0.05), (0.1, 0.1, 0.1))))
+    assert not ch.is_valid(HOME)
+
+
+def test_planning_margin_inflates_obstacles():
+    hand = np.array(panda_world().hand_position(HOME))
+    near = ws_of(Primitive.sphere(hand + [0.2, 0.0, 0.1], 0.05))  # 10.5 cm from the hand
+    assert ARM.make_checker(near, margin=0.0).is_valid(HOME)
+    assert not ARM.make_checker(near, margin=0.15).is_valid(HOME)
+
+
+def test_obstacle_swaps_do_not_leak_bodies():
+    world = panda_world()
+    a = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)))
+    b = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)))
+    a.is_valid(HOME)
+    n = world.pb.getNumBodies(physicsClientId=world.client)
+    for _ in range(5):
+        b.is_valid(HOME)
+        a.is_valid(HOME)
+    shapes = len(world.shapes)
+    b.is_valid(HOME)
+    assert world.pb.getNumBodies(physicsClientId=world.client) == n and len(world.shapes) == shapes
+
+
 def test_checkers_of_two_workspaces_take_turns_with_one_world():
     hand = panda_world().hand_position(HOME)
     blocked, free = ARM.make_checker(ws_of(Primitive.sphere(hand, 0.05))), ARM.make_checker(EMPTY)

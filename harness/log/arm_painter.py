@@ -26,7 +26,7 @@ GHOSTS = 6  # arm poses drawn along each path (start and goal included)
 @cache
 def link_boxes() -> list[tuple[int, np.ndarray, np.ndarray]]:
     """(link index in the pose list, centre, size) of each link's collision mesh, as a box
-    in the link's frame."""
+    in the link's inertial frame (where getMeshData's vertices are)."""
     w = panda_world()
     out = []
     for k, link in enumerate(w.links):

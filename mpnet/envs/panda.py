@@ -54,6 +54,9 @@ class PandaWorld:
         self.links = [j for j in range(-1, pb.getNumJoints(self.robot, physicsClientId=self.client))]
         self.owner: object = None
         self.bodies: list[int] = []
+        self.shapes: dict[tuple, int] = {}
+        self.margin = 0.0
+        self.base_blocked = False
         self.allowed = self._always_touching()
 
     def limits(self) -> list[tuple[float, float]]:
@@ -90,28 +93,46 @@ class PandaWorld:
             common = pairs if common is None else common & pairs
         return frozenset(common or ())
 
-    def load(self, owner: object, primitives: list[Primitive]) -> None:
-        """Make `primitives` the world's obstacles (no-op when `owner` loaded them last)."""
+    def load(self, owner: object, primitives: list[Primitive], margin: float) -> None:
+        """Make `primitives` the world's obstacles for collision tests at `margin` (no-op
+        when `owner` loaded them last)."""
         if self.owner is owner:
             return
         pb, c = self.pb, self.client
         for b in self.bodies:
             pb.removeBody(b, physicsClientId=c)
-        self.bodies = []
-        for p in primitives:
+        self.bodies = [
+            pb.createMultiBody(0, self._shape(p), p.center, baseOrientation=p.orientation, physicsClientId=c)
+            for p in primitives
+        ]
+        self.margin = margin
+        # The fixed base and the obstacles are both static, so Bullet never pairs them in
+        # performCollisionDetection: the base is tested once here, at load.
+        self.base_blocked = any(
+            pb.getClosestPoints(self.robot, b, margin, linkIndexA=-1, physicsClientId=c) for b in self.bodies
+        )
+        self.owner = owner
+
+    def _shape(self, p: Primitive) -> int:
+        """A collision shape per distinct geometry, shared by bodies and kept: pybullet 3.2.7
+        refuses removeCollisionShape for a shape once any body used it, so shapes made
+        per load would pile up with every workspace swap."""
+        key = (p.type, tuple(p.size))
+        if key not in self.shapes:
+            pb, c = self.pb, self.client
             if p.type == "box":
                 shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[s / 2 for s in p.size], physicsClientId=c)
             elif p.type == "cylinder":
                 shape = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=p.radius, height=p.height, physicsClientId=c)
             else:
                 shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=p.radius, physicsClientId=c)
-            self.bodies.append(
-                pb.createMultiBody(0, shape, basePosition=p.center, baseOrientation=p.orientation, physicsClientId=c)
-            )
-        self.owner = owner
+            self.shapes[key] = shape
+        return self.shapes[key]
 
-    def collides(self, q, margin: float) -> bool:
-        """Does configuration q touch an obstacle (closer than `margin`) or itself?"""
+    def collides(self, q) -> bool:
+        """Does configuration q touch an obstacle (closer than the loaded margin) or itself?"""
+        if self.base_blocked:
+            return True
         pb, r, c = self.pb, self.robot, self.client
         self.set_q(q)
         pb.performCollisionDetection(physicsClientId=c)
@@ -120,17 +141,22 @@ class PandaWorld:
             if cp[2] == r:
                 if cp[8] < 0.0 and (min(cp[3], cp[4]), max(cp[3], cp[4])) not in allowed:
                     return True
-            elif cp[8] < margin:
+            elif cp[8] < 0.0:
                 return True
+        if self.margin > 0.0:
+            # Contact manifolds only keep points within Bullet's breaking threshold, so a
+            # margin is measured with closest-point queries, obstacle by obstacle.
+            return any(pb.getClosestPoints(r, b, self.margin, physicsClientId=c) for b in self.bodies)
         return False
 
     def link_poses(self, q) -> list[tuple[list[float], list[float]]]:
-        """(position, quaternion [x, y, z, w]) of every link frame, the base first."""
+        """(position, quaternion [x, y, z, w]) of every link's inertial (centre-of-mass)
+        frame, the base first: the frame pybullet's collision meshes are given in."""
         pb, r, c = self.pb, self.robot, self.client
         self.set_q(q)
         base = pb.getBasePositionAndOrientation(r, physicsClientId=c)
         states = pb.getLinkStates(r, self.links[1:], computeForwardKinematics=True, physicsClientId=c)
-        return [(list(base[0]), list(base[1]))] + [(list(s[4]), list(s[5])) for s in states]
+        return [(list(base[0]), list(base[1]))] + [(list(s[0]), list(s[1])) for s in states]
 
     def hand_position(self, q) -> list[float]:
         """Where the hand's frame is: the end-effector trace of a path."""
@@ -165,9 +191,9 @@ class PandaChecker(CollisionChecker):
         self.configurations = 0
 
     def _free(self, q) -> bool:
-        self.world.load(self, self._primitives)
+        self.world.load(self, self._primitives, self.margin)
         self.configurations += 1
-        return not self.world.collides(q, self.margin)
+        return not self.world.collides(q)
 
     def _state_free(self, q) -> bool:
         return self.spec.space.in_bounds(q) and self._free(q)
