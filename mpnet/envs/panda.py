@@ -102,7 +102,9 @@ class PandaWorld:
         for b in self.bodies:
             pb.removeBody(b, physicsClientId=c)
         self.bodies = [
-            pb.createMultiBody(0, self._shape(p), p.center, baseOrientation=p.orientation, physicsClientId=c)
+            pb.createMultiBody(
+                0, self._shape(p), basePosition=p.center, baseOrientation=p.orientation, physicsClientId=c
+            )
             for p in primitives
         ]
         self.margin = margin
