@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.envs.shapes import Primitive
+from mpnet.envs.shapes import IDENTITY, Primitive, quat_matrix
 from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.workspace import Query, Workspace
 from mpnet.problems import SPLIT, ProblemFileError
@@ -70,33 +70,83 @@ def _load_yaml(path: Path):
         raise ProblemFileError(path, f"cannot read it as YAML: {str(e).splitlines()[0]}") from None
 
 
-def scene_primitives(path: Path) -> list[Primitive]:
-    """The collision objects of a MoveIt scene file as posed primitives."""
-    doc = _load_yaml(path)
+_DIMS = {"box": 3, "cylinder": 2, "sphere": 1}  # MoveIt's SolidPrimitive dimension counts
+
+
+def _numbers(path: Path, obj: str, value, keys: str, what: str) -> list[float]:
+    """A vector written as a list or as a MoveIt message dict ({x: .., y: .., z: ..})."""
+    if isinstance(value, dict):
+        value = [value.get(k) for k in keys]
     try:
-        objects = (doc.get("world") or {}).get("collision_objects") or []
+        out = [float(v) for v in value]
+    except (TypeError, ValueError):
         out = []
-        for o in objects:
-            for prim, pose in zip(o.get("primitives") or [], o.get("primitive_poses") or [], strict=True):
-                kind, dims = prim["type"], [float(x) for x in prim["dimensions"]]
-                center, quat = [float(x) for x in pose["position"]], [float(x) for x in pose["orientation"]]
-                if kind == "box":
-                    out.append(Primitive("box", center, dims, quat))
-                elif kind == "cylinder":
-                    out.append(Primitive.cylinder(center, radius=dims[1], height=dims[0], orientation=quat))
-                elif kind == "sphere":
-                    out.append(Primitive.sphere(center, dims[0]))
-                else:
-                    raise ProblemFileError(path, f"object {o.get('id')!r}: unsupported primitive type {kind!r}")
-            if o.get("meshes"):
-                raise ProblemFileError(path, f"object {o.get('id')!r}: meshes are not supported")
-        return out
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
-        if isinstance(e, ProblemFileError):
-            raise
-        raise ProblemFileError(
-            path, f"not a MoveIt scene with world.collision_objects ({type(e).__name__}: {e})"
-        ) from None
+    if len(out) != len(keys) or not all(np.isfinite(out)):
+        raise ProblemFileError(path, f"object {obj!r}: {what} must be {len(keys)} finite numbers, got {value!r}")
+    return out
+
+
+def _pose(path: Path, obj: str, pose, what: str) -> tuple[np.ndarray, np.ndarray]:
+    if not isinstance(pose, dict):
+        raise ProblemFileError(path, f"object {obj!r}: {what} must have a position and an orientation")
+    position = np.array(_numbers(path, obj, pose.get("position"), "xyz", f"{what} position"))
+    quat = np.array(_numbers(path, obj, pose.get("orientation"), "xyzw", f"{what} orientation"))
+    norm = float(np.linalg.norm(quat))
+    if norm < 1e-9:
+        raise ProblemFileError(path, f"object {obj!r}: {what} orientation is a zero quaternion")
+    return position, quat / norm
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of [x, y, z, w] quaternions (a then b in a's frame)."""
+    (ax, ay, az, aw), (bx, by, bz, bw) = a, b
+    return np.array(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ]
+    )
+
+
+def scene_primitives(path: Path) -> list[Primitive]:
+    """The collision objects of a MoveIt scene file as posed primitives (an object's own
+    `pose`, where given, composed with its primitives' poses, as MoveIt does)."""
+    doc = _load_yaml(path)
+    world = doc.get("world") if isinstance(doc, dict) else None
+    objects = world.get("collision_objects") if isinstance(world, dict) else None
+    if not isinstance(objects, list):
+        raise ProblemFileError(path, "not a MoveIt scene: no world.collision_objects list")
+    out = []
+    for i, o in enumerate(objects):
+        obj = o.get("id", f"#{i}") if isinstance(o, dict) else f"#{i}"
+        if not isinstance(o, dict):
+            raise ProblemFileError(path, f"object {obj!r}: not a mapping")
+        if o.get("meshes") or o.get("planes"):
+            raise ProblemFileError(path, f"object {obj!r}: meshes and planes are not supported")
+        prims, poses = o.get("primitives") or [], o.get("primitive_poses") or []
+        if not isinstance(prims, list) or not isinstance(poses, list) or len(prims) != len(poses):
+            raise ProblemFileError(path, f"object {obj!r}: needs as many primitive_poses as primitives")
+        base = _pose(path, obj, o["pose"], "pose") if "pose" in o else (np.zeros(3), np.array(IDENTITY))
+        for prim, pose in zip(prims, poses):
+            kind = prim.get("type") if isinstance(prim, dict) else None
+            if kind not in _DIMS:
+                raise ProblemFileError(path, f"object {obj!r}: unsupported primitive type {kind!r}")
+            dims = _numbers(path, obj, prim.get("dimensions"), "xyz"[: _DIMS[kind]], f"a {kind}'s dimensions")
+            if min(dims) <= 0:
+                raise ProblemFileError(path, f"object {obj!r}: a {kind}'s dimensions must be positive, got {dims}")
+            position, quat = _pose(path, obj, pose, "primitive pose")
+            center = base[0] + quat_matrix(base[1]) @ position
+            quat = tuple(float(x) for x in _quat_mul(base[1], quat))
+            center = tuple(float(x) for x in center)
+            if kind == "box":
+                out.append(Primitive("box", center, tuple(dims), quat))
+            elif kind == "cylinder":
+                out.append(Primitive.cylinder(center, radius=dims[1], height=dims[0], orientation=quat))
+            else:
+                out.append(Primitive.sphere(center, dims[0]))
+    return out
 
 
 def request_states(path: Path) -> tuple[list[float], list[float]]:

@@ -284,7 +284,9 @@ def _check_document(doc, path, spec: EnvSpec) -> TestSet:
             for d, s in enumerate(size):
                 if s <= 0:
                     c.fail(f"size[{d}] is {s:g}; box sizes must be positive")
-            if posed and ("type" in o or "orientation" in o):
+            if "type" in o or "orientation" in o:
+                if not posed:  # an @1 reader would take it for an axis-aligned box
+                    c.fail(f"type and orientation need format {FORMAT_2!r}; this file is {FORMAT!r}")
                 primitives.append(_primitive(c, o, center, size))
             else:
                 centers.append(center)

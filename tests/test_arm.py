@@ -216,6 +216,24 @@ def test_bad_posed_obstacles(tmp_path, obstacle, needle):
     assert needle in str(e.value) and "obstacle #0" in str(e.value) and "\n" not in str(e.value)
 
 
+def test_at_1_files_refuse_posed_obstacles(tmp_path):
+    """An @1 reader would take a sphere for an axis-aligned box: refused, not reinterpreted."""
+    doc = {
+        "format": "mpnet-bench/problems@1",
+        "env": "arm7",
+        "workspaces": [
+            {
+                "id": "w",
+                "obstacles": [{"type": "sphere", "center": [1, 1, 1], "size": [0.2, 0.2, 0.2]}],
+                "queries": [{"start": HOME, "goal": HOME}],
+            }
+        ],
+    }
+    (tmp_path / "p.json").write_text(json.dumps(doc))
+    with pytest.raises(ProblemFileError, match="need format 'mpnet-bench/problems@2'"):
+        load_problems(tmp_path / "p.json", ARM)
+
+
 def test_posed_obstacles_need_a_3d_env(tmp_path):
     doc = {
         "format": FORMAT_2,
@@ -269,6 +287,57 @@ def test_mbm_errors_are_one_line(tmp_path, mbm_dir):
         load_mbm(tmp_path / "empty", ARM)
     with pytest.raises(ProblemFileError, match="no such file or folder"):
         load_mbm(tmp_path / "typo.yaml", ARM)
+
+
+def _scene(objects: list) -> str:
+    return json.dumps({"world": {"collision_objects": objects}})  # JSON is YAML
+
+
+BOX = {"type": "box", "dimensions": [0.1, 0.2, 0.3]}
+AT = {"position": [0.5, 0.0, 0.2], "orientation": [0, 0, 0, 1]}
+
+
+@pytest.mark.parametrize(
+    "objects,needle",
+    [
+        ([{"id": "a", "primitives": [{"type": "box", "dimensions": [0.1, 0.2]}], "primitive_poses": [AT]}], "3 finite"),
+        ([{"id": "a", "primitives": [{"type": "sphere", "dimensions": [-0.1]}], "primitive_poses": [AT]}], "positive"),
+        ([{"id": "a", "primitives": [{"type": "cone", "dimensions": [1]}], "primitive_poses": [AT]}], "'cone'"),
+        ([{"id": "a", "primitives": [BOX], "primitive_poses": []}], "as many primitive_poses"),
+        (
+            [{"id": "a", "primitives": [BOX], "primitive_poses": [{"position": [0, 0, 0], "orientation": [0] * 4}]}],
+            "zero quaternion",
+        ),
+        ([{"id": "a", "primitives": [BOX], "primitive_poses": [AT], "pose": {"position": [0, 0]}}], "pose position"),
+        ([{"id": "a", "meshes": [{}]}], "meshes"),
+        ("nope", "no world.collision_objects"),
+    ],
+)
+def test_mbm_scene_errors_name_the_object(tmp_path, mbm_dir, objects, needle):
+    (tmp_path / "scene0001.yaml").write_text(_scene(objects))
+    (tmp_path / "request0001.yaml").write_text((mbm_dir / "box_panda" / "request0001.yaml").read_text())
+    with pytest.raises(ProblemFileError) as e:
+        load_mbm(tmp_path, ARM)
+    assert needle in str(e.value) and "scene0001.yaml" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_mbm_object_pose_composes_with_primitive_poses(tmp_path, mbm_dir):
+    """MoveIt places an object's primitives relative to the object's own pose."""
+    turn = [0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4)]  # 90 degrees about z
+    obj = {
+        "id": "a",
+        "pose": {
+            "position": {"x": 1.0, "y": 0.0, "z": 0.5},
+            "orientation": {"x": 0, "y": 0, "z": turn[2], "w": turn[3]},
+        },
+        "primitives": [BOX],
+        "primitive_poses": [{"position": [0.2, 0.0, 0.0], "orientation": turn}],
+    }
+    (tmp_path / "scene0001.yaml").write_text(_scene([obj]))
+    (tmp_path / "request0001.yaml").write_text((mbm_dir / "box_panda" / "request0001.yaml").read_text())
+    (p,) = load_mbm(tmp_path, ARM).workspaces[0].primitives
+    assert np.allclose(p.center, [1.0, 0.2, 0.5])
+    assert np.allclose(np.abs(p.orientation), [0, 0, 1, 0], atol=1e-9)  # 180 degrees about z
 
 
 def _tar(members: dict[str, bytes], mode: str) -> bytes:
