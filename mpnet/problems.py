@@ -384,7 +384,8 @@ def load_problems(path: str | Path, spec: EnvSpec) -> TestSet:
     """Read and validate a problem file for `spec` (the env chosen on the command line).
 
     Returns a TestSet whose workspaces and queries have split "file"; workspace ids are
-    as given in the file, query ids are f"{workspace_id}/{index}". Raises
+    as given in the file, query ids are f"{workspace_id}/{index}" (an @2 query may give
+    its own "id"). Raises
     ProblemFileError (one-line message naming the file, workspace and query) on any
     format problem; nothing is returned before the whole file has been checked.
     """

@@ -97,3 +97,18 @@ def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models
         cfg = compose_config(["+env=s2d", f"+planner={planner}", override])
         with pytest.raises(UsageError, match=key):
             build(cfg, models_dirs)
+
+
+@pytest.mark.parametrize("env", ["s2d", "arm7"])
+def test_the_validation_step_is_in_the_cache_keys_when_changed(env, compose_config):
+    """It decides which expert paths are kept and the reference costs: a data set built at
+    another step must not be reused."""
+    from harness.config import data_params
+
+    default = compose_config([f"+env={env}", "+planner=mpnet_nr"])
+    same = compose_config([f"+env={env}", "+planner=mpnet_nr", f"env.validation_step={default.env.validation_step}"])
+    finer = compose_config(
+        [f"+env={env}", "+planner=mpnet_nr", f"env.validation_step={default.env.validation_step / 2}"]
+    )
+    keys = [data_params(c).key_config() for c in (default, same, finer)]
+    assert keys[0] == keys[1] != keys[2]

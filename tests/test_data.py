@@ -158,7 +158,8 @@ def test_expert_build_cut_short_resumes_from_its_finished_chunks(tmp_path):
     marked["cost"] = marked["cost"] + 1000.0
     np.savez(tmp_path / "chunk_0.npz", **marked)
     (tmp_path / "chunk_1.npz").unlink()  # never finished
-    (tmp_path / "chunk_2.npz").write_bytes(b"damaged")
+    whole = (tmp_path / "chunk_2.npz").read_bytes()
+    (tmp_path / "chunk_2.npz").write_bytes(whole[: len(whole) // 2])  # cut off mid-write
     done = []
     again = expert_paths(spec, wss, 2, resume_dir=tmp_path, progress=done.append, **args)
     assert sum(done) == 3 and np.allclose(again.cost[:2], full.cost[:2] + 1000.0)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import os
 import time
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -236,7 +237,7 @@ def _load_chunk(folder: Path | None, k: int) -> ExpertPaths | None:
     try:
         with np.load(path) as z:
             return ExpertPaths(*(z[f] for f in _FIELDS), float(z["seconds"]), int(z["raw_states"]))
-    except (OSError, ValueError, KeyError):  # a damaged piece is planned again, never used
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):  # a damaged piece is planned again
         return None
 
 

@@ -25,7 +25,7 @@ ARM_JOINTS = (0, 1, 2, 3, 4, 5, 6)
 FINGER_JOINTS = (9, 10)
 FINGERS_OPEN = 0.04
 HAND_LINK = 8
-# Joint limits of pybullet_data's panda.urdf (tests/test_panda.py checks them against the URDF).
+# Joint limits of pybullet_data's panda.urdf (tests/test_arm.py checks them against the URDF).
 LIMITS = (
     (-2.9671, 2.9671),
     (-1.8326, 1.8326),

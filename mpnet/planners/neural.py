@@ -120,8 +120,9 @@ class MPNetPlanner:
         if bad is not None:
             return bad
         stats = {"pnet_calls": 0, "replans": 0, "fallback_used": False, "pnet_s": 0.0, "fallback_s": 0.0}
+        t_encode = time.perf_counter()
         z = self.encode(self.cloud(problem.workspace))
-        stats["encode_s"] = time.perf_counter() - t0  # where a query's time goes: the cloud and Enet,
+        stats["encode_s"] = time.perf_counter() - t_encode  # where a query's time goes: the cloud and Enet,
         self.last_code = z  # Pnet (pnet_s), HR's classical planner (fallback_s); the rest is checking
         checker = problem.checker
         forgiving = self.replanning == "forgiving"
