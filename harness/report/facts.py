@@ -80,7 +80,7 @@ class PlannerFacts:
     """What a run's config says its planner is; every field None for a plain planner."""
 
     base: str | None = None  # mpnet_nr / mpnet_hr: an MPNet run, or the base of an ablation
-    variant: str | None = None  # the ablation: random, straight, zeros, nodropout ('+' joins several)
+    variant: str | None = None  # the ablation: random, straight, zeros, nodropout, rrtc ('+' joins several)
     algorithm: str | None = None  # the OMPL algorithm of a classical or time-to-equal-quality run
     target: str | None = None  # nr / hr: whose cost a time-to-equal-quality run must reach
     factor: float | None = None  # ... times this factor
@@ -132,6 +132,9 @@ def run_facts(run: dict) -> PlannerFacts | None:
             variant.append("zeros")
         if p.get("dropout") is False:
             variant.append("nodropout")
+        fallback = p.get("fallback", "rrt_star")
+        if p["hybrid"] is True and fallback != "rrt_star":  # the paper's HR replans with RRT*
+            variant.append("rrtc" if fallback == "rrt_connect" else f"fallback_{fallback}")
         return PlannerFacts(base="mpnet_hr" if p["hybrid"] is True else "mpnet_nr", variant="+".join(variant) or None)
     if p.get("algorithm"):
         return PlannerFacts(algorithm=str(p["algorithm"]))

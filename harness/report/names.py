@@ -57,6 +57,7 @@ ABLATIONS = {
     "straight": "a fixed-length step toward the other tree's end instead of Pnet's proposal",
     "zeros": "Pnet given a zero workspace code",
     "nodropout": "Pnet deterministic (no dropout) at planning time",
+    "rrtc": "RRT-Connect instead of the paper's RRT* as hybrid replanning's classical planner",
 }
 # The mark of a difference that is not significant.
 APPROX = "≈"
