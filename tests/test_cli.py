@@ -204,6 +204,8 @@ def test_mbm_problems_run_named_by_scene(tmp_path, run_cli, mbm_dir):
     assert ws["robot"]["kind"] == "arm" and ws["robot"]["name"] == "panda"
     assert {o.get("type") for o in ws["obstacles"]} >= {"box", "cylinder"}
     assert (tmp_path / "trials.rrd").stat().st_size > 0
+    p = run_cli("harness.recheck", str(tmp_path))  # the arm's independent re-check, from the log alone
+    assert "false successes 0" in p.stdout and "at step 0.001" in p.stdout
 
 
 def test_overhead_benchmark(run_cli):

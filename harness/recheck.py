@@ -1,0 +1,90 @@
+"""`python -m harness.recheck PATH... [--step S]`: every success a run logged, re-checked from
+its trials.mcap alone, in a fresh process with a fresh collision world.
+
+The workspace of each query is rebuilt from the logged `/workspace` obstacles (posed
+primitives included), and the logged joint path is sampled at `--step` (default: half the
+env's validation step, so finer than the bench's own judge) against a checker of the env
+with no margin. This is the arm's re-check (pybullet, a new DIRECT client);
+`../shared/tools/check_trials.py` does the same with its own geometry for the 2D/3D and
+rigid envs. Exit 1 on any false success or unreadable file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from harness.log.mcap_io import read_log
+from mpnet.envs.specs import get_spec
+from mpnet.envs.workspace import Workspace
+from mpnet.motion import verify_path
+
+
+def recheck_file(path: Path, step: float | None = None) -> tuple[int, list[tuple[str, str]], float]:
+    """(successes re-checked, [(query id, why)] of the false ones, step used) of one log."""
+    msgs, _ = read_log(path, ("/run", "/workspace", "/query"))
+    run = next((m.data for m in msgs if m.topic == "/run"), None)
+    if run is None:
+        raise ValueError("no /run message")
+    spec = get_spec(run["env"])
+    step = step or spec.validation_step / 2
+    workspaces = {(m.data["split"], m.data["workspace_id"]): m.data for m in msgs if m.topic == "/workspace"}
+    built: dict[tuple, Workspace] = {}
+    n, false = 0, []
+    for m in msgs:
+        q = m.data
+        if m.topic != "/query" or not q.get("success"):
+            continue
+        key = (q["split"], q["workspace_id"])
+        if key not in built:
+            w = workspaces.get(key)
+            if w is None:
+                false.append((q["query_id"], "no /workspace message for it"))
+                continue
+            built[key] = Workspace.from_json(w["workspace_id"], w["split"], w["obstacles"], spec.workspace_dim)
+        why = verify_path(spec, built[key], q["path"], q["start"], q["goal"], step)
+        n += 1
+        if why is not None:
+            false.append((q["query_id"], why))
+    return n, false, step
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m harness.recheck", description=__doc__.splitlines()[0])
+    ap.add_argument("paths", nargs="+", metavar="PATH", help="trials.mcap files or folders searched for them")
+    ap.add_argument("--step", type=float, default=None, help="sampling step (default: half the env's validation step)")
+    args = ap.parse_args(argv)
+    if args.step is not None and not args.step > 0:
+        print(f"error: --step must be a positive number, got {args.step}", file=sys.stderr)
+        return 2
+    files = []
+    for p in map(Path, args.paths):
+        if p.is_dir():
+            files += sorted(p.rglob("trials.mcap"))
+        elif p.is_file():
+            files.append(p)
+        else:
+            print(f"error: {p}: no such file or folder", file=sys.stderr)
+            return 2
+    if not files:
+        print(f"error: no trials.mcap under {', '.join(args.paths)}", file=sys.stderr)
+        return 2
+    total, bad, unreadable = 0, 0, 0
+    for f in files:
+        try:
+            n, false, step = recheck_file(f, args.step)
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            print(f"{f}: unreadable ({type(e).__name__}: {e})")
+            unreadable += 1
+            continue
+        total, bad = total + n, bad + len(false)
+        print(f"{f}: {n} successes re-checked at step {step:g}, {len(false)} false")
+        for qid, why in false:
+            print(f"  {qid}: {why}")
+    print(f"{len(files)} files, {total} successes re-checked, false successes {bad}, unreadable {unreadable}")
+    return 1 if bad or unreadable else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
