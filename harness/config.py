@@ -22,11 +22,15 @@ from mpnet.envs.specs import get_spec
 GEOMETRY_KEYS = ("motion_step", "planning_margin")
 
 
+def _geometry(env_cfg) -> dict:
+    return {k: float(env_cfg[k]) for k in GEOMETRY_KEYS if env_cfg.get(k) is not None}
+
+
 def geometry_params(env_cfg) -> dict:
     """The config's geometry knobs, for cache keys. The validation step decides which
     expert paths are kept and the reference costs, so it is in the key too, but only when
     it differs from the env's registry value (existing caches keep their keys)."""
-    out = {k: float(env_cfg[k]) for k in GEOMETRY_KEYS if env_cfg.get(k) is not None}
+    out = _geometry(env_cfg)
     step = env_cfg.get("validation_step")
     if step is not None and float(step) != get_spec(env_cfg.name).validation_step:
         out["validation_step"] = float(step)
@@ -36,7 +40,7 @@ def geometry_params(env_cfg) -> dict:
 def env_spec(env_cfg) -> EnvSpec:
     """The env's fixed geometry with the config's validation step (and motion step and
     planning margin, where the env has them)."""
-    extra = {k: float(env_cfg[k]) for k in GEOMETRY_KEYS if env_cfg.get(k) is not None}
+    extra = _geometry(env_cfg)
     if env_cfg.get("planner_range") is not None:  # not geometry: no data or test set depends on it
         extra["planner_range"] = float(env_cfg.planner_range)
     return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **extra)

@@ -18,8 +18,9 @@ import re
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from mpnet.envs.shapes import IDENTITY, Primitive, quat_matrix
+from mpnet.envs.shapes import IDENTITY, Primitive
 from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.workspace import Query, Workspace
 from mpnet.problems import SPLIT, ProblemFileError
@@ -97,19 +98,6 @@ def _pose(path: Path, obj: str, pose, what: str) -> tuple[np.ndarray, np.ndarray
     return position, quat / norm
 
 
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of [x, y, z, w] quaternions (a then b in a's frame)."""
-    (ax, ay, az, aw), (bx, by, bz, bw) = a, b
-    return np.array(
-        [
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz,
-        ]
-    )
-
-
 def scene_primitives(path: Path) -> list[Primitive]:
     """The collision objects of a MoveIt scene file as posed primitives (an object's own
     `pose`, where given, composed with its primitives' poses, as MoveIt does)."""
@@ -128,7 +116,8 @@ def scene_primitives(path: Path) -> list[Primitive]:
         prims, poses = o.get("primitives") or [], o.get("primitive_poses") or []
         if not isinstance(prims, list) or not isinstance(poses, list) or len(prims) != len(poses):
             raise ProblemFileError(path, f"object {obj!r}: needs as many primitive_poses as primitives")
-        base = _pose(path, obj, o["pose"], "pose") if "pose" in o else (np.zeros(3), np.array(IDENTITY))
+        base_at, base_quat = _pose(path, obj, o["pose"], "pose") if "pose" in o else (np.zeros(3), IDENTITY)
+        base_rot = Rotation.from_quat(base_quat)
         for prim, pose in zip(prims, poses):
             kind = prim.get("type") if isinstance(prim, dict) else None
             if kind not in _DIMS:
@@ -137,9 +126,8 @@ def scene_primitives(path: Path) -> list[Primitive]:
             if min(dims) <= 0:
                 raise ProblemFileError(path, f"object {obj!r}: a {kind}'s dimensions must be positive, got {dims}")
             position, quat = _pose(path, obj, pose, "primitive pose")
-            center = base[0] + quat_matrix(base[1]) @ position
-            quat = tuple(float(x) for x in _quat_mul(base[1], quat))
-            center = tuple(float(x) for x in center)
+            center = tuple(float(x) for x in base_at + base_rot.apply(position))
+            quat = tuple(float(x) for x in (base_rot * Rotation.from_quat(quat)).as_quat())
             if kind == "box":
                 out.append(Primitive("box", center, tuple(dims), quat))
             elif kind == "cylinder":
