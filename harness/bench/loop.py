@@ -41,6 +41,15 @@ def _jsonable(v):
     return v
 
 
+def plan_time(wall: float, stats: dict) -> float:
+    """`plan_s`: the query's time given its workspace's code, as a robot that encodes its
+    scene once and then plans many queries would see it: `time_s` less the planner's own
+    `encode_s` (MPNet: the point cloud and Enet); a planner that encodes nothing has
+    plan_s == time_s."""
+    enc = stats.get("encode_s")
+    return wall if enc is None else max(0.0, wall - float(enc))
+
+
 def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     """Solve one query, timed: the record's fields. `failure` is None when the planner
     claims an exact path within the budget; the log process re-checks that claim."""
@@ -57,6 +66,7 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
         "failure": failure,
         "path": res.path if res.path is not None else [],
         "time_s": wall,
+        "plan_s": plan_time(wall, res.stats),
         "cpu_s": cpu,
         **problem.checker.counts(),
         "planner_status": res.status,
@@ -77,6 +87,7 @@ def unplanned(problem: Problem, reason: str) -> dict:
         "failure": reason,
         "path": [],
         "time_s": 0.0,
+        "plan_s": 0.0,
         "cpu_s": 0.0,
         **problem.checker.counts(),
         "planner_status": reason,
