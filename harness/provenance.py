@@ -59,3 +59,23 @@ def run_info(env: str, planner: str, seed: int, split: str, config_yaml: str) ->
 def artifact_provenance() -> dict:
     """Manifest fields of an artifact built now (git runs only when something is built)."""
     return {"git_rev": git_rev(), "versions": versions()}
+
+
+def machine_info() -> dict:
+    """The machine a measurement ran on: CPU model and count, OS, git revision, UTC time."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        "cpu": cpu,
+        "cpus": os.cpu_count(),
+        "os": platform.platform(),
+        "git_rev": git_rev(),
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "versions": versions(),
+    }

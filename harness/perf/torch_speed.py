@@ -1,4 +1,4 @@
-"""`python -m harness.perf_torch [--device cpu|cuda] [--out FILE]`: Pnet inference and
+"""`python -m harness.perf.torch_speed [--device cpu|cuda] [--out FILE]`: Pnet inference and
 training throughput on one torch device, at the quick and the paper network sizes.
 
 Measures, per size: one Pnet step (dropout on, as MPNet plans) at batch 1 and batched,

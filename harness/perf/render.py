@@ -1,0 +1,333 @@
+"""perf.md, perf.csv and the cost-growth figure from the rows of one perf run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from harness.report.names import PLANNER_LABELS, env_label
+from mpnet.envs.specs import get_spec
+
+SPLIT = (  # (label, share column(s)): MPNet's time split, disjoint
+    ("cloud", "cloud_s_share"),
+    ("Enet", ("encode_s_share", "cloud_s_share")),
+    ("Pnet", "pnet_s_share"),
+    ("steerTo", "steer_s_share"),
+    ("feasibility", "feasible_s_share"),
+    ("contraction", "contract_s_share"),
+    ("replanning", "replan_s_share"),
+    ("fallback", "fallback_s_share"),
+)
+
+
+def _g(x, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not np.isfinite(x)):
+        return "—"
+    return f"{x:.{digits}g}"
+
+
+def _ms(x) -> str:
+    return _g(x * 1e3) if x is not None and np.isfinite(x) else "—"
+
+
+def _pct(x) -> str:
+    return f"{x * 100:.1f}" if x is not None and np.isfinite(x) else "—"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _share(r: pd.Series, col) -> float:
+    if isinstance(col, tuple):
+        return r[col[0]] - r[col[1]]
+    return r[col]
+
+
+def planner_label(p: str) -> str:
+    return PLANNER_LABELS.get(p, p)
+
+
+def planners_md(pl: pd.DataFrame) -> str:
+    bit = {r.env: r for r in pl.itertuples() if r.planner == "bit_star"}
+    head = [
+        "Env",
+        "Planner",
+        "Success [%]",
+        "time_s median / p90 [ms]",
+        "plan_s median / p90 [ms]",
+        "time_s / BIT*",
+        "plan_s / BIT*",
+        "Checks (median)",
+        "Configurations (median)",
+    ]
+    rows = []
+    for r in pl.itertuples():
+        b = bit.get(r.env)
+        rows.append(
+            [
+                env_label(r.env),
+                planner_label(r.planner),
+                _pct(r.success_rate),
+                f"{_ms(r.time_median_s)} / {_ms(r.time_p90_s)}",
+                f"{_ms(r.plan_median_s)} / {_ms(r.plan_p90_s)}",
+                _g(r.time_median_s / b.time_median_s) if b is not None else "—",
+                _g(r.plan_median_s / b.time_median_s) if b is not None else "—",
+                _g(r.checks_median),
+                _g(getattr(r, "configurations_median", float("nan"))),
+            ]
+        )
+    return _table(head, rows)
+
+
+def split_md(pl: pd.DataFrame) -> str:
+    if "cloud_s_share" not in pl:
+        return "No MPNet planner ran."
+    mp = pl[pl["cloud_s_share"].notna()]
+    head = ["Env", "Planner"] + [label for label, _ in SPLIT] + ["other"]
+    rows = []
+    for _, r in mp.iterrows():
+        shares = [_share(r, c) for _, c in SPLIT]
+        rows.append(
+            [env_label(r["env"]), planner_label(r["planner"])]
+            + [_pct(s) for s in shares]
+            + [_pct(1 - float(np.nansum(shares)))]
+        )
+    return _table(head, rows)
+
+
+def overhead_md(pl: pd.DataFrame) -> str:
+    head = [
+        "Env",
+        "Planner",
+        "Harness / planning, median [%]",
+        "p90 [%]",
+        "Log process CPU per query [ms]",
+        "Peak RSS planning / log [MB]",
+    ]
+    rows = [
+        [
+            env_label(r.env),
+            planner_label(r.planner),
+            _pct(r.overhead_median),
+            _pct(r.overhead_p90),
+            _ms(r.log_cpu_per_query_s),
+            f"{r.rss_planning_mb:.0f} / {r.rss_log_mb:.0f}",
+        ]
+        for r in pl.itertuples()
+    ]
+    return _table(head, rows)
+
+
+def growth(pl: pd.DataFrame) -> pd.DataFrame:
+    """Median time and checks per query against the state dimension, per planner."""
+    g = pl[["env", "planner", "time_median_s", "plan_median_s", "checks_median"]].copy()
+    g["state_dim"] = [get_spec(e).state_dim for e in g["env"]]
+    return g.sort_values(["planner", "state_dim", "env"])
+
+
+def growth_figure(g: pd.DataFrame, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for p, d in g.groupby("planner", sort=False):
+        for ax, col in zip(axes, ("time_median_s", "checks_median")):
+            ax.plot(d["state_dim"], d[col], marker="o", label=planner_label(p))
+            for x, y, e in zip(d["state_dim"], d[col], d["env"]):
+                ax.annotate(e, (x, y), fontsize=6, alpha=0.6)
+    axes[0].set_ylabel("median time per solved query [s] (time_s)")
+    axes[1].set_ylabel("median collision checks per query")
+    for ax in axes:
+        ax.set_xlabel("state dimension")
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    n = int(g.attrs.get("queries", 0))
+    fig.suptitle(f"How cost grows with dimension (same queries per env{f', n = {n}' if n else ''})", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def gpu_md(folder: Path) -> str:
+    """The GPU figures of `python -m harness.perf.torch_speed` runs kept in folder, quoted."""
+    files = sorted(folder.glob("*.json")) if folder.is_dir() else []
+    rows = []
+    for f in files:
+        d = json.loads(f.read_text())
+        for size, s in d.get("sizes", {}).items():
+            inf, tr = s.get("inference", {}), s.get("training", {})
+            b1 = inf.get("torch_batch1", {}).get("median_s")
+            big = inf.get("torch_batch1024", {}).get("median_s")
+            t100 = tr.get("batch100", {}).get("samples_per_s")
+            rows.append([f.name, d.get("device_name", ""), size, _ms(b1), _ms(big), _g(t100 if t100 else float("nan"))])
+    if not rows:
+        return "No GPU measurement is kept (no GPU machine was available)."
+    head = ["File", "Device", "Size", "Pnet batch 1 [ms]", "Pnet batch 1024 [ms]", "Training batch 100 [samples/s]"]
+    return _table(head, rows)
+
+
+def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: dict) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    df = pd.DataFrame(rows)
+    csv = out / "perf.csv"
+    df.to_csv(csv, index=False)
+    sec = {s: d.reset_index(drop=True) for s, d in df.groupby("section", sort=False)}
+    parts = [
+        "# Performance",
+        "",
+        f"Generated by `python -m harness.perf` on {info['date']}, git {info['git_rev']}, "
+        f"{info['cpu']} ({info['cpus']} CPUs), {info['os']}, in {info['seconds'] / 60:.1f} min. "
+        f"Settings: scale `{settings['scale']}`, splits {settings['splits']}, seed {settings['seed']}, "
+        f"budget {settings['budget_s']} s. Times move by 10-20% between runs on a shared machine: "
+        "read the ratios. Our classical planners are OMPL's C++; the paper's were Python.",
+    ]
+    files = [csv]
+    if "planners" in sec:
+        pl = sec["planners"]
+        n = int(pl["queries"].max())
+        parts += [
+            "",
+            "## Planners on the same queries",
+            "",
+            planners_md(pl),
+            "",
+            f"Each planner ran the same {n} queries per env in its own process, one run at a time. "
+            "time_s: the query as if it were the first in its workspace (MPNet samples the point cloud and "
+            "encodes it: Table I's time). plan_s: given the workspace's code (time_s less MPNet's cloud and "
+            "Enet), as a robot that encodes its scene once would see it; for the classical planners plan_s = "
+            "time_s. Medians and p90 over the solved queries; / BIT*: ratio of medians to BIT*'s time_s "
+            "(its first solution). Checks: collision checks per query (states + motions, every query).",
+            "",
+            "## Where MPNet's time goes [% of time_s]",
+            "",
+            split_md(pl),
+            "",
+            "Sum over the run's queries of each part's time, over the sum of time_s. cloud: sampling the "
+            "workspace's point cloud; Enet: encoding it; Pnet: its steps; steerTo: NeuralPlanner's connection "
+            "checks; feasibility: the whole-path checks; contraction: lazy states contraction; replanning: its "
+            "own checks beside Pnet and steerTo; fallback: HR's classical planner; other: the rest "
+            "(bookkeeping, endpoint checks).",
+            "",
+            "## Harness overhead and memory",
+            "",
+            overhead_md(pl),
+            "",
+            "Harness / planning: per query, the planning loop's own time around the planner (building the "
+            "problem, bookkeeping, the hand-off to the log process) over the planner's time_s. The log process "
+            "re-checks and writes each query beside the loop (its CPU per query). Peak RSS: the planning "
+            "process and the log process of each run (ru_maxrss).",
+        ]
+        g = growth(pl)
+        g.attrs["queries"] = n
+        fig = out / "figures" / "perf_growth.png"
+        growth_figure(g, fig)
+        files.append(fig)
+        head = ["Planner", "Env", "State dim", "time_s median [ms]", "plan_s median [ms]", "Checks (median)"]
+        grows = [
+            [planner_label(r.planner), env_label(r.env), str(r.state_dim), _ms(r.time_median_s),
+             _ms(r.plan_median_s), _g(r.checks_median)]
+            for r in g.itertuples()
+        ]  # fmt: skip
+        parts += [
+            "",
+            "## How cost grows with dimension",
+            "",
+            _table(head, grows),
+            "",
+            "![median time and checks against the state dimension](figures/perf_growth.png)",
+        ]
+    if "networks" in sec:
+        nw = sec["networks"]
+        rows_ = [
+            [r.what, r.size, str(int(r.in_dim)), _g(r.median_s * 1e6), _g(r.p90_s * 1e6), _g(r.floor_median_s * 1e6),
+             _g(r.ratio_to_floor)]
+            for r in nw.itertuples()
+        ]  # fmt: skip
+        parts += [
+            "",
+            "## Networks against their floor (batch 1, one thread)",
+            "",
+            _table(["What", "Size", "Input", "Median [µs]", "p90 [µs]", "Floor [µs]", "Ratio"], rows_),
+            "",
+            "Pnet step: the planner's numpy export with dropout on (as MPNet plans), s2D-shaped input. Floor: "
+            "the same weights as plain chained BLAS matmuls (no bias, activation or dropout). Enet: one cloud "
+            "of 1400 2-D points.",
+        ]
+    if "checkers" in sec:
+        ck = sec["checkers"]
+        rows_ = [
+            [env_label(r.env), r.backend, f"{r.states_per_s:,.0f}", f"{r.states_per_s_batched:,.0f}",
+             f"{r.motions_per_s:,.0f}", f"{r.motions_per_s_batched:,.0f}",
+             f"{r.configurations_per_s:,.0f}" if np.isfinite(r.configurations_per_s) else "—"]
+            for r in ck.itertuples()
+        ]  # fmt: skip
+        parts += [
+            "",
+            "## Collision checking throughput",
+            "",
+            _table(
+                [
+                    "Env",
+                    "Checker",
+                    "States/s",
+                    "States/s batched",
+                    "Motions/s",
+                    "Motions/s batched",
+                    "Configurations/s",
+                ],
+                rows_,
+            ),  # fmt: skip
+            "",
+            "Single: one counted call per state or motion (random states; motions between random free "
+            "states). Batched: one vectorised call for 2000 states or 200 motions. Medians over repeats.",
+        ]
+    if "data" in sec:
+        dd = sec["data"]
+        base = float(dd["paths_per_s"].iloc[0])
+        rows_ = [
+            [env_label(r.env), str(int(r.jobs)), str(int(r.paths)), _g(r.seconds), _g(r.paths_per_s), _g(r.paths_per_s / base)]
+            for r in dd.itertuples()
+        ]
+        parts += [
+            "",
+            "## Data generation",
+            "",
+            _table(["Env", "Workers", "Paths", "Seconds", "Paths/s", "Speed-up"], rows_),
+            "",
+            "Expert paths (RRT*, the env's iterations) in spawned worker processes, process start-up included.",
+        ]
+    if "training" in sec:
+        tr = sec["training"]
+        rows_ = [[r.size, str(int(r.batch)), str(int(r.threads)), _g(r.samples_per_s)] for r in tr.itertuples()]
+        parts += [
+            "",
+            "## Training throughput (CPU)",
+            "",
+            _table(["Size", "Batch", "Torch threads", "Samples/s"], rows_),
+            "",
+            "Pnet training steps (forward, MSE, backward, Adagrad) on random data, this machine's CPU.",
+        ]
+    parts += [
+        "",
+        "## GPU",
+        "",
+        gpu_md(Path(settings.get("gpu_results") or "")),
+        "",
+        "Measured by `python -m harness.perf.torch_speed --device cuda` on a GPU machine when one was lent; "
+        "nothing in the project needs a GPU.",
+    ]
+    if errors:
+        parts += ["", "## Runs that failed", ""] + [f"- {e}" for e in errors]
+    md = out / "perf.md"
+    md.write_text("\n".join(parts) + "\n")
+    return [md, *files]

@@ -1,0 +1,176 @@
+"""The measurements of `python -m harness.perf` that need no bench run: the networks
+against their BLAS floor, collision checking throughput, data generation and training
+throughput. Each returns a list of flat rows (dicts) for perf.csv."""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from harness.bench_checkers import bench_checker
+from mpnet.envs.specs import get_spec
+from mpnet.models.networks import Enet, Pnet, enet_numpy, pnet_numpy
+
+
+def _best_per_call(fn, repeats: int, inner: int) -> tuple[float, float]:
+    """Median and p90 of the per-call time over `repeats` batches of `inner` calls."""
+    for _ in range(inner):
+        fn()
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        for _ in range(inner):
+            fn()
+        ts.append((time.perf_counter() - t) / inner)
+    return statistics.median(ts), float(np.percentile(ts, 90))
+
+
+def _floor(weights: list[np.ndarray], h0: np.ndarray):
+    """The same weights as plain chained BLAS matmuls: what a step cannot beat."""
+
+    def run():
+        h = h0
+        for w in weights:
+            h = h @ w
+        return h
+
+    return run
+
+
+def networks(sizes: dict, state_dim: int, cloud_dim: int, repeats: int, inner: int) -> list[dict]:
+    """Pnet's step at batch 1 (dropout on, as MPNet plans; the planner's numpy export) and
+    Enet's encoding of one cloud, each against its floor, at every size of `sizes`
+    ({name: {"latent", "pnet_hidden", "enet_hidden"}})."""
+    import torch
+
+    rows = []
+    rng = np.random.default_rng(0)
+    for name, s in sizes.items():
+        torch.manual_seed(0)
+        latent = int(s["latent"])
+        pnet = pnet_numpy(Pnet(latent + 2 * state_dim, state_dim, list(s["pnet_hidden"])).eval())
+        z, x, g = np.zeros(latent, np.float32), np.zeros(state_dim), np.ones(state_dim)
+        step = _best_per_call(lambda pnet=pnet, z=z, x=x, g=g: pnet.step(z, x, g, rng), repeats, inner)
+        floor = _best_per_call(_floor(pnet.weights, np.zeros(pnet.in_dim, np.float32)), repeats, inner)
+        rows.append(_net_row("pnet_step", name, pnet.in_dim, step, floor))
+        enet = enet_numpy(Enet(cloud_dim, list(s["enet_hidden"]), latent).eval())
+        cloud = rng.random(cloud_dim).astype(np.float32)
+        enc = _best_per_call(lambda enet=enet, cloud=cloud: enet.encode(cloud), repeats, max(1, inner // 10))
+        floor = _best_per_call(_floor(enet.weights, cloud), repeats, max(1, inner // 10))
+        rows.append(_net_row("enet_encode", name, cloud_dim, enc, floor))
+    return rows
+
+
+def _net_row(what: str, size: str, in_dim: int, t: tuple, floor: tuple) -> dict:
+    return {
+        "section": "networks",
+        "what": what,
+        "size": size,
+        "in_dim": in_dim,
+        "median_s": t[0],
+        "p90_s": t[1],
+        "floor_median_s": floor[0],
+        "ratio_to_floor": t[0] / floor[0],
+    }
+
+
+def checkers(envs: list[str], workspaces: int) -> list[dict]:
+    """Each env's checkers (every backend): states/s and motions/s one at a time, and in
+    batches through the vectorised calls."""
+    rows = []
+    for env in envs:
+        spec = get_spec(env)
+        for backend in dict.fromkeys(spec.robot.checkers):
+            r = bench_checker(spec, backend, workspaces)
+            b = _batched_rates(spec, backend, workspaces)
+            rows.append(
+                {
+                    "section": "checkers",
+                    "env": env,
+                    "backend": backend,
+                    "states_per_s": r["states_per_s"][0],
+                    "motions_per_s": r["motions_per_s"][0],
+                    "states_per_s_batched": b[0],
+                    "motions_per_s_batched": b[1],
+                    "configurations_per_s": r.get("configurations_per_s", (float("nan"),))[0],
+                }
+            )
+    return rows
+
+
+def _batched_rates(spec, backend: str, workspaces: int, n: int = 2000, m: int = 200) -> tuple[float, float]:
+    rng = np.random.default_rng(1)
+    srates, mrates = [], []
+    for i in range(workspaces):
+        ch = spec.make_checker(spec.generator.make(i, "seen", 0), backend=backend)
+        qs = np.array([spec.space.sample(rng) for _ in range(n)])
+        free = qs[ch.states_valid(qs)]
+        pick = rng.integers(0, len(free), size=(m, 2))
+        for _ in range(3):
+            t = time.perf_counter()
+            ch.states_valid(qs)
+            srates.append(n / (time.perf_counter() - t))
+            t = time.perf_counter()
+            ch.motions_valid(free[pick[:, 0]], free[pick[:, 1]])
+            mrates.append(m / (time.perf_counter() - t))
+    return statistics.median(srates), statistics.median(mrates)
+
+
+def data_generation(cfg_env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
+    """Expert paths per second of the data stage (RRT* as the env's config says, spawned
+    worker processes, one workspace per task) with each number of workers."""
+    from mpnet.data.expert import expert_paths
+
+    spec = get_spec(str(cfg_env.name))
+    wss = [(i, spec.generator.make(i, "train", int(cfg_env.data_seed))) for i in range(workspaces)]
+    rows = []
+    for j in jobs:
+        t = time.perf_counter()
+        out = expert_paths(
+            spec,
+            wss,
+            paths,
+            int(cfg_env.data_seed),
+            int(cfg_env.expert.iterations),
+            float(cfg_env.expert.max_seconds),
+            jobs=j,
+            blocked_only=bool(cfg_env.expert.blocked_only),
+        )
+        dt = time.perf_counter() - t
+        n = len(out)
+        rows.append({"section": "data", "env": spec.name, "jobs": j, "paths": n, "seconds": dt, "paths_per_s": n / dt})
+    return rows
+
+
+def training(sizes: dict, state_dim: int, batch: int, steps: int) -> list[dict]:
+    """Pnet training throughput (Adagrad, MSE, the paper's batch; samples/s) per size, on
+    this machine's CPU with torch's own threads."""
+    import torch
+
+    rows = []
+    for name, s in sizes.items():
+        torch.manual_seed(0)
+        latent = int(s["latent"])
+        pnet = Pnet(latent + 2 * state_dim, state_dim, list(s["pnet_hidden"])).train()
+        opt = torch.optim.Adagrad(pnet.parameters(), lr=0.01)
+        x, y = torch.randn(batch, pnet.in_dim), torch.randn(batch, state_dim)
+
+        def one(opt=opt, pnet=pnet, x=x, y=y):
+            opt.zero_grad(set_to_none=True)
+            torch.nn.functional.mse_loss(pnet(x), y).backward()
+            opt.step()
+
+        med, _ = _best_per_call(one, steps, 1)
+        rows.append(
+            {
+                "section": "training",
+                "size": name,
+                "batch": batch,
+                "threads": torch.get_num_threads(),
+                "step_median_s": med,
+                "samples_per_s": batch / med,
+            }
+        )
+    return rows
