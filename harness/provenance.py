@@ -76,6 +76,6 @@ def machine_info() -> dict:
         "cpus": os.cpu_count(),
         "os": platform.platform(),
         "git_rev": git_rev(),
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "versions": versions(),
     }

@@ -295,9 +295,10 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
         dd = sec["data"]
         base = float(dd["paths_per_s"].iloc[0])
         rows_ = [
-            [env_label(r.env), str(int(r.jobs)), str(int(r.paths)), _g(r.seconds), _g(r.paths_per_s), _g(r.paths_per_s / base)]
+            [env_label(r.env), str(int(r.jobs)), str(int(r.paths)), _g(r.seconds), _g(r.paths_per_s),
+             _g(r.paths_per_s / base)]
             for r in dd.itertuples()
-        ]
+        ]  # fmt: skip
         parts += [
             "",
             "## Data generation",

@@ -119,11 +119,18 @@ class MPNetPlanner:
         bad = check_endpoints(problem)
         if bad is not None:
             return bad
-        stats = {"pnet_calls": 0, "replans": 0, "fallback_used": False, "pnet_s": 0.0, "fallback_s": 0.0}
-        t_encode = time.perf_counter()
-        z = self.encode(self.cloud(problem.workspace))
-        stats["encode_s"] = time.perf_counter() - t_encode  # where a query's time goes: the cloud and Enet,
-        self.last_code = z  # Pnet (pnet_s), HR's classical planner (fallback_s); the rest is checking
+        stats = {
+            "pnet_calls": 0,
+            "replans": 0,
+            "fallback_used": False,
+            **dict.fromkeys(SPLIT_KEYS, 0.0),
+        }
+        t = time.perf_counter()
+        cloud = self.cloud(problem.workspace)
+        stats["cloud_s"] = time.perf_counter() - t
+        z = self.encode(cloud)
+        stats["encode_s"] = time.perf_counter() - t  # the cloud and Enet: what plan_s leaves out
+        self.last_code = z
         checker = problem.checker
         forgiving = self.replanning == "forgiving"
         start, goal = problem.start.astype(float), problem.goal.astype(float)
@@ -134,29 +141,50 @@ class MPNetPlanner:
                 return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
             path = [start, goal]  # every segment of [start, goal] is left to replanning
         else:
-            path = lazy_states_contraction(checker, path, step)
-        while not is_feasible(checker, path) and stats["replans"] < self.replan_rounds:
+            path = self.contract(checker, path, step, stats)
+        ok = self.feasible(checker, path, stats)
+        while not ok and stats["replans"] < self.replan_rounds:
             if time.perf_counter() > deadline:
                 return Result(None, TIMEOUT, stats)
             stats["replans"] += 1
             step = self.steer_step(stats["replans"])
+            t, inner = time.perf_counter(), stats["pnet_s"] + stats["steer_s"]
             path, stuck = self.replan(problem, z, path, stats, deadline, step)
-            path = lazy_states_contraction(checker, path, step)
+            stats["replan_s"] += time.perf_counter() - t - (stats["pnet_s"] + stats["steer_s"] - inner)
+            path = self.contract(checker, path, step, stats)
+            if stuck and not forgiving and not self.hybrid:  # the public code: an unconnected segment fails the query
+                return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+            ok = self.feasible(checker, path, stats)
             if stuck and not forgiving:
-                if not self.hybrid:  # the public code: an unconnected segment fails the query
-                    return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
                 break  # HR: the classical planner takes the path as it stands
-        if not is_feasible(checker, path) and self.hybrid:
+        if not ok and self.hybrid:
             stats["fallback_used"] = True
             t = time.perf_counter()
             path = self.classical_replan(problem, path, deadline, stats)
             stats["fallback_s"] = time.perf_counter() - t
             if path is not None:
-                path = lazy_states_contraction(checker, path)
-        if path is None or not is_feasible(checker, path):
+                path = self.contract(checker, path, None, stats)
+                ok = self.feasible(checker, path, stats)
+        if not ok:
             return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
         path = [problem.start.tolist(), *[np.asarray(q, float).tolist() for q in path[1:-1]], problem.goal.tolist()]
         return Result(path, EXACT, stats)
+
+    @staticmethod
+    def contract(checker, path, step, stats: dict) -> list:
+        """lazy_states_contraction, its time in stats["contract_s"]."""
+        t = time.perf_counter()
+        out = lazy_states_contraction(checker, path, step)
+        stats["contract_s"] += time.perf_counter() - t
+        return out
+
+    @staticmethod
+    def feasible(checker, path, stats: dict) -> bool:
+        """is_feasible, its time in stats["feasible_s"]."""
+        t = time.perf_counter()
+        ok = is_feasible(checker, path)
+        stats["feasible_s"] += time.perf_counter() - t
+        return ok
 
     def propose(self, problem: Problem, z, x, target) -> np.ndarray:
         """NeuralPlanner's next state from x toward the other tree's end `target`."""
@@ -198,7 +226,10 @@ class MPNetPlanner:
             stats["pnet_calls"] += 1
             self.trace.append((stage, a[-1], x_new))
             a.append(x_new)
-            if steer_to(checker, a[-1].tolist(), b[-1].tolist(), step):
+            t = time.perf_counter()
+            connected = steer_to(checker, a[-1].tolist(), b[-1].tolist(), step)
+            stats["steer_s"] += time.perf_counter() - t
+            if connected:
                 return a + b[::-1] if a[0] is start else b + a[::-1]
             a, b = b, a
         return None
@@ -250,6 +281,12 @@ class MPNetPlanner:
 
         return query_diagnostics(self, problem)
 
+
+# Where an MPNet query's time goes, disjoint (seconds, in every query's stats): the point
+# cloud, Pnet's steps, NeuralPlanner's steerTo checks, the feasibility checks, lazy states
+# contraction, replanning's own work beside its Pnet and steerTo (dropping colliding states,
+# checking segments) and HR's classical planner. `encode_s` is the cloud and Enet together.
+SPLIT_KEYS = ("cloud_s", "encode_s", "pnet_s", "steer_s", "feasible_s", "contract_s", "replan_s", "fallback_s")
 
 # The T-RO code's steerTo schedule (CMPNet gem_eval.py): 2.0 for the first run (t = 0) and
 # round 1, then 1.2, 0.5, and 0.1 from round 4 on.
