@@ -296,3 +296,34 @@ def test_tro_schedule_matches_the_public_code(repo):
     for doc in ("conf/planner/mpnet_nr.yaml", "conf/planner/mpnet_hr.yaml"):
         assert listed in (repo / doc).read_text()
     assert listed.replace(" ", "") in (repo / "README.md").read_text()
+
+
+@pytest.mark.parametrize("hybrid", [False, True])
+def test_time_split_is_disjoint_and_within_the_query(hybrid):
+    """Every query's stats say where its time went (harness.perf's split): each part is
+    non-negative, the cloud is part of encode_s, and the disjoint parts sum to at most
+    the query's own time."""
+    import time
+
+    from mpnet.planners.neural import SPLIT_KEYS
+
+    ws = make_workspace(S2D, 3, "seen")
+    for q in make_queries(S2D, ws, 5, seed=2, split="seen"):
+        p = Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal)
+        t = time.perf_counter()
+        res = make(random_free(S2D, ws), hybrid).solve(p, 5.0)
+        wall = time.perf_counter() - t
+        s = res.stats
+        assert all(s[k] >= 0.0 for k in SPLIT_KEYS)
+        assert s["cloud_s"] <= s["encode_s"]
+        disjoint = sum(s[k] for k in SPLIT_KEYS if k != "cloud_s")
+        assert disjoint <= wall
+        assert s["pnet_s"] > 0 and s["feasible_s"] > 0
+
+
+def test_plan_s_leaves_out_the_encoding():
+    from harness.bench.loop import plan_time
+
+    assert plan_time(0.010, {"encode_s": 0.004}) == pytest.approx(0.006)
+    assert plan_time(0.010, {}) == 0.010  # a classical planner encodes nothing
+    assert plan_time(0.001, {"encode_s": 0.002}) == 0.0  # never negative

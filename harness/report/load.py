@@ -33,6 +33,7 @@ QUERY_COLS = (
     "success",
     "failure",
     "time_s",
+    "plan_s",
     "cpu_s",
     "path_cost",
     "collision_checks",
@@ -173,6 +174,7 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
         df["fallback_used"] = [_flag(v) for v in df["fallback_used"]]
         for c in (
             "time_s",
+            "plan_s",
             "cpu_s",
             "path_cost",
             "collision_checks",
@@ -193,6 +195,9 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
         for c in ("query_id", "workspace_id", "split"):
             df[c] = df[c].astype(str)
         df["failure"] = df["failure"].astype(object).where(df["failure"].notna(), None)
+        # Logs written before plan_s existed: time_s less MPNet's logged encode_s (what plan_s is)
+        old = df["plan_s"].isna() & df["time_s"].notna()
+        df.loc[old, "plan_s"] = df.loc[old, "time_s"] - df.loc[old, "encode_s"].fillna(0.0).clip(lower=0.0)
         df["file"] = i
         df["qidx"] = np.arange(len(df))
         df["env"] = str(tf.run["env"])

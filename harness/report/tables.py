@@ -38,6 +38,8 @@ RESULT_COLS = KEYS + [
     "time_median_ci_low",
     "time_median_ci_high",
     "time_p90_s",
+    "plan_median_s",
+    "plan_p90_s",
     "cpu_mean_s",
     "cost_mean",
     "quality_n",
@@ -91,6 +93,9 @@ def results_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
     res["time_std_s"] = std_or_zero(t)
     res["time_median_s"] = t.median()
     res["time_p90_s"] = t.quantile(0.9)
+    plan = solved[np.isfinite(solved["plan_s"])].groupby(KEYS, sort=False)["plan_s"]
+    res["plan_median_s"] = plan.median()
+    res["plan_p90_s"] = plan.quantile(0.9)
     by = solved.groupby(KEYS, sort=False)
     res["cpu_mean_s"] = by["cpu_s"].mean()
     res["cost_mean"] = by["path_cost"].mean()

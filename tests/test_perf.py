@@ -1,0 +1,46 @@
+"""`python -m harness.perf` end to end at its tiny settings."""
+
+import pandas as pd
+import pytest
+
+
+@pytest.mark.slow
+def test_perf_writes_every_section(run_cli, tmp_path):
+    out = tmp_path / "reports"
+    run_cli(
+        "harness.perf",
+        "perf=tiny",
+        "perf.envs=[s2d]",
+        f"out={out}",
+        f"cache_dir={tmp_path / 'cache'}",
+        f"hydra.run.dir={tmp_path / 'run'}",
+        timeout=900,
+    )
+    md = (out / "perf.md").read_text()
+    for title in (
+        "## Planners on the same queries",
+        "## Where MPNet's time goes",
+        "## Harness overhead and memory",
+        "## How cost grows with dimension",
+        "## Networks against their floor",
+        "## Collision checking throughput",
+        "## Data generation",
+        "## Training throughput",
+        "## GPU",
+    ):
+        assert title in md
+    assert (out / "figures" / "perf_growth.png").stat().st_size > 0
+    df = pd.read_csv(out / "perf.csv")
+    pl = df[df["section"] == "planners"].set_index("planner")
+    assert set(pl.index) == {"mpnet_nr", "bit_star", "rrt_connect"}
+    assert (pl["queries"] == pl["queries"].iloc[0]).all()  # the same queries for every planner
+    nr = pl.loc["mpnet_nr"]
+    assert nr["plan_median_s"] <= nr["time_median_s"]
+    assert nr["cloud_s_share"] > 0 and nr["pnet_s_share"] > 0
+    bit = pl.loc["bit_star"]
+    assert bit["plan_median_s"] == bit["time_median_s"]
+    assert (pl["rss_planning_mb"] > 50).all()
+    nets = df[df["section"] == "networks"]
+    assert set(nets["what"]) == {"pnet_step", "enet_encode"} and (nets["ratio_to_floor"] > 0).all()
+    data = df[df["section"] == "data"]
+    assert sorted(data["jobs"]) == [1, 2] and (data["paths"] > 0).all()
