@@ -18,6 +18,8 @@ rebuilt with ``Cls(**config)``; the LightningModules save only these dicts.
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Sequence
 from typing import Any
 
@@ -267,6 +269,16 @@ class NumpyPnet:
         widths = [w.shape[1] for w in self.weights[: self.n_dropout]]
         self._offsets = np.concatenate(([0], np.cumsum(widths))).astype(int).tolist()
         self.n_mask = self._offsets[-1]
+        # Dropout's 1/(1-p) scale folded into the weights after each dropout layer when it is a
+        # power of two (p = 0.5: 2): scaling by 2 is exact, so the step's result is bit for bit
+        # the same as scaling the mask, with one operation fewer and a bool mask.
+        self._fold = self.n_mask > 0 and math.frexp(float(self.keep_scale))[0] == 0.5
+        self._dropout_weights = [
+            w * self.keep_scale if self._fold and 0 < i <= self.n_dropout else w for i, w in enumerate(self.weights)
+        ]
+        self._mask = np.empty(self.n_mask, np.float32)
+        self._mask_views = [self._mask[a:b] for a, b in zip(self._offsets[:-1], self._offsets[1:])]
+        self._alpha0 = [np.array(a, np.float32) for a in self.alphas]  # a 0-d array multiplies faster than a scalar
         self.in_dim, self.out_dim = pnet.in_dim, pnet.out_dim
         self.state_dim = pnet.out_dim
         self.normalizer = normalizer
@@ -304,21 +316,23 @@ class NumpyPnet:
         h[zd + d :] = goal
         if self.normalizer is not None:
             h[zd:] *= self._inv2
-        masks = None
+        masks, weights = None, self.weights
         if rng is not None and self.n_mask:
-            masks = rng.random(self.n_mask, dtype=np.float32)
-            np.greater_equal(masks, self.p, out=masks)
-            masks *= self.keep_scale
-        last = len(self.weights) - 1
-        for i, (w, b) in enumerate(zip(self.weights, self.biases)):
+            masks = np.greater_equal(rng.random(self.n_mask, dtype=np.float32), self.p, out=self._mask)
+            if self._fold:
+                weights = self._dropout_weights
+            else:
+                masks *= self.keep_scale
+        last = len(weights) - 1
+        for i, (w, b) in enumerate(zip(weights, self.biases)):
             o = self._bufs[i]
-            np.matmul(h, w, out=o)
+            np.dot(h, w, out=o)  # np.dot: the same BLAS call as matmul, less overhead at batch 1
             o += b
             if i == last:
                 break
             t = self._tmps[i]
             if self._prelu_max:
-                np.multiply(o, self.alphas[i], out=t)
+                np.multiply(o, self._alpha0[i], out=t)
                 np.maximum(o, t, out=o)
             else:
                 np.less(o, 0, out=t)
@@ -326,7 +340,7 @@ class NumpyPnet:
                 t += 1.0
                 o *= t
             if masks is not None and i < self.n_dropout:
-                o *= masks[self._offsets[i] : self._offsets[i + 1]]
+                o *= self._mask_views[i]
             h = o
         if self.normalizer is not None:
             return o * self._out
