@@ -19,7 +19,6 @@ rebuilt with ``Cls(**config)``; the LightningModules save only these dicts.
 from __future__ import annotations
 
 import math
-
 from collections.abc import Sequence
 from typing import Any
 
