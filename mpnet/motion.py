@@ -11,6 +11,42 @@ from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 
 
+class MotionMemo:
+    """A checker that remembers each straight motion's verdict, for one query.
+
+    MPNet tests the same segments again and again: the feasibility check re-tests the jumps
+    lazy states contraction just verified, and each replanning round contracts and checks a
+    path that is mostly the last one. A verdict never changes within a workspace, so the
+    decisions (and paths) are the same as without the memo; only checks that were already
+    made are not made (nor counted) again. Everything else goes to the wrapped checker."""
+
+    def __init__(self, checker: CollisionChecker):
+        self.checker = checker
+        self._seen: dict[tuple, bool] = {}
+
+    def __getattr__(self, name):
+        return getattr(self.checker, name)
+
+    def motion_valid(self, a, b) -> bool:
+        key = (*a, *b)
+        ok = self._seen.get(key)
+        if ok is None:
+            ok = self._seen[key] = bool(self.checker.motion_valid(a, b))
+        return ok
+
+    def motions_valid(self, a, b) -> np.ndarray:
+        a = np.asarray(a, float).reshape(-1, self.checker.spec.state_dim)
+        b = np.asarray(b, float).reshape(-1, self.checker.spec.state_dim)
+        keys = [tuple(r) for r in np.hstack((a, b)).tolist()]
+        out = np.array([self._seen.get(k, False) for k in keys], bool)
+        todo = [i for i, k in enumerate(keys) if k not in self._seen]
+        if todo:
+            fresh = self.checker.motions_valid(a[todo], b[todo])
+            out[todo] = fresh
+            self._seen.update((keys[i], bool(v)) for i, v in zip(todo, fresh))
+        return out
+
+
 def steer_to(checker: CollisionChecker, a, b, step: float | None = None) -> bool:
     """Is the straight motion a -> b free?
 

@@ -472,3 +472,19 @@ def test_importing_the_package_does_not_import_lightning():
         "assert 'lightning' not in sys.modules and 'pytorch_lightning' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+
+
+@pytest.mark.parametrize("p", [0.5, 0.3])
+def test_folded_dropout_scale_is_bit_identical(p):
+    """With p = 0.5 the export folds dropout's x2 into the next layer's weights (exact in
+    floating point); a step must equal, bit for bit, the unfolded step with the same draws.
+    With p = 0.3 (1/0.7 is not a power of two) nothing is folded."""
+    torch.manual_seed(0)
+    pnet = Pnet(12, 2, [64, 32, 16], dropout=p).eval()
+    folded, plain = pnet_numpy(pnet), pnet_numpy(pnet)
+    assert folded._fold == (p == 0.5)
+    plain._fold, plain._dropout_weights = False, plain.weights
+    z, rng_a, rng_b = np.linspace(-1, 1, 8).astype(np.float32), np.random.default_rng(7), np.random.default_rng(7)
+    for x in np.random.default_rng(1).uniform(-3, 3, size=(50, 2)):
+        a, b = folded.step(z, x, -x, rng_a), plain.step(z, x, -x, rng_b)
+        assert np.array_equal(a, b)

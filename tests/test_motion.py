@@ -114,3 +114,23 @@ def test_a_state_on_the_bound_stays_in_bounds():
     assert interpolate_path(spec, np.array([a, b, a]), 0.005).max(axis=0)[0] == 20.0
     empty = Workspace("e", "file", np.zeros((0, 2)), np.zeros((0, 2)))
     assert verify_path(spec, empty, [list(a), list(b)], a, b, 0.005) is None
+
+
+def test_motion_memo_same_verdicts_and_checks_each_motion_once():
+    from mpnet.envs import get_spec
+    from mpnet.envs.generators import make_workspace
+    from mpnet.motion import MotionMemo
+
+    spec = get_spec("s2d")
+    ws = make_workspace(spec, 1, "seen")
+    plain, memo = spec.make_checker(ws), MotionMemo(spec.make_checker(ws))
+    rng = np.random.default_rng(0)
+    a = rng.uniform(spec.lower, spec.upper, size=(50, 2))
+    b = rng.uniform(spec.lower, spec.upper, size=(50, 2))
+    expect = plain.motions_valid(a, b)
+    assert 0 < expect.sum() < 50  # both verdicts occur
+    assert (memo.motions_valid(a[:20], b[:20]) == expect[:20]).all()
+    assert (memo.motions_valid(a, b) == expect).all()  # 20 known, 30 new
+    assert [memo.motion_valid(x.tolist(), y.tolist()) for x, y in zip(a, b)] == expect.tolist()
+    assert memo.checker.motion_checks == 50  # each motion checked once
+    assert memo.is_valid(a[0].tolist()) == plain.is_valid(a[0].tolist())  # the rest goes to the checker

@@ -327,3 +327,20 @@ def test_plan_s_leaves_out_the_encoding():
     assert plan_time(0.010, {"encode_s": 0.004}) == pytest.approx(0.006)
     assert plan_time(0.010, {}) == 0.010  # a classical planner encodes nothing
     assert plan_time(0.001, {"encode_s": 0.002}) == 0.0  # never negative
+
+
+def test_motion_memo_changes_no_decision(monkeypatch):
+    """The memo is pure speed: the same seed plans the same paths with and without it."""
+    import mpnet.planners.neural as neural
+
+    ws = make_workspace(S2D, 4, "seen")
+    queries = make_queries(S2D, ws, 8, seed=3, split="seen")
+
+    def paths():
+        planner = make(straight(), hybrid=False, seed=5)
+        return [planner.solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal), 5.0).path for q in queries]
+
+    with_memo = paths()
+    monkeypatch.setattr(neural, "MotionMemo", lambda checker: checker)
+    assert paths() == with_memo
+    assert any(p is not None for p in with_memo)

@@ -11,10 +11,11 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
-from mpnet.motion import is_feasible, lazy_states_contraction, steer_to
+from mpnet.motion import MotionMemo, is_feasible, lazy_states_contraction, steer_to
 from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
 
 
@@ -131,6 +132,8 @@ class MPNetPlanner:
         z = self.encode(cloud)
         stats["encode_s"] = time.perf_counter() - t  # the cloud and Enet: what plan_s leaves out
         self.last_code = z
+        raw = problem.checker  # HR's classical planner checks on it directly
+        problem = replace(problem, checker=MotionMemo(raw))
         checker = problem.checker
         forgiving = self.replanning == "forgiving"
         start, goal = problem.start.astype(float), problem.goal.astype(float)
@@ -160,7 +163,7 @@ class MPNetPlanner:
         if not ok and self.hybrid:
             stats["fallback_used"] = True
             t = time.perf_counter()
-            path = self.classical_replan(problem, path, deadline, stats)
+            path = self.classical_replan(problem, path, deadline, stats, raw)
             stats["fallback_s"] = time.perf_counter() - t
             if path is not None:
                 path = self.contract(checker, path, None, stats)
@@ -247,7 +250,7 @@ class MPNetPlanner:
 
         return _repair(problem.checker, path, connect, step, stop_on_fail=self.replanning == "original")
 
-    def classical_replan(self, problem: Problem, path, deadline: float, stats: dict):
+    def classical_replan(self, problem: Problem, path, deadline: float, stats: dict, checker):
         """HR: RRT* on every segment that is still unconnectable, within the budget left;
         None when one of them fails.
 
@@ -260,7 +263,7 @@ class MPNetPlanner:
             slice_s = self.fallback_restart_s
             while (left := deadline - time.perf_counter()) > 0:
                 res = self.fallback.solve(
-                    Problem(problem.spec, problem.workspace, problem.checker, x, y),
+                    Problem(problem.spec, problem.workspace, checker, x, y),
                     left if slice_s is None else min(left, slice_s),
                 )
                 stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
