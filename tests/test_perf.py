@@ -22,6 +22,7 @@ def test_perf_writes_every_section(run_cli, tmp_path):
         "## Where MPNet's time goes",
         "## Harness overhead and memory",
         "## How cost grows with dimension",
+        "## How cost grows with the number of obstacles",
         "## Networks against their floor",
         "## Collision checking throughput",
         "## Data generation",
@@ -40,7 +41,21 @@ def test_perf_writes_every_section(run_cli, tmp_path):
     bit = pl.loc["bit_star"]
     assert bit["plan_median_s"] == bit["time_median_s"]
     assert (pl["rss_planning_mb"] > 50).all()
+    ob = df[df["section"] == "obstacles"]
+    assert sorted(set(ob["blocks"])) == [4, 14] and (ob["queries"] == 2).all()
+    assert (out / "figures" / "perf_obstacles.png").stat().st_size > 0
     nets = df[df["section"] == "networks"]
     assert set(nets["what"]) == {"pnet_step", "enet_encode"} and (nets["ratio_to_floor"] > 0).all()
     data = df[df["section"] == "data"]
     assert sorted(data["jobs"]) == [1, 2] and (data["paths"] > 0).all()
+
+
+def test_random_blocks_are_seeded_and_inside_the_square():
+    from mpnet.envs.generators import RandomBlocks
+
+    a, b = RandomBlocks(28).make(3, "file", 0), RandomBlocks(28).make(3, "file", 0)
+    assert len(a.centers) == 28 and (a.centers == b.centers).all()
+    assert (a.lo >= -20).all() and (a.hi <= 20).all()
+    assert not (RandomBlocks(28).make(4, "file", 0).centers == a.centers).all()
+    with pytest.raises(ValueError):
+        RandomBlocks(0)

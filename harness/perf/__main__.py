@@ -36,6 +36,7 @@ def _step(name: str, t0: float) -> None:
 @hydra.main(version_base="1.3", config_path="../../conf", config_name="perf_main")
 def main(cfg: DictConfig) -> None:
     from harness.perf import render, sections
+    from harness.perf.obstacles import obstacles
     from harness.perf.planners import planners
     from harness.provenance import machine_info
 
@@ -51,6 +52,10 @@ def main(cfg: DictConfig) -> None:
     ]
     rows, errors = planners(list(p.envs), list(p.planners), common)
     _step("planners", t0)
+    o = p.obstacles
+    more, bad = obstacles(list(o.counts), list(o.planners), common, int(o.workspaces), int(o.queries), int(p.seed))
+    rows, errors = rows + more, errors + bad
+    _step("obstacles", t0)
     rows += sections.networks(_sizes(p.network_sizes), 2, 2800, int(p.network_repeats), int(p.network_inner))
     _step("networks", t0)
     rows += sections.checkers(list(p.envs), int(p.checker_workspaces))

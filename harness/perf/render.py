@@ -158,6 +158,31 @@ def growth_figure(g: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
+def obstacles_figure(ob: pd.DataFrame, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for p, d in ob.groupby("planner", sort=False):
+        for ax, col in zip(axes, ("time_median_s", "checks_median")):
+            ax.plot(d["blocks"], d[col], marker="o", label=planner_label(p))
+    axes[0].set_ylabel("median time per solved query [s] (time_s)")
+    axes[1].set_ylabel("median collision checks per query")
+    for ax in axes:
+        ax.set_xlabel("blocks in the workspace (s2d-like)")
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    n = int(ob["queries"].max())
+    fig.suptitle(f"How cost grows with the number of obstacles (n = {n} queries per count)", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def gpu_md(folder: Path) -> str:
     """The GPU figures of `python -m harness.perf.torch_speed` runs kept in folder, quoted."""
     files = sorted(folder.glob("*.json")) if folder.is_dir() else []
@@ -245,6 +270,40 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             _table(head, grows),
             "",
             "![median time and checks against the state dimension](figures/perf_growth.png)",
+        ]
+    if "obstacles" in sec:
+        ob = sec["obstacles"].sort_values(["planner", "blocks"], kind="stable")
+        fig = out / "figures" / "perf_obstacles.png"
+        obstacles_figure(ob, fig)
+        files.append(fig)
+        rows_ = [
+            [planner_label(r.planner), str(int(r.blocks)), str(int(r.queries)), _pct(r.success_rate),
+             _ms(r.time_median_s), _ms(r.plan_median_s), _g(r.checks_median)]
+            for r in ob.itertuples()
+        ]  # fmt: skip
+        parts += [
+            "",
+            "## How cost grows with the number of obstacles",
+            "",
+            _table(
+                [
+                    "Planner",
+                    "Blocks",
+                    "Queries",
+                    "Success [%]",
+                    "time_s median [ms]",
+                    "plan_s median [ms]",
+                    "Checks (median)",
+                ],
+                rows_,
+            ),  # fmt: skip
+            "",
+            "s2d-like layouts: N random 5 x 5 blocks in the s2d square, the same queries for every planner "
+            "(problem files, `mpnet.envs.generators.RandomBlocks`). MPNet plans with the s2d networks, trained "
+            "on 7 blocks: other counts are out of its training distribution (its cloud spreads the same "
+            "1400 points over all blocks).",
+            "",
+            "![median time and checks against the number of blocks](figures/perf_obstacles.png)",
         ]
     if "networks" in sec:
         nw = sec["networks"]

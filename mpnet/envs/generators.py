@@ -113,3 +113,24 @@ def make_workspaces(spec, indices: list[int], split: str, seed: int = 0) -> list
 def extra_ids(count: int) -> list[int]:
     """Ids of layouts beyond the test splits (never seen or unseen test workspaces)."""
     return list(range(N_TRAIN + N_UNSEEN, N_TRAIN + N_UNSEEN + count))
+
+
+class RandomBlocks:
+    """s2d-like layouts with any number of blocks: `blocks` squares of side `size` at
+    uniformly random centres inside `bounds`, seeded by (seed, blocks, index). For
+    measuring how planning cost grows with the number of obstacles (harness.perf); the
+    envs' own workspaces never come from it."""
+
+    def __init__(self, blocks: int, size: float = 5.0, bounds: float = 20.0):
+        if blocks < 1:
+            raise ValueError(f"blocks must be >= 1, got {blocks}")
+        self.blocks, self.size, self.bounds = int(blocks), float(size), float(bounds)
+
+    def make(self, index: int, split: str, seed: int = 0) -> Workspace:
+        rng = np.random.default_rng([seed, self.blocks, index])
+        half = self.bounds - self.size / 2
+        centres = rng.uniform(-half, half, size=(self.blocks, 2))
+        return Workspace(str(index), split, centres, np.full((self.blocks, 2), self.size))
+
+    def make_many(self, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
+        return [self.make(i, split, seed) for i in indices]
