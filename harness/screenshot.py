@@ -10,7 +10,9 @@ Optional tools, not dependencies of the project: `pip install playwright` and a 
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -41,6 +43,10 @@ def screenshot(rrd: Path, out: Path, chromium: str | None, wait_s: float, size: 
         [rerun, "--web-viewer", "--web-viewer-port", str(web), "--port", str(grpc), str(rrd)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        # `rerun` on PATH is a wrapper that starts the viewer binary as its child: a group of
+        # their own lets the whole group be stopped (terminating the wrapper alone left the
+        # viewer running, at ~80% CPU, after every screenshot)
+        start_new_session=True,
     )
     try:
         time.sleep(3)  # the server loads the recording
@@ -53,7 +59,10 @@ def screenshot(rrd: Path, out: Path, chromium: str | None, wait_s: float, size: 
             page.screenshot(path=str(out))
             browser.close()
     finally:
-        server.terminate()
+        try:
+            os.killpg(server.pid, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
         server.wait(timeout=10)
 
 

@@ -7,6 +7,7 @@ import shutil
 import sqlite3
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -600,6 +601,15 @@ def test_screenshot_of_a_recording(tmp_path, run_cli, mbm_dir):
 
     img = np.asarray(Image.open(tmp_path / "shot.png").convert("RGB"), float)
     assert img.shape[:2] == (1000, 1600) and img.std() > 20  # the viewer drew something, not a blank page
+    rrd = str(tmp_path / "trials.rrd").encode()
+    left = []  # the viewer is stopped with its wrapper (it once outlived it, spinning a core)
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if rrd in cmdline.read_bytes():
+                left.append(cmdline.parent.name)
+        except OSError:
+            pass
+    assert not left, f"viewer processes left running: {left}"
 
 
 def test_screenshot_needs_a_recording(tmp_path, run_cli):
