@@ -79,3 +79,17 @@ def machine_info() -> dict:
         "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "versions": versions(),
     }
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory in MB: VmHWM, which (unlike ru_maxrss) restarts
+    at exec, so a spawned process does not count the pages of the parent it was forked from."""
+    import resource
+
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

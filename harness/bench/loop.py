@@ -31,6 +31,7 @@ class QueryTiming:
     harness_s: list[float] = field(default_factory=list)
     diagnostics_s: list[float] = field(default_factory=list)
     log_cpu_s: float = 0.0
+    log_peak_rss_mb: float = float("nan")
 
 
 def _jsonable(v):

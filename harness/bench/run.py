@@ -154,6 +154,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     records = log.records
     if timing is not None:
         timing.log_cpu_s = log.child_cpu_s
+        timing.log_peak_rss_mb = log.child_peak_rss_mb
     if not quiet:
         print(f"{cfg.env.name} / {cfg.planner.name} / seed {cfg.seed}: {run_dir}")
         print(format_summary(summarize(records)) if records else "no queries to run")

@@ -18,6 +18,7 @@ import signal
 import time
 from pathlib import Path
 
+from harness.provenance import peak_rss_mb
 from mpnet.motion import path_cost, verify_path
 
 SUMMARY_FIELDS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "path_cost", "collision_checks")
@@ -82,7 +83,7 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
                     records.append({k: rec.get(k) for k in SUMMARY_FIELDS})
             elif kind == "close":
                 break
-    conn.send(("closed", {"records": records, "cpu_s": time.process_time() - cpu0}))
+    conn.send(("closed", {"records": records, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb()}))
 
 
 def _widen(conn, size: int = 1 << 20) -> None:
@@ -135,6 +136,7 @@ class LogProcess:
         reply.close()
         self.records: list[dict] = []
         self.child_cpu_s = 0.0
+        self.child_peak_rss_mb = float("nan")
         self._closed = False
         self._pending: list[dict] = []
         self._sent_at = time.perf_counter()
@@ -176,6 +178,7 @@ class LogProcess:
         _, payload = self._recv()
         self._proc.join()
         self.records, self.child_cpu_s = payload["records"], payload["cpu_s"]
+        self.child_peak_rss_mb = payload["peak_rss_mb"]
         return self.records
 
     def __enter__(self) -> LogProcess:

@@ -6,7 +6,6 @@ peak memory."""
 from __future__ import annotations
 
 import multiprocessing as mp
-import resource
 import tempfile
 from pathlib import Path
 
@@ -21,6 +20,7 @@ def _child(overrides: list[str], conn) -> None:
     from hydra import compose, initialize_config_dir
 
     from harness.bench import QueryTiming, bench
+    from harness.provenance import peak_rss_mb
     from harness.report.load import read_trials
 
     conf = str(Path(__file__).resolve().parents[2] / "conf")
@@ -38,9 +38,8 @@ def _child(overrides: list[str], conn) -> None:
                 "harness_s": timing.harness_s,
                 "plan_s": timing.plan_s,
                 "log_cpu_s": timing.log_cpu_s,
-                # ru_maxrss is in KiB on Linux: this process's peak, and the largest child's (the log process)
-                "rss_planning_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                "rss_log_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
+                "rss_planning_mb": peak_rss_mb(),
+                "rss_log_mb": timing.log_peak_rss_mb,
             }
         )
     except BaseException as e:  # noqa: BLE001 - reported by the parent as one line

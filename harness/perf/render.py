@@ -58,6 +58,7 @@ def planners_md(pl: pd.DataFrame) -> str:
     head = [
         "Env",
         "Planner",
+        "Queries",
         "Success [%]",
         "time_s median / p90 [ms]",
         "plan_s median / p90 [ms]",
@@ -73,6 +74,7 @@ def planners_md(pl: pd.DataFrame) -> str:
             [
                 env_label(r.env),
                 planner_label(r.planner),
+                str(int(r.queries)),
                 _pct(r.success_rate),
                 f"{_ms(r.time_median_s)} / {_ms(r.time_p90_s)}",
                 f"{_ms(r.plan_median_s)} / {_ms(r.plan_p90_s)}",
@@ -226,7 +228,8 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             planners_md(pl),
             "",
-            f"Each planner ran the same {n} queries per env in its own process, one run at a time. "
+            f"Each planner ran the same queries of an env (the {'/'.join(settings['splits'])} split of the "
+            f"`{settings['scale']}` test set) in its own process, one run at a time. "
             "time_s: the query as if it were the first in its workspace (MPNet samples the point cloud and "
             "encodes it: Table I's time). plan_s: given the workspace's code (time_s less MPNet's cloud and "
             "Enet), as a robot that encodes its scene once would see it; for the classical planners plan_s = "
@@ -250,7 +253,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "Harness / planning: per query, the planning loop's own time around the planner (building the "
             "problem, bookkeeping, the hand-off to the log process) over the planner's time_s. The log process "
             "re-checks and writes each query beside the loop (its CPU per query). Peak RSS: the planning "
-            "process and the log process of each run (ru_maxrss).",
+            "process and the log process of each run (VmHWM); a bench run's peak is at most their sum.",
         ]
         g = growth(pl)
         g.attrs["queries"] = n
