@@ -240,3 +240,23 @@ def test_rigid_motion_checks_stay_cheap():
     calls[0] = 0
     assert not head_on.motion_valid((-5.0, 0.0, 0.3), (5.0, 0.0, 0.3))
     assert calls[0] < 10
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.integers(0, 99),
+    st.lists(st.floats(-22, 22, allow_nan=False), min_size=4, max_size=4),
+    st.sampled_from(["free", "same_x", "same_y", "from_corner"]),
+)
+def test_unrolled_2d_motion_check_equals_the_slab_test(ws_index, xs, kind):
+    """The plane's unrolled motion check answers exactly as the generic slab test."""
+    spec = get_spec("s2d")
+    ch = spec.make_checker(make_workspace(spec, ws_index, "seen"))
+    a, b = xs[:2], xs[2:]
+    if kind == "same_x":
+        b[0] = a[0]
+    elif kind == "same_y":
+        b[1] = a[1]
+    elif kind == "from_corner":
+        a = ch.lo[ws_index % len(ch.lo)].tolist()
+    assert ch._motion_free_2d(a, b) == PointChecker._motion_free(ch, a, b)

@@ -95,6 +95,9 @@ class PointChecker(CollisionChecker):
         self._boxes = [(tuple(lo), tuple(hi)) for lo, hi in zip(self.lo.tolist(), self.hi.tolist())]
         self._bounds = [tuple(b) for b in spec.space.bounds]
         self._d = spec.state_dim
+        if self._d == 2:  # the plane: an unrolled slab test (steerTo's one motion is MPNet's hot path)
+            self._boxes2 = [(lo[0], lo[1], hi[0], hi[1]) for lo, hi in self._boxes]
+            self._motion_free = self._motion_free_2d
 
     def _in_bounds(self, q) -> bool:
         for v, (lo, hi) in zip(q, self._bounds):
@@ -121,6 +124,47 @@ class PointChecker(CollisionChecker):
         for lo, hi in self._boxes:
             if _segment_hits_box(a, d, lo, hi):
                 return False
+        return True
+
+    def _motion_free_2d(self, a, b) -> bool:
+        """_motion_free in the plane, the slab test of _segment_hits_box unrolled (the same
+        operations in the same order, so the same answers), ~2x faster."""
+        ax, ay, bx, by = a[0], a[1], b[0], b[1]
+        (lx, hx), (ly, hy) = self._bounds
+        if not (lx <= ax <= hx and ly <= ay <= hy and lx <= bx <= hx and ly <= by <= hy):
+            return False
+        dx, dy = bx - ax, by - ay
+        for x0, y0, x1, y1 in self._boxes2:
+            t0, t1 = 0.0, 1.0
+            if dx == 0.0:
+                if ax < x0 or ax > x1:
+                    continue
+            else:
+                inv = 1.0 / dx
+                ta, tb = (x0 - ax) * inv, (x1 - ax) * inv
+                if ta > tb:
+                    ta, tb = tb, ta
+                if ta > t0:
+                    t0 = ta
+                if tb < t1:
+                    t1 = tb
+                if t0 > t1:
+                    continue
+            if dy == 0.0:
+                if ay < y0 or ay > y1:
+                    continue
+            else:
+                inv = 1.0 / dy
+                ta, tb = (y0 - ay) * inv, (y1 - ay) * inv
+                if ta > tb:
+                    ta, tb = tb, ta
+                if ta > t0:
+                    t0 = ta
+                if tb < t1:
+                    t1 = tb
+                if t0 > t1:
+                    continue
+            return False
         return True
 
     def _states_free(self, qs: np.ndarray) -> np.ndarray:
