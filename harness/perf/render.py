@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from harness.report.names import PLANNER_LABELS, env_label
+from harness.report.render import _md_table
 from mpnet.envs.specs import get_spec
 
 SPLIT = (  # (label, share column(s)): MPNet's time split, disjoint
@@ -35,12 +36,6 @@ def _ms(x) -> str:
 
 def _pct(x) -> str:
     return f"{x * 100:.1f}" if x is not None and np.isfinite(x) else "—"
-
-
-def _table(head: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(lines)
 
 
 def _share(r: pd.Series, col) -> float:
@@ -84,7 +79,7 @@ def planners_md(pl: pd.DataFrame) -> str:
                 _g(getattr(r, "configurations_median", float("nan"))),
             ]
         )
-    return _table(head, rows)
+    return _md_table(head, rows)
 
 
 def split_md(pl: pd.DataFrame) -> str:
@@ -100,7 +95,7 @@ def split_md(pl: pd.DataFrame) -> str:
             + [_pct(s) for s in shares]
             + [_pct(1 - float(np.nansum(shares)))]
         )
-    return _table(head, rows)
+    return _md_table(head, rows)
 
 
 def overhead_md(pl: pd.DataFrame) -> str:
@@ -123,7 +118,7 @@ def overhead_md(pl: pd.DataFrame) -> str:
         ]
         for r in pl.itertuples()
     ]
-    return _table(head, rows)
+    return _md_table(head, rows)
 
 
 def growth(pl: pd.DataFrame) -> pd.DataFrame:
@@ -133,56 +128,29 @@ def growth(pl: pd.DataFrame) -> pd.DataFrame:
     return g.sort_values(["planner", "state_dim", "env"])
 
 
-def growth_figure(g: pd.DataFrame, path: Path) -> None:
-    import matplotlib
+def cost_figure(df: pd.DataFrame, x: str, xlabel: str, title: str, path: Path, annotate: str | None = None) -> None:
+    """Median time and checks per query against `x`, one line per planner (log axes);
+    `annotate`: a column whose value labels each point."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for p, d in g.groupby("planner", sort=False):
+    fig = Figure(figsize=(10, 4), layout="tight")
+    axes = fig.subplots(1, 2)
+    for p, d in df.groupby("planner", sort=False):
         for ax, col in zip(axes, ("time_median_s", "checks_median")):
-            ax.plot(d["state_dim"], d[col], marker="o", label=planner_label(p))
-            for x, y, e in zip(d["state_dim"], d[col], d["env"]):
-                ax.annotate(e, (x, y), fontsize=6, alpha=0.6)
+            ax.plot(d[x], d[col], marker="o", label=planner_label(p))
+            if annotate is not None:
+                for xv, y, e in zip(d[x], d[col], d[annotate]):
+                    ax.annotate(e, (xv, y), fontsize=6, alpha=0.6)
     axes[0].set_ylabel("median time per solved query [s] (time_s)")
     axes[1].set_ylabel("median collision checks per query")
     for ax in axes:
-        ax.set_xlabel("state dimension")
+        ax.set_xlabel(xlabel)
         ax.set_yscale("log")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    n = int(g.attrs.get("queries", 0))
-    fig.suptitle(f"How cost grows with dimension (same queries per env{f', n = {n}' if n else ''})", fontsize=10)
-    fig.tight_layout()
+    fig.suptitle(title, fontsize=10)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def obstacles_figure(ob: pd.DataFrame, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for p, d in ob.groupby("planner", sort=False):
-        for ax, col in zip(axes, ("time_median_s", "checks_median")):
-            ax.plot(d["blocks"], d[col], marker="o", label=planner_label(p))
-    axes[0].set_ylabel("median time per solved query [s] (time_s)")
-    axes[1].set_ylabel("median collision checks per query")
-    for ax in axes:
-        ax.set_xlabel("blocks in the workspace (s2d-like)")
-        ax.set_yscale("log")
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7)
-    n = int(ob["queries"].max())
-    fig.suptitle(f"How cost grows with the number of obstacles (n = {n} queries per count)", fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
 
 
 def gpu_md(folder: Path) -> str:
@@ -200,7 +168,7 @@ def gpu_md(folder: Path) -> str:
     if not rows:
         return "No GPU measurement is kept (no GPU machine was available)."
     head = ["File", "Device", "Size", "Pnet batch 1 [ms]", "Pnet batch 1024 [ms]", "Training batch 100 [samples/s]"]
-    return _table(head, rows)
+    return _md_table(head, rows)
 
 
 def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: dict) -> list[Path]:
@@ -256,9 +224,9 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "process and the log process of each run (VmHWM); a bench run's peak is at most their sum.",
         ]
         g = growth(pl)
-        g.attrs["queries"] = n
         fig = out / "figures" / "perf_growth.png"
-        growth_figure(g, fig)
+        title = f"How cost grows with dimension (same queries per env, n = {n})"
+        cost_figure(g, "state_dim", "state dimension", title, fig, annotate="env")
         files.append(fig)
         head = ["Planner", "Env", "State dim", "time_s median [ms]", "plan_s median [ms]", "Checks (median)"]
         grows = [
@@ -270,14 +238,15 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "## How cost grows with dimension",
             "",
-            _table(head, grows),
+            _md_table(head, grows),
             "",
             "![median time and checks against the state dimension](figures/perf_growth.png)",
         ]
     if "obstacles" in sec:
         ob = sec["obstacles"].sort_values(["planner", "blocks"], kind="stable")
         fig = out / "figures" / "perf_obstacles.png"
-        obstacles_figure(ob, fig)
+        title = f"How cost grows with the number of obstacles (n = {int(ob['queries'].max())} queries per count)"
+        cost_figure(ob, "blocks", "blocks in the workspace (s2d-like)", title, fig)
         files.append(fig)
         rows_ = [
             [planner_label(r.planner), str(int(r.blocks)), str(int(r.queries)), _pct(r.success_rate),
@@ -288,7 +257,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "## How cost grows with the number of obstacles",
             "",
-            _table(
+            _md_table(
                 [
                     "Planner",
                     "Blocks",
@@ -319,7 +288,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "## Networks against their floor (batch 1, one thread)",
             "",
-            _table(["What", "Size", "Input", "Median [µs]", "p90 [µs]", "Floor [µs]", "Ratio"], rows_),
+            _md_table(["What", "Size", "Input", "Median [µs]", "p90 [µs]", "Floor [µs]", "Ratio"], rows_),
             "",
             "Pnet step: the planner's numpy export with dropout on (as MPNet plans), s2D-shaped input. Floor: "
             "the same weights as plain chained BLAS matmuls (no bias, activation or dropout). Enet: one cloud "
@@ -337,7 +306,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "## Collision checking throughput",
             "",
-            _table(
+            _md_table(
                 [
                     "Env",
                     "Checker",
@@ -365,7 +334,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "## Data generation",
             "",
-            _table(["Env", "Workers", "Paths", "Seconds", "Paths/s", "Speed-up"], rows_),
+            _md_table(["Env", "Workers", "Paths", "Seconds", "Paths/s", "Speed-up"], rows_),
             "",
             "Expert paths (RRT*, the env's iterations) in spawned worker processes, process start-up included.",
         ]
@@ -376,7 +345,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "## Training throughput (CPU)",
             "",
-            _table(["Size", "Batch", "Torch threads", "Samples/s"], rows_),
+            _md_table(["Size", "Batch", "Torch threads", "Samples/s"], rows_),
             "",
             "Pnet training steps (forward, MSE, backward, Adagrad) on random data, this machine's CPU.",
         ]

@@ -84,7 +84,6 @@ def checkers(envs: list[str], workspaces: int) -> list[dict]:
         spec = get_spec(env)
         for backend in dict.fromkeys(spec.robot.checkers):
             r = bench_checker(spec, backend, workspaces)
-            b = _batched_rates(spec, backend, workspaces)
             rows.append(
                 {
                     "section": "checkers",
@@ -92,30 +91,12 @@ def checkers(envs: list[str], workspaces: int) -> list[dict]:
                     "backend": backend,
                     "states_per_s": r["states_per_s"][0],
                     "motions_per_s": r["motions_per_s"][0],
-                    "states_per_s_batched": b[0],
-                    "motions_per_s_batched": b[1],
+                    "states_per_s_batched": r["states_per_s_batched"][0],
+                    "motions_per_s_batched": r["motions_per_s_batched"][0],
                     "configurations_per_s": r.get("configurations_per_s", (float("nan"),))[0],
                 }
             )
     return rows
-
-
-def _batched_rates(spec, backend: str, workspaces: int, n: int = 2000, m: int = 200) -> tuple[float, float]:
-    rng = np.random.default_rng(1)
-    srates, mrates = [], []
-    for i in range(workspaces):
-        ch = spec.make_checker(spec.generator.make(i, "seen", 0), backend=backend)
-        qs = np.array([spec.space.sample(rng) for _ in range(n)])
-        free = qs[ch.states_valid(qs)]
-        pick = rng.integers(0, len(free), size=(m, 2))
-        for _ in range(3):
-            t = time.perf_counter()
-            ch.states_valid(qs)
-            srates.append(n / (time.perf_counter() - t))
-            t = time.perf_counter()
-            ch.motions_valid(free[pick[:, 0]], free[pick[:, 1]])
-            mrates.append(m / (time.perf_counter() - t))
-    return statistics.median(srates), statistics.median(mrates)
 
 
 def data_generation(cfg_env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
