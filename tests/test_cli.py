@@ -442,7 +442,8 @@ def test_resume_refuses_other_workspaces(tmp_path, run_cli, problems_dir):
         f"hydra.run.dir={tmp_path / 'r'}",
         check=False,
     )
-    assert p.returncode == 1 and "other obstacles" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 1 and "other settings: problems ('sha256:" in p.stderr and "Traceback" not in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
 
 
 def test_summary_lists_failure_reasons(tmp_path, run_cli, problems_dir):

@@ -7,6 +7,7 @@ query is a success is decided later, once, by the log process's independent re-c
 
 from __future__ import annotations
 
+import hashlib
 import math
 import sys
 import time
@@ -17,7 +18,7 @@ import numpy as np
 
 from mpnet.envs.spec import TestSet
 from mpnet.motion import path_cost, verify_path
-from mpnet.planners.base import Planner, Problem, Result
+from mpnet.planners.base import Planner, Problem, Result, sub_seed
 
 
 @dataclass
@@ -40,6 +41,13 @@ def _jsonable(v):
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v
+
+
+def query_seed(seed: int, split: str, query_id: str) -> int:
+    """A query's seed, from the run's seed and the query's identity alone: the query plans
+    the same in a resumed run, in another order, or after the cache was built in-process."""
+    ident = int.from_bytes(hashlib.sha256(f"{split}/{query_id}".encode()).digest()[:8], "little")
+    return sub_seed(seed, ident)
 
 
 def plan_time(wall: float, stats: dict) -> float:
@@ -133,12 +141,14 @@ def run_bench(
     log,
     *,
     budget_s: float,
+    seed: int = 0,
     collision: str = "native",
     progress: bool = True,
     timing: QueryTiming | None = None,
     pre_query: PreQuery | None = None,
 ) -> None:
-    """Plan every query of the test set not already in the log, handing each to the log.
+    """Plan every query of the test set not already in the log, handing each to the log;
+    each query's randomness comes from `seed` and its id (query_seed).
 
     pre_query(problem, budget_s) -> (problem to plan or None, fields for the record) runs
     before each query, outside its time (a cost target); None logs failure "no_target"."""
@@ -171,7 +181,7 @@ def run_bench(
             for q in queries:
                 t0 = time.perf_counter()
                 checker.reset_counts()
-                problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost)
+                problem = Problem(spec, ws, checker, q.start, q.goal, q.reference_cost, query_seed(seed, q.split, q.id))
                 rec = {
                     "query_id": q.id,
                     "workspace_id": ws.id,

@@ -11,13 +11,14 @@ from omegaconf import DictConfig, OmegaConf
 
 from harness.artifacts import ensure_models, ensure_testset
 from harness.bench.loop import CostTarget, QueryTiming, run_bench
+from harness.bench.settings import run_settings
 from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
 from harness.config import check_config, env_spec
-from harness.log import LogProcess
+from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused
 from harness.provenance import run_info
 from mpnet.mbm import is_mbm, load_mbm
-from mpnet.planners.base import Planner
+from mpnet.planners.base import Planner, sub_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
 
@@ -29,22 +30,23 @@ def ompl_seeded() -> bool:
 
 
 def seed_everything(seed: int) -> None:
-    """OMPL's RNG once per process, before any planner exists (its seed must be > 0, so
-    OMPL gets seed + 1)."""
+    """Seed OMPL, numpy and torch for what a run does outside its queries (each query
+    reseeds from the seed and its id: harness.bench.loop.query_seed). OMPL's seed must fit
+    32 bits and be > 0, so it gets one derived from `seed`, which may be any size."""
     global _OMPL_SEEDED
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
     if _OMPL_SEEDED:
         raise RuntimeError("OMPL's RNG can be seeded once per process")
-    ou.RNG.setSeed(int(seed) + 1)
+    ou.RNG.setSeed(sub_seed(seed))
     _OMPL_SEEDED = True
     np.random.seed(int(seed) % 2**32)
     try:
         import torch  # MPNet's dropout; absent for classical-only installs
     except ImportError:
         return
-    torch.manual_seed(int(seed))
+    torch.manual_seed(int(seed) % 2**63)
 
 
 def make_planner(planner_cfg, key: str, runtime: dict) -> Planner:
@@ -124,6 +126,8 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
             "(give `reference_cost` per query in a problem file)"
         )
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
+    info["settings"] = run_settings(cfg)
+    info["queries_expected"] = len(testset.queries)
     with LogProcess(
         run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun), resume=bool(cfg.resume)
     ) as log:
@@ -134,6 +138,8 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
                     f"resume=true: workspace {ws.id!r} ({ws.split}) in {run_dir} was logged with "
                     f"other obstacles; resume only the same test set or problem file"
                 )
+        for note in log.notes:
+            print(f"resume: {note}", file=sys.stderr)
         if log.done:
             print(f"resuming: {len(log.done)} queries already logged in {run_dir}", file=sys.stderr)
         try:
@@ -142,6 +148,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
                 planner,
                 log,
                 budget_s=float(cfg.budget_s),
+                seed=int(cfg.seed),
                 collision=str(cfg.env.collision),
                 progress=bool(cfg.progress),
                 timing=timing,
@@ -170,6 +177,16 @@ def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
         sys.exit(1)
     except FileExistsError as e:
         print(f"error: {e} (or choose another hydra.run.dir)", file=sys.stderr)
+        sys.exit(1)
+    except ResumeRefused as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(1)
+    except LogProcessDied as e:
+        print(
+            f"error: {e}: every query it received is in {run_dir / MCAP_NAME}; "
+            f"run the same command with resume=true to finish the run",
+            file=sys.stderr,
+        )
         sys.exit(1)
 
 

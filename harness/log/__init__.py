@@ -2,6 +2,7 @@
 
 - schemas: the JSON Schemas of /run, /workspace, /query and Foxglove's /scene
 - mcap_io: plain JSON values, MCAP writing helpers, `read_log` (also of a killed run's file)
+- recover: reading a cut-short or damaged file record by record (`scan_log`)
 - csv: queries.csv;  rerun: the Rerun sink (trials.rrd);  foxglove: /scene SceneUpdates
 - painters: how each robot kind is drawn (`painter_for`), for Foxglove, Rerun and the report
 - writer: `TrialLog`, the three files together, resume and finalisation
@@ -14,10 +15,10 @@ from harness.log.arm_painter import ArmPainter
 from harness.log.csv import CSV_FIXED, CSV_NAME
 from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
-from harness.log.process import SUMMARY_FIELDS, LogProcess, judge, spawn_context
+from harness.log.process import SUMMARY_FIELDS, LogProcess, LogProcessDied, judge, spawn_context
 from harness.log.rerun import RRD_NAME
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_schema
-from harness.log.writer import TrialLog
+from harness.log.writer import ResumeRefused, TrialLog
 
 __all__ = [
     "ArmPainter",
@@ -28,8 +29,10 @@ __all__ = [
     "QUERY_FIELDS",
     "RRD_NAME",
     "RUN_FIELDS",
+    "ResumeRefused",
     "SUMMARY_FIELDS",
     "LogProcess",
+    "LogProcessDied",
     "LoggedMessage",
     "Painter",
     "TrialLog",

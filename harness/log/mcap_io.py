@@ -12,12 +12,11 @@ from typing import Any, BinaryIO
 
 import numpy as np
 from mcap.reader import make_reader
-from mcap.records import Channel, Message
-from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 MCAP_NAME = "trials.mcap"
 RESUME_SUFFIX = ".resume-"  # trials.mcap.resume-<k>: a previous file moved aside on resume
+DAMAGED_SUFFIX = ".damaged-"  # trials.mcap.damaged-<k>: a damaged earlier file, kept as it was
 
 
 def plain(v: Any) -> Any:
@@ -91,35 +90,25 @@ class LoggedMessage:
 
 
 def read_log(path: str | Path, topics: Iterable[str] | None = None) -> tuple[list[LoggedMessage], bool]:
-    """All JSON messages of a trials.mcap, and whether the file was finalised.
+    """All readable JSON messages of a trials.mcap, and whether the file was finalised.
 
-    A file whose writer was killed has no summary; it is then read as a stream up to
-    where it ends (as check_trials.py does), dropping a last, partly written record.
+    A finalised, intact file is read through its index (CRCs checked); any other file, one
+    whose writer was killed or one with damaged bytes, record by record (harness.log.recover),
+    keeping every message that can still be read.
     """
+    from harness.log.recover import scan_log
+
     topics = None if topics is None else set(topics)
     try:
         with open(path, "rb") as f:
             out = [
                 LoggedMessage(c.topic, json.loads(m.data), m.log_time, m.publish_time)
-                for _, c, m in make_reader(f).iter_messages(topics=topics, log_time_order=False)
+                for _, c, m in make_reader(f, validate_crcs=True).iter_messages(topics=topics, log_time_order=False)
             ]
         return out, True
-    except Exception:  # noqa: BLE001 - any failure means: not a finalised file
+    except OSError:
+        raise
+    except Exception:  # noqa: BLE001 - any failure means: not a finalised, intact file
         pass
-    out, chans = [], {}
-    with open(path, "rb") as f:
-        try:
-            for rec in StreamReader(f, skip_magic=False).records:
-                if isinstance(rec, Channel):
-                    chans[rec.id] = rec.topic
-                elif isinstance(rec, Message):
-                    topic = chans.get(rec.channel_id)
-                    if topic is None or (topics is not None and topic not in topics):
-                        continue
-                    try:
-                        out.append(LoggedMessage(topic, json.loads(rec.data), rec.log_time, rec.publish_time))
-                    except ValueError:
-                        pass
-        except Exception:  # noqa: BLE001 - truncated tail
-            pass
-    return out, False
+    scan = scan_log(path, topics)
+    return [LoggedMessage(*m) for m in scan.messages], scan.finalised and not scan.damaged

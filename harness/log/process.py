@@ -63,7 +63,7 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
     except Exception as e:  # noqa: BLE001  (reported to the parent, which raises it)
         conn.send(("error", e))
         return
-    conn.send(("ready", (log.done, log.logged_obstacles())))
+    conn.send(("ready", (log.done, log.logged_obstacles(), log.notes)))
     workspaces: dict[tuple[str, str], object] = {}
     records: list[dict] = []
     cpu0 = time.process_time()
@@ -112,6 +112,10 @@ FLUSH_QUERIES = 32
 FLUSH_S = 0.2
 
 
+class LogProcessDied(RuntimeError):
+    """The trial-log process ended before the bench closed it (killed, or out of memory)."""
+
+
 class LogProcess:
     """TrialLog's interface (add_workspace, add_query, done, context manager), served by
     a child process that also judges each query. close() returns the judged records."""
@@ -147,15 +151,27 @@ class LogProcess:
             raise payload
         self.done: set[tuple[str, str]] = payload[0]
         self.logged_obstacles: dict[tuple[str, str], list] = payload[1]
+        self.notes: list[str] = payload[2]
+
+    def _died(self) -> LogProcessDied:
+        self._proc.join(timeout=5)
+        self._closed = True
+        return LogProcessDied(f"the trial-log process died (exit code {self._proc.exitcode})")
 
     def _recv(self):
         try:
             return self._conn.recv()
-        except EOFError:
-            raise RuntimeError(f"the trial-log process died (exit code {self._proc.exitcode})") from None
+        except (EOFError, OSError):
+            raise self._died() from None
+
+    def _send(self, msg) -> None:
+        try:
+            self._outbox.send(msg)
+        except OSError:  # BrokenPipeError: nobody reads the pipe any more
+            raise self._died() from None
 
     def add_workspace(self, ws) -> None:
-        self._outbox.send(("workspace", ws))
+        self._send(("workspace", ws))
 
     def add_query(self, rec: dict) -> None:
         self._pending.append(rec)
@@ -165,8 +181,8 @@ class LogProcess:
     def flush(self) -> None:
         """Send the queries not yet sent."""
         if self._pending:
-            self._outbox.send(("queries", self._pending))
-            self._pending = []
+            pending, self._pending = self._pending, []
+            self._send(("queries", pending))
         self._sent_at = time.perf_counter()
 
     def close(self) -> list[dict]:
@@ -174,7 +190,7 @@ class LogProcess:
             return self.records
         self._closed = True
         self.flush()
-        self._outbox.send(("close", None))
+        self._send(("close", None))
         _, payload = self._recv()
         self._proc.join()
         self.records, self.child_cpu_s = payload["records"], payload["cpu_s"]

@@ -56,6 +56,12 @@ RUN_SCHEMA = {
         "host": {"type": "string"},
         "started_at": {"type": ["string", "number"]},
         "resumed_from": {"type": "object", "description": "Set when the run resumed an earlier log"},
+        "settings": {
+            "type": "object",
+            "description": "Every config value that decides the results, by dotted key (the problem file by "
+            "its sha256): a resumed run must have the same",
+        },
+        "queries_expected": {"type": "integer", "description": "Queries in the run's test set or problem file"},
     },
     "required": list(RUN_FIELDS),
 }

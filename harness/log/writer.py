@@ -9,9 +9,11 @@ Why it is shaped this way:
 - Logging stays off the planner's timed section and costs tens of microseconds per
   query: JSON is encoded once, Rerun data is buffered and sent in columns (`send_columns`)
   every few dozen queries or seconds, and disk syncs (`fsync`) are rate-limited.
-- `resume=True` re-reads what an earlier, possibly killed, run logged, re-writes it to a
-  fresh file and exposes the finished (split, query_id) pairs in `done`, so a run never
-  logs the same query twice.
+- `resume=True` re-reads what an earlier, possibly killed or damaged, run logged, re-writes
+  it to a fresh file and exposes the finished (split, query_id) pairs in `done`, so a run
+  never logs the same query twice. It is refused (ResumeRefused) when the earlier run had
+  other settings (`run["settings"]`), and a damaged earlier file is never overwritten: its
+  readable messages are kept and the file is moved aside (`notes` says where).
 - What the scenes show of the robot is the painter's (harness.log.painters), chosen from
   the robot JSON this log writes to /workspace.
 """
@@ -28,6 +30,7 @@ from pathlib import Path
 from harness.log.csv import CSV_NAME, QueryCsv
 from harness.log.foxglove import query_scene, workspace_scene
 from harness.log.mcap_io import (
+    DAMAGED_SUFFIX,
     MCAP_NAME,
     RESUME_SUFFIX,
     LoggedMessage,
@@ -35,12 +38,16 @@ from harness.log.mcap_io import (
     dumps,
     new_writer,
     plain,
-    read_log,
     start_channels,
 )
 from harness.log.painters import painter_for
+from harness.log.recover import scan_log
 from harness.log.rerun import RRD_NAME, RerunSink
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, topic_schemas
+
+
+class ResumeRefused(ValueError):
+    """resume=true over a log that this run cannot continue (one line for the user)."""
 
 
 class TrialLog:
@@ -80,6 +87,7 @@ class TrialLog:
         self.rrd_path = self.run_dir / RRD_NAME if rerun else None
         self.csv_path = self.run_dir / CSV_NAME
         self.done: set[tuple[str, str]] = set()
+        self.notes: list[str] = []  # what resume did with earlier files, for the user
         self._logged: set[tuple[str, str]] = set()
         self._workspaces: dict[tuple[str, str], dict] = {}
         self._scene_ws: tuple[str, str] | None = None
@@ -214,23 +222,37 @@ class TrialLog:
                 raise FileExistsError(f"{self.mcap_path} exists; pass resume=True to continue that run")
             return None, []
         sources = asides + ([self.mcap_path] if self.mcap_path.exists() else [])
-        if not sources:
-            return None, []
         old: list[LoggedMessage] = []
+        damaged: list[tuple[Path, str]] = []
         for p in sources:
-            msgs, _ = read_log(p, ["/run", "/workspace", "/query"])
-            for m in msgs:
-                if m.topic == "/run":
-                    for k in ("env", "planner", "seed"):
-                        if k in m.data and plain(run[k]) != m.data[k]:
-                            raise ValueError(f"cannot resume {p}: it logged {k}={m.data[k]!r}, this run has {run[k]!r}")
+            scan = scan_log(p, ["/run", "/workspace", "/query"])
+            msgs = [LoggedMessage(*m) for m in scan.messages]
+            runs = [m.data for m in msgs if m.topic == "/run"]
+            queries = sum(m.topic == "/query" for m in msgs)
+            if not runs and queries:
+                raise ResumeRefused(
+                    f"cannot resume {p}: its /run message is unreadable ({scan.describe_damage()}), so its "
+                    f"settings cannot be checked; move it away or choose another run dir"
+                )
+            for old_run in runs:
+                _check_same_run(p, old_run, run)
+            if scan.damaged or (scan.size and not runs):
+                what = scan.describe_damage() if runs else "no readable trial: not a trial log, or all of it damaged"
+                damaged.append((p, f"{p.name} is damaged ({what}): its {queries} readable queries are kept"))
             old += msgs
+        for p, note in damaged:  # never overwritten or deleted: kept under a name of its own
+            k = 1 + max(map(aside_index, self.run_dir.glob(MCAP_NAME + DAMAGED_SUFFIX + "*")), default=0)
+            kept = p.with_name(MCAP_NAME + DAMAGED_SUFFIX + str(k))
+            os.replace(p, kept)
+            self.notes.append(f"{note}, the file itself as {kept}")
+            if p in asides:
+                asides.remove(p)
         if self.mcap_path.exists():
             k = 1 + max(map(aside_index, asides), default=0)
             aside = self.mcap_path.with_name(MCAP_NAME + RESUME_SUFFIX + str(k))
             os.replace(self.mcap_path, aside)
             asides.append(aside)
-        return old, asides
+        return (old if sources else None), asides
 
     def _replay(self, old: list[LoggedMessage]):
         """Re-write an earlier log's workspaces and queries with their original times."""
@@ -283,6 +305,34 @@ class TrialLog:
         if self._rr is not None:
             self._rr.query(self._n_queries, msg, self._workspaces[ws_key])
         self._n_queries += 1
+
+
+def _check_same_run(path: Path, old: dict, new: dict) -> None:
+    """ResumeRefused unless the earlier run had this run's env, planner, seed and settings."""
+    for k in ("env", "planner", "seed"):
+        if k in old and plain(new[k]) != old[k]:
+            raise ResumeRefused(f"cannot resume {path}: it logged {k}={old[k]!r}, this run has {new[k]!r}")
+    if "settings" not in new:
+        return
+    if "settings" not in old:
+        raise ResumeRefused(
+            f"cannot resume {path}: it was written without its settings (an older mpnet-bench), so they "
+            f"cannot be checked; choose another run dir"
+        )
+    before, now = old["settings"], plain(new["settings"])
+    missing = object()
+    diffs = [
+        f"{k} ({'unset' if before.get(k, missing) is missing else repr(before[k])} -> "
+        f"{'unset' if now.get(k, missing) is missing else repr(now[k])})"
+        for k in sorted(set(before) | set(now))
+        if before.get(k, missing) != now.get(k, missing)
+    ]
+    if diffs:
+        shown = ", ".join(diffs[:4]) + (f" and {len(diffs) - 4} more" if len(diffs) > 4 else "")
+        raise ResumeRefused(
+            f"cannot resume {path}: it was run with other settings: {shown}; resume with the same "
+            f"settings or choose another hydra.run.dir"
+        )
 
 
 def _finalize(writer, f, csv_sink, rr_sink) -> bool:

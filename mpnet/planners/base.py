@@ -21,8 +21,10 @@ NO_SOLUTION = "no_solution"
 
 @dataclass
 class Problem:
-    """A start and goal in one workspace, the shared checker, and the query's reference
-    cost when known (a planner that stops at a cost target scales it)."""
+    """A start and goal in one workspace, the shared checker, the query's reference
+    cost when known (a planner that stops at a cost target scales it), and the query's
+    own seed: a planner given one draws all its randomness from it, so a query plans the
+    same whatever ran before it in the process (a resumed run, a warm or cold cache)."""
 
     spec: EnvSpec
     workspace: Workspace
@@ -30,6 +32,14 @@ class Problem:
     start: np.ndarray
     goal: np.ndarray
     reference_cost: float | None = None
+    seed: int | None = None
+
+
+def sub_seed(seed: int, *path: int) -> int:
+    """A seed in [1, 2^31 - 1] derived from a seed of any size and a path of non-negative
+    integers (OMPL's seeds must be positive and fit 32 bits; numpy's take any)."""
+    state = np.random.SeedSequence([int(seed), *map(int, path)]).generate_state(1, np.uint64)[0]
+    return int(state % np.uint64(2**31 - 1)) + 1
 
 
 @dataclass

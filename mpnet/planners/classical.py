@@ -7,10 +7,11 @@ import time
 
 from ompl import base as ob
 from ompl import geometric as og
+from ompl import util as ou
 
 from mpnet.envs.ompl_space import make_problem
 from mpnet.motion import path_cost
-from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
+from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints, sub_seed
 
 ALGORITHMS = {
     "informed_rrt_star": og.InformedRRTstar,
@@ -58,6 +59,8 @@ class OmplPlanner:
 
     def solve(self, problem: Problem, budget_s: float) -> Result:
         t0 = time.perf_counter()
+        if problem.seed is not None:
+            seed_ompl(problem.seed)
         bad = check_endpoints(problem)
         if bad is not None:
             return bad
@@ -111,6 +114,19 @@ class OmplPlanner:
             done = ob.PlannerTerminationCondition(lambda: math.isfinite(planner.bestCost().value()))
         # No period argument: a periodic condition runs on a thread and aborts at exit.
         return ob.plannerOrTerminationCondition(timed, done)
+
+
+def seed_ompl(seed: int) -> None:
+    """Restart OMPL's seed generator from `seed`: every RNG made after this (the planner and
+    samplers `solve` builds fresh per query) draws the same numbers whatever ran before.
+    OMPL logs an error when seeding after its first draw, since RNGs that already exist keep
+    their streams; none that a query uses does, so the message is muted."""
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(sub_seed(seed, 0))
+    finally:
+        ou.setLogLevel(level)
 
 
 def snap_endpoints(path: list, problem: Problem) -> list:

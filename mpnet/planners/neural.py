@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from mpnet.motion import MotionMemo, is_feasible, lazy_states_contraction, steer_to
-from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints
+from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints, sub_seed
 
 
 class MPNetPlanner:
@@ -117,6 +117,8 @@ class MPNetPlanner:
         t0 = time.perf_counter()
         deadline = t0 + budget_s
         self.trace, self.last_code = [], None
+        if problem.seed is not None:  # the query's own stream: the same draws whatever ran before
+            self.rng = np.random.default_rng(sub_seed(problem.seed, 1))
         bad = check_endpoints(problem)
         if bad is not None:
             return bad
@@ -262,8 +264,10 @@ class MPNetPlanner:
         def connect(x, y):
             slice_s = self.fallback_restart_s
             while (left := deadline - time.perf_counter()) > 0:
+                calls = stats.get("fallback_calls", 0)
+                seed = None if problem.seed is None else sub_seed(problem.seed, 2, calls)
                 res = self.fallback.solve(
-                    Problem(problem.spec, problem.workspace, checker, x, y),
+                    Problem(problem.spec, problem.workspace, checker, x, y, seed=seed),
                     left if slice_s is None else min(left, slice_s),
                 )
                 stats["fallback_calls"] = stats.get("fallback_calls", 0) + 1
