@@ -942,3 +942,22 @@ def test_env_order():
         "arm7",
         "zeta",
     ]
+
+
+@pytest.mark.slow  # the whole report, end to end
+def test_incomplete_and_unfinished_runs_are_flagged(tmp_path, capsys):
+    """A run that logged fewer queries than its test set holds, and a file a kill left
+    unfinalised, are named under Warnings with what they hold."""
+    logs = tmp_path / "logs"
+    part = write_log(logs / "part", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)], queries_expected=400)
+    full = write_log(logs / "full", "s2d", "bit_star", 1, [Q("seen", "0", 0, True, 1.0)], queries_expected=1)
+    cut = logs / "cut" / "trials.mcap"
+    cut.parent.mkdir()
+    cut.write_bytes(full.read_bytes()[: len(full.read_bytes()) * 2 // 3])
+    rc, out = report(tmp_path, logs)
+    err = capsys.readouterr().err
+    assert rc == 0
+    assert f"warning: {part}: incomplete run: 1 of 400 queries logged" in err
+    assert f"warning: {cut}: was not finalised" in err and "harness.repair" in err
+    assert f"warning: {full}:" not in err
+    assert "incomplete run: 1 of 400" in (out / "README.md").read_text()

@@ -135,6 +135,12 @@ def _path_len(v) -> int:
     return len(v) if isinstance(v, (list, tuple)) else 0
 
 
+def _sql_int(x) -> int | str:
+    """An integer for SQLite, which holds 64 bits: a larger one (a seed may be any size) as text."""
+    v = int(x)
+    return v if -(2**63) <= v < 2**63 else str(v)
+
+
 def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, facts: Facts) -> int:
     """OUT/benchmark.db in the schema of OMPL's benchmark statistics script, so Planner Arena
     opens it: one experiment per env x split, one planner config per (planner name, settings)
@@ -236,7 +242,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                     [
                         None
                         if x is None or (isinstance(x, float) and not math.isfinite(x))
-                        else (int(x) if name in ints else _none(x))
+                        else (_sql_int(x) if name in ints else _none(x))
                         for x in v
                     ]
                 )

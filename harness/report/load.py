@@ -104,13 +104,21 @@ def read_trials(path: Path) -> tuple[TrialFile | None, str | None]:
     if out is None:
         why = "no /run message" if msgs else "empty file" if _size(path) == 0 else "not a readable MCAP trial log"
         return None, f"warning: skipped {path}: {why}"
+    notes = []
     if not finalised:
-        return out, (
-            f"warning: {path} was not finalised (cut short?): read its {len(out.queries)} queries up to where it breaks"
+        notes.append(
+            f"was not finalised (cut short or damaged): read the {len(out.queries)} queries it still holds; "
+            f"`python -m harness.repair` makes it readable by other MCAP readers"
         )
-    if not out.queries:
-        return out, f"warning: {path}: no queries"
-    return out, None
+    expected = out.run.get("queries_expected")
+    logged = len({(str(q.get("split")), str(q.get("query_id"))) for q in out.queries})
+    if isinstance(expected, int) and logged < expected:
+        notes.append(
+            f"incomplete run: {logged} of {expected} queries logged (the same command with resume=true finishes it)"
+        )
+    elif not out.queries:
+        notes.append("no queries")
+    return out, (f"warning: {path}: " + "; ".join(notes)) if notes else None
 
 
 def _size(path: Path) -> int | None:
