@@ -1,0 +1,93 @@
+"""A run's results depend on its config alone: the same seed plans the same paths with a cold
+or a warm cache, and a run killed outright then resumed plans what an uninterrupted run does."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from test_log_recovery import stock_queries
+
+from harness.log import read_log
+from mpnet.planners.base import sub_seed
+
+pytestmark = pytest.mark.slow  # every test here runs the CLI in a subprocess
+
+
+def paths(run_dir):
+    msgs, _ = read_log(run_dir / "trials.mcap", ["/query"])
+    out = {(m.data["split"], m.data["query_id"]): m.data["path"] for m in msgs}
+    assert len(out) == len(msgs), "a query logged twice"
+    return out
+
+
+def test_sub_seed_takes_any_seed_and_stays_in_ompls_range():
+    for seed in (0, 1, 2**31, 2**64 - 1, 10**20):
+        s = sub_seed(seed, 7)
+        assert 1 <= s <= 2**31 - 1 and s == sub_seed(seed, 7)
+    assert sub_seed(0, 1) != sub_seed(0, 2) and sub_seed(0, 1) != sub_seed(1, 1)
+
+
+def test_cold_and_warm_cache_plan_the_same_paths(tmp_path, run_cli):
+    """Building the test set in-process draws from OMPL's RNG; each query reseeds from the run's
+    seed and its id, so what ran before does not matter."""
+    args = ["harness", "+env=s2d", "+planner=bit_star", "scale=tiny", "rerun=false", f"cache_dir={tmp_path / 'c'}"]
+    run_cli(*args, f"hydra.run.dir={tmp_path / 'cold'}")
+    run_cli(*args, f"hydra.run.dir={tmp_path / 'warm'}")
+    cold, warm = paths(tmp_path / "cold"), paths(tmp_path / "warm")
+    assert len(cold) == 8 and cold == warm
+    run_cli(*args, "seed=1", f"hydra.run.dir={tmp_path / 'seed1'}")
+    assert paths(tmp_path / "seed1") != cold  # the seed does change them
+
+
+@pytest.mark.parametrize("seed", [2**64 - 1, 10**20])
+def test_seeds_of_any_size_run(tmp_path, seed, run_cli):
+    run_cli(
+        "harness", "+env=s2d", "+planner=rrt_connect", "scale=tiny", "rerun=false", f"seed={seed}",
+        f"hydra.run.dir={tmp_path}",
+    )  # fmt: skip
+    assert len(paths(tmp_path)) == 8
+
+
+def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp_path, run_cli, repo):
+    """kill -9 of the whole group (the log process too): the file holds what was flushed; the
+    same command with resume=true logs every query exactly once, each planned as an
+    uninterrupted run plans it, and leaves a file the stock `mcap` reader opens."""
+    args = [
+        "harness",
+        "+env=rigid",
+        "+planner=rrt_star",
+        "scale=quick",
+        "splits=[seen]",
+        "progress=false",
+        "rerun=false",
+        "env.reference.bit_star_s=0.01",  # a test set built in seconds
+        "env.expert.iterations=10",
+        f"cache_dir={tmp_path / 'cache'}",
+    ]
+    run_cli(*args, f"hydra.run.dir={tmp_path / 'whole'}")
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", *args, f"hydra.run.dir={killed}"],
+        cwd=repo,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    csv_file, deadline = killed / "queries.csv", time.time() + 120
+    while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 40):
+        time.sleep(0.005)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    first = paths(killed)
+    assert 0 < len(first) < 200
+    p = run_cli(*args, "resume=true", f"hydra.run.dir={killed}")
+    assert f"resuming: {len(first)} queries already logged" in p.stderr
+    whole, resumed = paths(tmp_path / "whole"), paths(killed)
+    assert len(whole) == len(resumed) == 200
+    assert resumed == whole
+    assert sorted(stock_queries(killed / "trials.mcap")) == sorted(q for _, q in whole)
