@@ -15,7 +15,7 @@ from harness.bench.settings import run_settings
 from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
 from harness.config import check_config, env_spec
-from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused
+from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
 from harness.provenance import run_info
 from mpnet.mbm import is_mbm, load_mbm
 from mpnet.planners.base import Planner, sub_seed
@@ -104,8 +104,8 @@ def build_testset(cfg: DictConfig, spec):
     return ensure_testset(cfg, bool(cfg.progress)), "+".join(cfg.splits)
 
 
-def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> list[dict]:
-    """Run one bench job into run_dir and print its summary."""
+def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> Tally:
+    """Run one bench job into run_dir and print its summary (of the queries planned now)."""
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
     check_config(cfg)
@@ -158,14 +158,14 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
             log.close()
             print(f"interrupted: every finished query is in {run_dir / 'trials.mcap'}", file=sys.stderr)
             raise
-    records = log.records
+    tally = log.tally
     if timing is not None:
         timing.log_cpu_s = log.child_cpu_s
         timing.log_peak_rss_mb = log.child_peak_rss_mb
     if not quiet:
         print(f"{cfg.env.name} / {cfg.planner.name} / seed {cfg.seed}: {run_dir}")
-        print(format_summary(summarize(records)) if records else "no queries to run")
-    return records
+        print(format_summary(summarize(tally)) if len(tally) else "no queries to run")
+    return tally
 
 
 def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:

@@ -4,28 +4,26 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections import Counter
 
 
-def summarize(records: list[dict]) -> list[dict]:
-    """Per split: queries, success rate, time over successes, mean cost, checks per query."""
+def summarize(tally) -> list[dict]:
+    """Per split of a harness.log.tally.Tally: queries, success rate, time over successes,
+    mean cost, checks per query, failures by reason."""
     rows = []
-    for split in sorted({r["split"] for r in records}):
-        rs = [r for r in records if r["split"] == split]
-        ok = [r for r in rs if r["success"]]
-        times = [r["time_s"] for r in ok]
-        costs = [r["path_cost"] for r in ok if r["path_cost"] is not None]
+    for split in sorted(tally.splits):
+        t = tally.splits[split]
+        times, costs = list(t.times), list(t.costs)
         rows.append(
             {
                 "split": split,
-                "queries": len(rs),
-                "success": len(ok) / len(rs),
+                "queries": t.queries,
+                "success": len(times) / t.queries,
                 "time_mean_s": statistics.fmean(times) if times else math.nan,
                 "time_std_s": statistics.pstdev(times) if len(times) > 1 else 0.0 if times else math.nan,
                 "time_median_s": statistics.median(times) if times else math.nan,
                 "cost_mean": statistics.fmean(costs) if costs else math.nan,
-                "checks_per_query": statistics.fmean(r["collision_checks"] for r in rs),
-                "failures": dict(Counter(r["failure"] for r in rs if not r["success"]).most_common()),
+                "checks_per_query": t.checks / t.queries,
+                "failures": dict(t.failures.most_common()),
             }
         )
     return rows

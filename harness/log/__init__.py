@@ -15,9 +15,10 @@ from harness.log.arm_painter import ArmPainter
 from harness.log.csv import CSV_FIXED, CSV_NAME
 from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
-from harness.log.process import SUMMARY_FIELDS, LogProcess, LogProcessDied, judge, spawn_context
+from harness.log.process import LogProcess, LogProcessDied, judge, spawn_context
 from harness.log.rerun import RRD_NAME
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_schema
+from harness.log.tally import Tally
 from harness.log.writer import ResumeRefused, TrialLog
 
 __all__ = [
@@ -30,11 +31,11 @@ __all__ = [
     "RRD_NAME",
     "RUN_FIELDS",
     "ResumeRefused",
-    "SUMMARY_FIELDS",
     "LogProcess",
     "LogProcessDied",
     "LoggedMessage",
     "Painter",
+    "Tally",
     "TrialLog",
     "judge",
     "painter_for",

@@ -27,14 +27,14 @@ class QueryCsv:
     """One row per query, flushed per row.
 
     Columns are the fixed fields, then `extra_fields`, then other scalar keys in the order
-    first seen; a key first seen late rewrites the file (atomically) with the wider header.
+    first seen; a key first seen late rewrites the file (atomically) with the wider header,
+    reading the earlier rows back from the file, so no row is held in memory.
     """
 
     def __init__(self, path: Path, extra_fields: Iterable[str]):
         self.path = path
         self.cols = list(CSV_FIXED) + [k for k in extra_fields if k not in CSV_FIXED]
         self._known = set(self.cols)
-        self.rows: list[dict] = []
         self._open(rewrite=False)
 
     def _open(self, rewrite: bool):
@@ -43,7 +43,8 @@ class QueryCsv:
         w = csv.DictWriter(f, self.cols, restval="", extrasaction="ignore")
         w.writeheader()
         if rewrite:
-            w.writerows(self.rows)
+            with open(self.path, newline="", encoding="utf-8") as old:
+                w.writerows(csv.DictReader(old))
             f.flush()
             os.replace(tmp, self.path)
         self.f, self.w = f, w
@@ -56,16 +57,13 @@ class QueryCsv:
                 flat.update((f"{k}.{kk}", vv) for kk, vv in v.items())
         row = {k: v for k, v in flat.items() if k not in _NON_CSV and (v is None or type(v) in (str, int, float, bool))}
         new = [k for k in row if k not in self._known]
-        self.rows.append(row)
         if new:
             self.cols += new
             self._known.update(new)
-            old = self.f
+            self.f.close()
             self._open(rewrite=True)
-            old.close()
-        else:
-            self.w.writerow(row)
-            self.f.flush()
+        self.w.writerow(row)
+        self.f.flush()
 
     def close(self):
         try:

@@ -3,7 +3,7 @@
 Writing a query to MCAP, Foxglove, Rerun and CSV costs ~150 us of Python and the fine
 re-check ~0.3 ms: together half the time BIT* needs for an s2d query. The bench loop
 only hands each finished query to this process over a pipe (~20 us), which judges it
-(DESIGN §5), logs it and keeps the records for the summary. Being apart also makes the
+(DESIGN §5), logs it and tallies it for the summary. Being apart also makes the
 judge independent of the planner's process, and the only place where `success` is decided.
 
 Crash safety holds: the child ignores Ctrl-C and SIGTERM and finalises when the bench
@@ -18,10 +18,9 @@ import signal
 import time
 from pathlib import Path
 
+from harness.log.tally import Tally
 from harness.provenance import peak_rss_mb
 from mpnet.motion import path_cost, verify_path
-
-SUMMARY_FIELDS = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "path_cost", "collision_checks")
 
 
 def judge(spec, ws, rec: dict, validation_step: float) -> dict:
@@ -65,7 +64,7 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
         return
     conn.send(("ready", (log.done, log.logged_obstacles(), log.notes)))
     workspaces: dict[tuple[str, str], object] = {}
-    records: list[dict] = []
+    tally = Tally()
     cpu0 = time.process_time()
     with log:
         while True:
@@ -77,13 +76,14 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
                 workspaces[(payload.split, payload.id)] = payload
                 log.add_workspace(payload)
             elif kind == "queries":
-                for q in payload:
+                for q in payload:  # one MCAP chunk per batch: a chunk index per query grew with the run
                     rec = judge(spec, workspaces[(q["split"], q["workspace_id"])], q, validation_step)
-                    log.add_query(rec)
-                    records.append({k: rec.get(k) for k in SUMMARY_FIELDS})
+                    log.add_query(rec, flush=False)
+                    tally.add(rec)
+                log.flush()
             elif kind == "close":
                 break
-    conn.send(("closed", {"records": records, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb()}))
+    conn.send(("closed", {"tally": tally, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb()}))
 
 
 def _widen(conn, size: int = 1 << 20) -> None:
@@ -118,7 +118,7 @@ class LogProcessDied(RuntimeError):
 
 class LogProcess:
     """TrialLog's interface (add_workspace, add_query, done, context manager), served by
-    a child process that also judges each query. close() returns the judged records."""
+    a child process that also judges each query. close() returns the run's Tally."""
 
     def __init__(
         self, run_dir: str | Path, run: dict, spec, *, validation_step: float, rerun: bool = True, resume: bool = False
@@ -138,7 +138,7 @@ class LogProcess:
         self._proc.start()
         inbox.close()
         reply.close()
-        self.records: list[dict] = []
+        self.tally = Tally()
         self.child_cpu_s = 0.0
         self.child_peak_rss_mb = float("nan")
         self._closed = False
@@ -185,17 +185,17 @@ class LogProcess:
             self._send(("queries", pending))
         self._sent_at = time.perf_counter()
 
-    def close(self) -> list[dict]:
+    def close(self) -> Tally:
         if self._closed:
-            return self.records
+            return self.tally
         self._closed = True
         self.flush()
         self._send(("close", None))
         _, payload = self._recv()
         self._proc.join()
-        self.records, self.child_cpu_s = payload["records"], payload["cpu_s"]
+        self.tally, self.child_cpu_s = payload["tally"], payload["cpu_s"]
         self.child_peak_rss_mb = payload["peak_rss_mb"]
-        return self.records
+        return self.tally
 
     def __enter__(self) -> LogProcess:
         return self

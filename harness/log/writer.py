@@ -147,8 +147,9 @@ class TrialLog:
         self._emit_workspace(msg, self._now())
         self._flush()
 
-    def add_query(self, rec: dict) -> None:
-        """Log one finished query; on return it is on disk (flushed to the OS)."""
+    def add_query(self, rec: dict, flush: bool = True) -> None:
+        """Log one finished query; on return it is on disk (flushed to the OS), unless
+        flush=False: then it waits in the open chunk for flush() (batches of queries)."""
         self._check_open()
         missing = [k for k in QUERY_FIELDS if k not in rec]
         if missing:
@@ -166,6 +167,12 @@ class TrialLog:
                 f"{msg['split']!r} was not added (add_workspace first)"
             )
         self._emit_query(msg, self._now())
+        if flush:
+            self._flush()
+
+    def flush(self) -> None:
+        """Write the open chunk (the queries added with flush=False) to the OS."""
+        self._check_open()
         self._flush()
 
     def close(self) -> None:
