@@ -1,4 +1,8 @@
-"""Artifacts a stage needs, built on first use with the same code as the explicit stage."""
+"""Artifacts a stage needs, built on first use with the same code as the explicit stage.
+
+Every load verifies the files against the manifest's checksums (mpnet.data.store); a
+damaged artifact is rebuilt with a warning on stderr, and one that cannot be rebuilt here
+is refused with one line (UsageError) naming it."""
 
 from __future__ import annotations
 
@@ -9,19 +13,72 @@ from pathlib import Path
 from omegaconf import DictConfig
 from tqdm import tqdm
 
+from harness.cli import UsageError
 from harness.config import data_params, env_spec, geometry_params, lightning_params, model_params, reference_params
 from harness.provenance import artifact_provenance
 from mpnet.data.dataset import build_dataset, load_dataset
 from mpnet.data.queries import make_testset
-from mpnet.data.store import ensure, partial_dir
+from mpnet.data.store import ArtifactError, ensure, partial_dir
 from mpnet.envs.spec import TestSet
 from mpnet.planners.reference import describe, reference_costs
-from mpnet.problems import dump_problems, load_problems
+from mpnet.problems import ProblemFileError, dump_problems, load_problems
 
 
 def _bar(total: int, desc: str, progress: bool):
     """A stage's progress bar on stderr, one tick per workspace."""
     return tqdm(total=total, desc=desc, unit="workspace", file=sys.stderr, disable=not progress, dynamic_ncols=True)
+
+
+def _warn(message: str) -> None:
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def _ensure(root, kind: str, config: dict, build, provenance, check):
+    """store.ensure with damaged artifacts reported on stderr and one that cannot be
+    rebuilt as the user's one line."""
+    try:
+        return ensure(root, kind, config, build, provenance, check=check, notify=_warn)
+    except ArtifactError as e:
+        raise UsageError(str(e)) from None
+
+
+def _check_sizes(folder: Path, sizes: dict) -> None:
+    """A legacy manifest's recorded file sizes (it has no checksums)."""
+    for name, size in sizes.items():
+        got = (folder / name).stat().st_size
+        if got != size:
+            raise ArtifactError(f"{folder / name}: {got} bytes, the manifest says {size}")
+
+
+def _check_dataset(folder: Path, manifest: dict) -> None:
+    from mpnet.data.dataset import DATA_FILE
+
+    if "bytes" in manifest:
+        _check_sizes(folder, {DATA_FILE: manifest["bytes"]})
+    load_dataset(folder, manifest)
+
+
+def _testset_check(spec):
+    def check(folder: Path, manifest: dict) -> None:
+        for name in manifest["files"]:
+            try:
+                load_problems(folder / name, spec)
+            except ProblemFileError as e:
+                raise ArtifactError(str(e)) from None
+
+    return check
+
+
+def _check_models(folder: Path, manifest: dict) -> None:
+    from harness.fit import ENET_FILE
+    from mpnet.models.checkpoint import load_enet_checkpoint, load_pnet_checkpoint
+
+    _check_sizes(folder, manifest.get("fit", {}).get("bytes", {}))
+    for name in manifest["files"]:
+        try:
+            (load_enet_checkpoint if name == ENET_FILE else load_pnet_checkpoint)(folder / name)
+        except ValueError as e:
+            raise ArtifactError(str(e)) from None
 
 
 def ensure_dataset(cfg: DictConfig, progress: bool = True):
@@ -38,7 +95,7 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
         finally:
             bar.close()
 
-    return ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance)
+    return _ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance, _check_dataset)
 
 
 TESTSET_FORMAT = "mpnet-bench/testset@2"  # @2: reference costs
@@ -91,7 +148,7 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
             "reference": {"method": describe(spec), "seconds": ref_s},
         }
 
-    folder, _, _ = ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance)
+    folder, _, _ = _ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance, _testset_check(spec))
     workspaces, queries = [], []
     for split in cfg.splits:
         part = load_problems(folder / f"{split}.json", spec)
@@ -113,10 +170,12 @@ def ensure_models(cfg: DictConfig, progress: bool = True):
     def build(folder: Path) -> dict:
         from harness.fit import fit_models
 
-        data = load_dataset(data_folder, data_manifest)  # only to train: a cached model needs its key alone
+        try:  # only to train: a cached model needs its key alone
+            data = load_dataset(data_folder, data_manifest)
+        except ArtifactError as e:  # damaged since it was verified: the user's one line, not a traceback
+            raise UsageError(str(e)) from None
         return fit_models(spec, data, params, lightning, folder, progress)
 
     key_config = {"data": data_manifest["key"], **params}
-    return ensure(
-        cfg.cache_dir, "models", key_config, build, lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
-    )
+    provenance = lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
+    return _ensure(cfg.cache_dir, "models", key_config, build, provenance, _check_models)

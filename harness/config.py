@@ -2,11 +2,14 @@
 parameters (which are also cache keys), and the checks of the app's own keys.
 
 A planner's settings are checked by the planner's constructor (one place); the keys
-checked here are the app's: budget, seed, splits, logging switches, the env's knobs.
+checked here are the app's: budget, seed, splits, logging switches, the env's knobs, and
+the counts and sizes of data and training. check_planner runs the planner's constructor
+once before any set-up (seeding imports torch; MPNet's networks may need training).
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import replace
 
@@ -56,9 +59,91 @@ def _number(key: str, value, positive: bool = True) -> None:
         raise UsageError(f"config key {key}: expected a {'positive ' if positive else ''}finite number, got {value!r}")
 
 
+def _integer(key: str, value, minimum: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise UsageError(f"config key {key}: expected an integer >= {minimum}, got {value!r}")
+
+
+# Counts and sizes a user may type: (key, smallest sensible value). A key a config lacks is
+# skipped. Negative or zero counts were accepted silently before (jobs=-3 built with no workers).
+INTEGER_KEYS = (
+    ("jobs", 1),
+    ("env.data_seed", 0),
+    ("env.points_per_block", 1),
+    ("scale.test.seen.workspaces", 1),
+    ("scale.test.seen.queries", 1),
+    ("scale.test.unseen.workspaces", 1),
+    ("scale.test.unseen.queries", 1),
+    ("scale.train.workspaces", 1),
+    ("scale.train.paths", 1),
+    ("scale.train.ae_workspaces", 0),
+    ("scale.fit.ae_epochs", 0),
+    ("scale.fit.pnet_epochs", 1),
+    ("scale.fit.batch_size", 1),
+    ("train.seed", 0),
+    ("train.patience", 1),
+)
+
+
+def _check_training(cfg: DictConfig) -> None:
+    """The counts, sizes and training knobs: what a typo would otherwise turn into hours of
+    nonsense (a negative learning rate trains; jobs=-3 was accepted)."""
+    for key, minimum in INTEGER_KEYS:
+        value = OmegaConf.select(cfg, key, default=None)
+        if value is not None:
+            _integer(key, value, minimum)
+    if OmegaConf.select(cfg, "train.lr", default=None) is not None:
+        _number("train.lr", cfg.train.lr)
+    if OmegaConf.select(cfg, "train.lam", default=None) is not None:
+        _number("train.lam", cfg.train.lam, positive=False)
+        if cfg.train.lam < 0:
+            raise UsageError(f"config key train.lam: expected a number >= 0, got {cfg.train.lam}")
+    fraction = OmegaConf.select(cfg, "train.val_fraction", default=None)
+    if fraction is not None:
+        _number("train.val_fraction", fraction)
+        if not 0 < fraction < 1:
+            raise UsageError(f"config key train.val_fraction: expected a number between 0 and 1, got {fraction}")
+
+
+class _SettingsChecked(Exception):
+    """Raised by the stand-in models folder: the constructor checked its settings first."""
+
+
+def _stop_before_models():
+    raise _SettingsChecked
+
+
+def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
+    """The planner's constructor on its config, given stand-ins for the run's objects
+    (models_dir stops it before any training: from_checkpoint checks its settings first);
+    its complaint as UsageError. The bench builds the planner itself later."""
+    import hydra
+    from hydra.errors import InstantiationException
+
+    args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}
+    try:
+        factory = hydra.utils.instantiate(args, _partial_=True)
+    except InstantiationException as e:
+        raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
+    runtime = {"env": spec, "seed": seed, "models_dir": _stop_before_models, "cloud": lambda ws: None}
+    signature = inspect.signature(factory.func)
+    kwargs = {**factory.keywords, **{k: v for k, v in runtime.items() if k in signature.parameters}}
+    try:
+        signature.bind(*factory.args, **kwargs)
+    except TypeError as e:
+        raise UsageError(f"config key {key}: {e}") from None
+    try:
+        factory.func(*factory.args, **kwargs)
+    except _SettingsChecked:
+        pass
+    except (ValueError, TypeError) as e:  # float("abc"), float(None): not every constructor names its key
+        raise UsageError(str(e) if "config key" in str(e) else f"config key {key}: {e}") from None
+
+
 def check_config(cfg: DictConfig) -> None:
     """The values a user types, checked before any work: UsageError naming the key."""
     _number("budget_s", cfg.budget_s)
+    _check_training(cfg)
     _number("env.validation_step", cfg.env.validation_step)
     _number("env.solvable_s", cfg.env.solvable_s)
     if cfg.env.get("motion_step") is not None:
@@ -100,6 +185,11 @@ def check_config(cfg: DictConfig) -> None:
     for key in ("rerun", "resume", "progress"):
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
+    if cfg.get("planner") is not None:
+        spec = env_spec(cfg.env)
+        check_planner(cfg.planner, "planner", spec, cfg.seed)
+        if cfg.planner.get("cost_target") is not None:
+            check_planner(cfg.planner.cost_target, "planner.cost_target", spec, cfg.seed)
 
 
 def data_params(cfg: DictConfig) -> DataParams:

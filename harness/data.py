@@ -7,10 +7,11 @@ import json
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import run_hydra
+from harness.cli import run_hydra, user_errors
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+@user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_dataset, ensure_testset
 

@@ -8,12 +8,16 @@ import json
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import run_hydra
+from harness.cli import run_hydra, user_errors
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+@user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_models
+    from harness.config import check_config
+
+    check_config(cfg)
 
     folder, manifest, built = ensure_models(cfg, progress=bool(cfg.progress))
     print(f"{'trained' if built else 'cached'}: {folder}")

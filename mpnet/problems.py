@@ -173,7 +173,10 @@ def _got(v) -> str:
 
 
 def _show(v, limit: int = 40) -> str:
-    s = json.dumps(v) if not isinstance(v, _NonFinite) else v.text
+    try:  # a NaN or Infinity may sit anywhere inside v (1e999 shown as Infinity)
+        s = json.dumps(v, default=lambda x: float(x.text)) if not isinstance(v, _NonFinite) else v.text
+    except (RecursionError, ValueError):  # nested too deeply to show, or an integer too long to print
+        s = _type_name(v)
     return s if len(s) <= limit else s[: limit - 3] + "..."
 
 

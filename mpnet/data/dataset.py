@@ -12,12 +12,15 @@ data.npz holds
 
 from __future__ import annotations
 
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from mpnet.data.expert import ExpertPaths, expert_paths, summary
+from mpnet.data.store import ArtifactError
 from mpnet.envs.clouds import clouds
 from mpnet.envs.generators import extra_ids, make_workspaces, split_ids
 from mpnet.envs.spec import EnvSpec
@@ -104,8 +107,17 @@ def build_dataset(
 
 
 def load_dataset(folder: Path, manifest: dict) -> Dataset:
-    with np.load(folder / DATA_FILE) as z:
-        paths = ExpertPaths(
-            z["path_states"], z["path_offsets"], z["path_workspace"], z["path_cost"], z["path_raw_cost"]
-        )
-        return Dataset(z["train_ids"], z["train_clouds"], z["ae_clouds"], paths, manifest)
+    """The dataset in folder; ArtifactError naming data.npz when it cannot be read whole."""
+    path = folder / DATA_FILE
+    try:
+        with np.load(path) as z:
+            paths = ExpertPaths(
+                z["path_states"], z["path_offsets"], z["path_workspace"], z["path_cost"], z["path_raw_cost"]
+            )
+            return Dataset(z["train_ids"], z["train_clouds"], z["ae_clouds"], paths, manifest)
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as e:
+        raise ArtifactError(f"{path}: unreadable ({type(e).__name__}: {_first_line(e)})") from None
+
+
+def _first_line(e: BaseException) -> str:
+    return (str(e).strip().splitlines() or [""])[0]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib
 
-from mpnet.models.checkpoint import PlannerNets, load_enet_checkpoint, load_pnet_checkpoint
+from mpnet.models.checkpoint import CheckpointError, PlannerNets, load_enet_checkpoint, load_pnet_checkpoint
 from mpnet.models.networks import (
     ENET_HIDDEN,
     ENET_LATENT,
@@ -57,6 +57,7 @@ __all__ = [
     "enet_numpy",
     "paper_s2d",
     "PlannerNets",
+    "CheckpointError",
     "load_pnet_checkpoint",
     "load_enet_checkpoint",
     *_LAZY,

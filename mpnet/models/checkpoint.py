@@ -9,6 +9,8 @@ the module attribute (``pnet.``, ``encoder.``, ``ae.``).
 from __future__ import annotations
 
 import os
+import pickle
+import zipfile
 from dataclasses import dataclass
 
 import torch
@@ -20,12 +22,25 @@ def _sub_state(state: dict, prefix: str) -> dict:
     return {k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)}
 
 
+# What torch.load raises on a damaged file (cut short: RuntimeError; empty: EOFError; garbled
+# pickle: UnpicklingError; text: KeyError), besides OSError for an unreadable one.
+_DAMAGED = (OSError, RuntimeError, EOFError, ValueError, KeyError, pickle.UnpicklingError, zipfile.BadZipFile)
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file that cannot be read; `str(e)` is one line naming the file."""
+
+
 def _load(path: str | os.PathLike, map_location) -> tuple[dict, dict]:
-    ckpt = torch.load(path, map_location=map_location, weights_only=True)
+    try:
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+    except _DAMAGED as e:
+        detail = (str(e).strip().splitlines() or [""])[0]
+        raise CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: {detail})") from None
     try:
         return ckpt["hyper_parameters"], ckpt["state_dict"]
-    except KeyError as e:
-        raise ValueError(f"{path}: not a Lightning checkpoint of mpnet.models (missing {e})") from None
+    except (KeyError, TypeError) as e:
+        raise CheckpointError(f"{path}: not a Lightning checkpoint of mpnet.models (missing {e})") from None
 
 
 @dataclass
@@ -54,7 +69,7 @@ class PlannerNets:
 def load_pnet_checkpoint(path: str | os.PathLike, map_location="cpu") -> PlannerNets:
     hp, state = _load(path, map_location)
     if "pnet" not in hp or "encoder" not in hp:
-        raise ValueError(f"{path}: not a PnetModule checkpoint")
+        raise CheckpointError(f"{path}: not a PnetModule checkpoint")
     pnet, encoder = Pnet(**hp["pnet"]), Enet(**hp["encoder"])
     pnet.load_state_dict(_sub_state(state, "pnet."))
     encoder.load_state_dict(_sub_state(state, "encoder."))
@@ -65,11 +80,11 @@ def load_enet_checkpoint(path: str | os.PathLike, map_location="cpu") -> tuple[C
     """An EnetModule checkpoint -> (autoencoder, cloud normaliser)."""
     hp, state = _load(path, map_location)
     if "ae" not in hp:
-        raise ValueError(f"{path}: not an EnetModule checkpoint")
+        raise CheckpointError(f"{path}: not an EnetModule checkpoint")
     ae = ContractiveAE.from_config(hp["ae"])
     ae.lam = float(hp.get("lam", ae.lam))
     ae.load_state_dict(_sub_state(state, "ae."))
     return ae.eval(), Normalizer(hp["cloud_scale"])
 
 
-__all__ = ["PlannerNets", "load_pnet_checkpoint", "load_enet_checkpoint"]
+__all__ = ["CheckpointError", "PlannerNets", "load_pnet_checkpoint", "load_enet_checkpoint"]

@@ -1,0 +1,93 @@
+"""No tracebacks from user input: a bad config value, planner setting, output or cache
+folder, or problem file is one line on stderr naming the key, file or folder, and a
+non-zero exit; checked before any expensive set-up."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from harness.cli import UsageError, check_output_dirs
+from harness.config import check_config
+
+
+@pytest.mark.parametrize(
+    "override,key",
+    [
+        ("jobs=-3", "jobs"),
+        ("jobs=0", "jobs"),
+        ("jobs=1.5", "jobs"),
+        ("env.data_seed=-1", "env.data_seed"),
+        ("env.points_per_block=0", "env.points_per_block"),
+        ("scale.test.seen.queries=-2", "scale.test.seen.queries"),
+        ("scale.train.paths=0", "scale.train.paths"),
+        ("scale.fit.batch_size=0", "scale.fit.batch_size"),
+        ("train.lr=-1", "train.lr"),
+        ("train.lam=-0.1", "train.lam"),
+        ("train.val_fraction=1.5", "train.val_fraction"),
+        ("train.patience=0", "train.patience"),
+        ("planner.stop=bogus", "planner.stop"),
+        ("planner.cost_factor=abc", "planner"),  # float("abc") in the constructor: a ValueError without a key
+        ("planner.cost_factor=null", "planner"),  # and a TypeError
+    ],
+)
+def test_nonsense_config_value_is_refused_naming_the_key(override, key, compose_config):
+    cfg = compose_config(["+env=s2d", "+planner=bit_star", "scale=tiny", override])
+    with pytest.raises(UsageError, match=f"config key {key}"):
+        check_config(cfg)
+
+
+@pytest.mark.parametrize(
+    "planner,override", [("mpnet_nr", "planner.max_steps=abc"), ("mpnet_hr", "planner.fallback=x")]
+)
+def test_bad_mpnet_setting_is_refused_without_models(planner, override, compose_config, tmp_path):
+    """check_config runs the planner's constructor with a models folder that stops it:
+    the settings are refused, and nothing is trained or built."""
+    cfg = compose_config(["+env=s2d", f"+planner={planner}", "scale=tiny", override, f"cache_dir={tmp_path}"])
+    with pytest.raises(UsageError, match="config key planner"):
+        check_config(cfg)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_good_config_passes_without_building(compose_config, tmp_path):
+    cfg = compose_config(["+env=s2d", "+planner=bit_star_to_nr", "scale=tiny", f"cache_dir={tmp_path}"])
+    check_config(cfg)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_output_dir_that_cannot_be_made_is_one_line(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    for arg in (f"hydra.run.dir={tmp_path / 'afile' / 'run'}", "hydra.sweep.dir=/proc/mpnet-bench/${now:%H}"):
+        with pytest.raises(UsageError, match=r"config key hydra\.(run|sweep)\.dir: cannot create") as info:
+            check_output_dirs([arg])
+        assert "\n" not in str(info.value)
+
+
+def test_output_dir_check_leaves_nothing_behind(tmp_path):
+    check_output_dirs([f"hydra.run.dir={tmp_path / 'a' / 'b'}", f"hydra.sweep.dir={tmp_path}/c/${{now:%H}}", "seed=1"])
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow  # the CLI in subprocesses
+def test_cli_user_errors_are_one_line(tmp_path, run_cli):
+    """The filesystem and file cases through the CLI: an output dir under a regular file
+    (Hydra's traceback before), a cache under one, a problem file with a NaN nested in a
+    list, and a bad planner setting, which is refused before the cache is touched."""
+    (tmp_path / "afile").write_text("x")
+    bad = {"format": "mpnet-bench/problems@1", "env": "s2d", "workspaces": [{"id": [[float("nan")]]}]}
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    base = ("harness", "+env=s2d", "+planner=bit_star", "scale=tiny", "progress=false")
+    cases = [
+        ((f"hydra.run.dir={tmp_path / 'afile' / 'run'}",), "config key hydra.run.dir"),
+        ((f"cache_dir={tmp_path / 'afile' / 'cache'}", f"hydra.run.dir={tmp_path / 'r1'}"), "afile/cache"),
+        ((f"problems={tmp_path / 'bad.json'}", f"hydra.run.dir={tmp_path / 'r2'}"), "bad.json: workspace #0"),
+        (("planner.stop=bogus", f"cache_dir={tmp_path / 'c'}", f"hydra.run.dir={tmp_path / 'r3'}"), "planner.stop"),
+    ]
+    for args, needle in cases:
+        p = run_cli(*base, *args, check=False)
+        assert p.returncode != 0 and "Traceback" not in p.stderr, p.stderr
+        assert len(p.stderr.strip().splitlines()) == 1 and needle in p.stderr, p.stderr
+    assert not (tmp_path / "c").exists()
+    p = run_cli("harness.train", "+env=s2d", "scale=tiny", f"cache_dir={tmp_path / 'afile'}", "jobs=-3", check=False)
+    assert p.returncode == 1 and p.stderr.strip() == "error: config key jobs: expected an integer >= 1, got -3"
