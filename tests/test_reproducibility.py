@@ -91,3 +91,34 @@ def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp
     assert len(whole) == len(resumed) == 200
     assert resumed == whole
     assert sorted(stock_queries(killed / "trials.mcap")) == sorted(q for _, q in whole)
+
+
+def _log_child(pid: int) -> int:
+    """The spawned trial-log process among pid's children (not multiprocessing's resource tracker)."""
+    for _ in range(500):
+        for child in subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split():
+            cmd = open(f"/proc/{child}/cmdline", "rb").read().replace(b"\0", b" ")
+            if b"multiprocessing.spawn" in cmd and b"resource_tracker" not in cmd:
+                return int(child)
+        time.sleep(0.01)
+    raise AssertionError("no trial-log process")
+
+
+def test_a_killed_log_process_is_one_line_and_resume_finishes(tmp_path, run_cli, repo):
+    args = [
+        "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
+        "rerun=false", "env.reference.bit_star_s=0.01", "env.expert.iterations=10", f"cache_dir={tmp_path / 'c'}",
+        f"hydra.run.dir={tmp_path / 'run'}",
+    ]  # fmt: skip
+    proc = subprocess.Popen([sys.executable, "-m", *args], cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    csv_file, deadline = tmp_path / "run" / "queries.csv", time.time() + 120
+    while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 5):
+        time.sleep(0.005)
+    os.kill(_log_child(proc.pid), signal.SIGKILL)
+    _, err = proc.communicate(timeout=120)
+    err = err.decode()
+    assert proc.returncode == 1 and "Traceback" not in err, err
+    assert err.strip().splitlines()[-1].startswith("error: the trial-log process died (exit code -9)")
+    assert "resume=true" in err
+    run_cli(*args, "resume=true")
+    assert len(paths(tmp_path / "run")) == 200
