@@ -243,15 +243,18 @@ class TrialLog:
                 )
             for old_run in runs:
                 _check_same_run(p, old_run, run)
-            if scan.damaged or (scan.size and not runs):
-                what = scan.describe_damage() if runs else "no readable trial: not a trial log, or all of it damaged"
-                damaged.append((p, f"{p.name} is damaged ({what}): its {queries} readable queries are kept"))
+            if not runs and scan.size:
+                damaged.append((p, f"{p.name} holds no readable trial (not a trial log, or damaged throughout)"))
+            elif scan.damaged:
+                damaged.append(
+                    (p, f"{p.name} is damaged ({scan.describe_damage()}): its {queries} readable queries are kept")
+                )
             old += msgs
         for p, note in damaged:  # never overwritten or deleted: kept under a name of its own
             k = 1 + max(map(aside_index, self.run_dir.glob(MCAP_NAME + DAMAGED_SUFFIX + "*")), default=0)
             kept = p.with_name(MCAP_NAME + DAMAGED_SUFFIX + str(k))
             os.replace(p, kept)
-            self.notes.append(f"{note}, the file itself as {kept}")
+            self.notes.append(f"{note}; the file is kept as {kept}")
             if p in asides:
                 asides.remove(p)
         if self.mcap_path.exists():
