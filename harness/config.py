@@ -161,4 +161,5 @@ def lightning_params(cfg: DictConfig) -> dict:
         "accelerator": str(cfg.train.accelerator),
         "devices": cfg.train.devices,
         "strategy": str(cfg.train.strategy),
+        "num_nodes": int(cfg.train.get("num_nodes", 1)),
     }

@@ -48,6 +48,7 @@ def _trainer(
         accelerator=lightning["accelerator"],
         devices=lightning["devices"],
         strategy=lightning["strategy"],
+        num_nodes=lightning.get("num_nodes", 1),
         logger=loggers,
         default_root_dir=str(folder),
         callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
