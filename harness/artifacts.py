@@ -129,10 +129,10 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
 def ensure_models(cfg: DictConfig, progress: bool = True):
     """The env's trained Enet and Pnet at this scale: from the cache, or trained now
     (building the dataset first if it is missing)."""
+    lightning = lightning_params(cfg)  # checked before any work
     spec = env_spec(cfg.env)
     data_folder, data_manifest, _ = ensure_dataset(cfg, progress)
     params = model_params(cfg)
-    lightning = lightning_params(cfg)
 
     def build(folder: Path) -> dict:
         from harness.fit import fit_models
