@@ -16,9 +16,10 @@ from tqdm import tqdm
 from harness.cli import UsageError
 from harness.config import data_params, env_spec, geometry_params, lightning_params, model_params, reference_params
 from harness.provenance import artifact_provenance
-from mpnet.data.dataset import build_dataset, load_dataset
+from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset
+from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
-from mpnet.data.store import ArtifactError, ensure, partial_dir
+from mpnet.data.store import ArtifactError, content_key, ensure, partial_dir, read_manifest
 from mpnet.envs.spec import TestSet
 from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import ProblemFileError, dump_problems, load_problems
@@ -81,9 +82,10 @@ def _check_models(folder: Path, manifest: dict) -> None:
             raise ArtifactError(str(e)) from None
 
 
-def ensure_dataset(cfg: DictConfig, progress: bool = True):
+def ensure_dataset(cfg: DictConfig, progress: bool = True, plan: bool = True):
     """The env's training dataset at this scale, from the cache or built now: (folder,
-    manifest, built); `load_dataset(folder, manifest)` reads it."""
+    manifest, built); `load_dataset(folder, manifest)` reads it. plan=False: the merge of
+    a sharded build, which plans nothing (MissingChunks when a shard has not finished)."""
     spec = env_spec(cfg.env)
     params = data_params(cfg)
 
@@ -91,11 +93,33 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True):
         bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
         try:
             resume = partial_dir(cfg.cache_dir, "data", params.key_config())  # a build cut short resumes
-            return build_dataset(spec, params, folder, jobs=int(cfg.jobs), progress=bar.update, resume_dir=resume)
+            return build_dataset(
+                spec, params, folder, jobs=int(cfg.jobs), progress=bar.update, resume_dir=resume, plan=plan
+            )
         finally:
             bar.close()
 
     return _ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance, _check_dataset)
+
+
+def dataset_shard(cfg: DictConfig, shard: int, shards: int, progress: bool = True):
+    """Plan shard `shard` of `shards` of the dataset's expert paths into its partial folder
+    in the cache (a cluster job; the merge assembles the dataset). Returns (the dataset's
+    folder, None) when it is built already, else (the partial folder, the shard's paths)."""
+    spec = env_spec(cfg.env)
+    params = data_params(cfg)
+    key_config = params.key_config()
+    folder = Path(cfg.cache_dir) / "data" / content_key({"kind": "data", **key_config})
+    try:
+        read_manifest(folder, folder.name)
+        return folder, None
+    except ArtifactError:
+        pass
+    resume = partial_dir(cfg.cache_dir, "data", key_config)
+    total = sum(len(c) for c in chunks_of(params.train_workspaces, shard=(shard, shards)).values())
+    with _bar(total, f"expert paths {spec.name} shard {shard}/{shards}", progress) as bar:
+        paths = build_expert_shard(spec, params, resume, (shard, shards), jobs=int(cfg.jobs), progress=bar.update)
+    return resume, paths
 
 
 TESTSET_FORMAT = "mpnet-bench/testset@2"  # @2: reference costs
@@ -162,10 +186,10 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
 def ensure_models(cfg: DictConfig, progress: bool = True):
     """The env's trained Enet and Pnet at this scale: from the cache, or trained now
     (building the dataset first if it is missing)."""
+    lightning = lightning_params(cfg)  # checked before any work
     spec = env_spec(cfg.env)
     data_folder, data_manifest, _ = ensure_dataset(cfg, progress)
     params = model_params(cfg)
-    lightning = lightning_params(cfg)
 
     def build(folder: Path) -> dict:
         from harness.fit import fit_models

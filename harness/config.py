@@ -246,9 +246,25 @@ def model_params(cfg: DictConfig) -> dict:
     return params
 
 
+# Strategies that run the fit in worker processes of this one (Lightning's others re-run the
+# command in each process, whose copies then wait on the model's build lock the first holds).
+SPAWNING_STRATEGIES = ("ddp_spawn", "ddp_fork", "ddp_notebook")
+
+
 def lightning_params(cfg: DictConfig) -> dict:
-    return {
-        "accelerator": str(cfg.train.accelerator),
-        "devices": cfg.train.devices,
-        "strategy": str(cfg.train.strategy),
-    }
+    """Lightning's settings from train.*, checked: several processes must be spawned ones,
+    and on one node (the artifact store trains a model in one process and its children)."""
+    t = cfg.train
+    num_nodes, devices, strategy = t.get("num_nodes", 1), t.devices, str(t.strategy)
+    if isinstance(num_nodes, bool) or not isinstance(num_nodes, int) or num_nodes != 1:
+        raise UsageError(
+            f"config key train.num_nodes: training spans one node (several GPUs of it with "
+            f"train.strategy=ddp_spawn), got {num_nodes!r}"
+        )
+    count = len(devices) if OmegaConf.is_list(devices) else devices if isinstance(devices, int) else 1
+    if count > 1 and strategy not in SPAWNING_STRATEGIES:
+        raise UsageError(
+            f"config key train.strategy: {count} devices need one of {', '.join(SPAWNING_STRATEGIES)} "
+            f"(the others re-run this command per device), got {strategy!r}"
+        )
+    return {"accelerator": str(t.accelerator), "devices": devices, "strategy": strategy, "num_nodes": num_nodes}

@@ -48,6 +48,7 @@ def _trainer(
         accelerator=lightning["accelerator"],
         devices=lightning["devices"],
         strategy=lightning["strategy"],
+        num_nodes=lightning.get("num_nodes", 1),
         logger=loggers,
         default_root_dir=str(folder),
         callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
@@ -58,6 +59,27 @@ def _trainer(
         limit_val_batches=limit_batches,
     )
     return trainer, checkpoint
+
+
+def _best_score(ckpt) -> float:
+    """The checkpoint callback's best validation loss; with strategy=ddp_spawn the fit ran
+    in worker processes, which hand back the best checkpoint's path but not its score."""
+    if ckpt.best_model_score is not None:
+        return float(ckpt.best_model_score)
+    import torch
+
+    state = torch.load(ckpt.best_model_path, map_location="cpu", weights_only=False)["callbacks"]
+    return float(next(v["best_model_score"] for k, v in state.items() if k.startswith("ModelCheckpoint")))
+
+
+def _epochs(trainer, folder: Path, name: str) -> int:
+    """Epochs run; after ddp_spawn's workers (the main process's trainer never ran one),
+    from the CSV log they wrote."""
+    if trainer.current_epoch:
+        return trainer.current_epoch
+    import pandas as pd
+
+    return int(pd.read_csv(folder / f"{name}_logs" / "version_0" / "metrics.csv")["epoch"].max()) + 1
 
 
 def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
@@ -112,8 +134,8 @@ def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train
     ae_best = EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")
     return ae_best.encoder, {
         "seconds": time.perf_counter() - t0,
-        "epochs": trainer.current_epoch,
-        "best_val_loss": float(ckpt.best_model_score),
+        "epochs": _epochs(trainer, folder, "enet"),
+        "best_val_loss": _best_score(ckpt),
         "clouds": len(ae_clouds),
     }
 
@@ -159,8 +181,8 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
     trainer.fit(module, datamodule=dm)
     return {
         "seconds": time.perf_counter() - t1,
-        "epochs": trainer.current_epoch,
-        "best_val_loss": float(ckpt.best_model_score),
+        "epochs": _epochs(trainer, folder, "pnet"),
+        "best_val_loss": _best_score(ckpt),
         "pairs": len(pairs.x_t),
         "end_to_end": not frozen,
     }

@@ -4,11 +4,12 @@ point clouds) and then Pnet (on expert waypoint pairs, both directions) with Lig
 from __future__ import annotations
 
 import json
+import sys
 
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import run_hydra, user_errors
+from harness.cli import UsageError, run_hydra, user_errors
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
@@ -19,7 +20,11 @@ def main(cfg: DictConfig) -> None:
 
     check_config(cfg)
 
-    folder, manifest, built = ensure_models(cfg, progress=bool(cfg.progress))
+    try:
+        folder, manifest, built = ensure_models(cfg, progress=bool(cfg.progress))
+    except UsageError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(1)
     print(f"{'trained' if built else 'cached'}: {folder}")
     print(json.dumps(manifest["fit"], indent=2))
 

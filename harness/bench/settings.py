@@ -13,7 +13,7 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 
 # Keys that change how a run is carried out, never what it finds.
-NOT_RESULTS = ("rerun", "resume", "progress", "cache_dir", "jobs", "hydra", "shard", "shards")
+NOT_RESULTS = ("rerun", "resume", "progress", "cache_dir", "jobs", "hydra", "shard", "shards", "merge")
 
 
 def file_digest(path: str | Path) -> str:

@@ -61,27 +61,36 @@ class Dataset:
     manifest: dict
 
 
-def build_dataset(
-    spec: EnvSpec, p: DataParams, folder: Path, jobs: int = 2, progress=None, resume_dir: Path | None = None
-) -> dict:
-    """Write data.npz into folder; returns the manifest fields. resume_dir: where finished
-    chunks of expert paths are kept, so that a build cut short resumes."""
-    train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
-    extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
-    total = spec.cloud_size(p.points_per_block)
-    paths = expert_paths(
+def _expert_paths(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> ExpertPaths:
+    return expert_paths(
         spec,
         list(enumerate(train)),
         p.paths_per_workspace,
         p.data_seed,
         p.expert_iterations,
         p.expert_max_seconds,
-        jobs=jobs,
-        progress=progress,
         blocked_only=p.expert_blocked_only,
         contract=p.expert_contract,
-        resume_dir=resume_dir,
+        **kwargs,
     )
+
+
+def build_dataset(
+    spec: EnvSpec,
+    p: DataParams,
+    folder: Path,
+    jobs: int = 2,
+    progress=None,
+    resume_dir: Path | None = None,
+    plan: bool = True,
+) -> dict:
+    """Write data.npz into folder; returns the manifest fields. resume_dir: where finished
+    chunks of expert paths are kept, so that a build cut short resumes; plan=False: every
+    chunk must be there already (the merge of a sharded build; MissingChunks otherwise)."""
+    train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
+    paths = _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, plan=plan)
+    extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
+    total = spec.cloud_size(p.points_per_block)
     arrays = {
         "train_ids": np.array([int(w.id) for w in train]),
         "train_centers": np.stack([w.centers for w in train]),
@@ -104,6 +113,15 @@ def build_dataset(
         "sizes": {k: list(v.shape) for k, v in arrays.items()},
         "bytes": (folder / DATA_FILE).stat().st_size,
     }
+
+
+def build_expert_shard(
+    spec: EnvSpec, p: DataParams, resume_dir: Path, shard: tuple[int, int], jobs: int = 2, progress=None
+) -> ExpertPaths:
+    """Shard (i, shards) of the dataset's expert paths, planned into resume_dir (chunks
+    already there are kept); build_dataset with the same resume_dir assembles them."""
+    train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
+    return _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, shard=shard)
 
 
 def load_dataset(folder: Path, manifest: dict) -> Dataset:

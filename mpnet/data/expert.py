@@ -4,7 +4,9 @@ lazy states contraction (a greedy exact shortcut); then the fine re-check.
 
 An iteration budget, not a time budget, keeps the paths reproducible: each chunk of
 workspaces runs in a fresh process whose OMPL RNG is seeded from (data seed, chunk), so
-the same config gives the same paths on any machine and with any number of processes.
+the same config gives the same paths on any machine and with any number of processes,
+and a build sharded over a cluster (chunk k is shard k % shards's) gives the same paths as
+one build.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import time
+import uuid
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -172,6 +175,25 @@ def chunk_worker(args: tuple) -> ExpertPaths:
     )
 
 
+class MissingChunks(Exception):
+    """A build asked to plan nothing (the merge of a sharded build) found chunks missing."""
+
+    def __init__(self, missing: list[int], chunks: int):
+        super().__init__(f"{len(missing)} of {chunks} chunks of expert paths missing: {missing}")
+        self.missing, self.chunks = missing, chunks
+
+
+def chunks_of(n: int, chunk_size: int = 1, shard: tuple[int, int] | None = None) -> dict[int, range]:
+    """The chunks (index ranges of the n workspaces) a build plans, by chunk number; with
+    shard=(i, shards), those of shard i: chunk k is shard k % shards's, so that the shards
+    of a build get the same number of chunks give or take one."""
+    chunks = {k: range(i, min(i + chunk_size, n)) for k, i in enumerate(range(0, n, chunk_size))}
+    if shard is None:
+        return chunks
+    i, shards = shard
+    return {k: c for k, c in chunks.items() if k % shards == i}
+
+
 def expert_paths(
     spec: EnvSpec,
     workspaces: list[tuple[int, Workspace]],
@@ -185,23 +207,32 @@ def expert_paths(
     blocked_only: bool = True,
     contract: bool = False,
     resume_dir: Path | None = None,
+    shard: tuple[int, int] | None = None,
+    plan: bool = True,
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
     `progress(n)` is called with the number of workspaces each finished chunk held.
     resume_dir: each finished chunk is saved there, and chunks found there are not planned
-    again (the folder must belong to these arguments: the artifact store keys it)."""
+    again (the folder must belong to these arguments: the artifact store keys it).
+    shard=(i, shards): only shard i's chunks (see chunks_of); plan=False: plan nothing,
+    read every chunk from resume_dir (MissingChunks if some are not there)."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    chunks = [workspaces[i : i + chunk_size] for i in range(0, len(workspaces), chunk_size)]
-    tasks = [(spec, c, count, seed, k, iterations, max_seconds, blocked_only, contract) for k, c in enumerate(chunks)]
-    results: list[ExpertPaths | None] = [None] * len(tasks)
-    for k in range(len(tasks)):  # chunks a build cut short already finished
+    chunks = chunks_of(len(workspaces), chunk_size, shard)
+    tasks = {
+        k: (spec, [workspaces[i] for i in c], count, seed, k, iterations, max_seconds, blocked_only, contract)
+        for k, c in chunks.items()
+    }
+    results: dict[int, ExpertPaths | None] = {}
+    for k in tasks:  # chunks a build cut short (or the other shards) already finished
         results[k] = _load_chunk(resume_dir, k)
         if results[k] is not None and progress is not None:
             progress(len(chunks[k]))
-    todo = [k for k in range(len(tasks)) if results[k] is None]
+    todo = [k for k in tasks if results[k] is None]
+    if todo and not plan:
+        raise MissingChunks(todo, len(chunks_of(len(workspaces), chunk_size)))
     if todo:
         with ProcessPoolExecutor(
             max_workers=max(1, min(jobs, len(todo))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
@@ -215,7 +246,7 @@ def expert_paths(
                 _save_chunk(resume_dir, k, results[k])
                 if progress is not None:
                     progress(len(chunks[k]))
-    return ExpertPaths.concat([r for r in results if r is not None], spec.state_dim)
+    return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
 
 
 _FIELDS = ("states", "offsets", "workspace", "cost", "raw_cost")
@@ -225,7 +256,7 @@ def _save_chunk(folder: Path | None, k: int, paths: ExpertPaths) -> None:
     if folder is None:
         return
     folder.mkdir(parents=True, exist_ok=True)
-    tmp = folder / f".chunk_{k}.tmp.npz"
+    tmp = folder / f".chunk_{k}.{uuid.uuid4().hex[:8]}.tmp.npz"  # two jobs of one shard (a requeue) never share it
     np.savez(tmp, seconds=paths.seconds, raw_states=paths.raw_states, **{f: getattr(paths, f) for f in _FIELDS})
     os.replace(tmp, folder / f"chunk_{k}.npz")
 
