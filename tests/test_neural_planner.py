@@ -344,3 +344,19 @@ def test_motion_memo_changes_no_decision(monkeypatch):
     monkeypatch.setattr(neural, "MotionMemo", lambda checker: checker)
     assert paths() == with_memo
     assert any(p is not None for p in with_memo)
+
+
+def test_a_seeded_problem_plans_the_same_whatever_ran_before():
+    """Problem.seed: the query's own draws, so a resumed run (other queries before it, or
+    none) plans it as an uninterrupted run does."""
+    ws = make_workspace(S2D, 4, "seen")
+    qs = make_queries(S2D, ws, 4, seed=2, split="seen")
+    planner = make(straight(), False, seed=7)
+
+    def proposals(q, seed):
+        planner.solve(Problem(S2D, ws, S2D.make_checker(ws), q.start, q.goal, seed=seed), 5.0)
+        return [p.tolist() for _, _, p in planner.trace]
+
+    in_order = [proposals(q, 100 + i) for i, q in enumerate(qs)]
+    assert in_order[3] and proposals(qs[3], 103) == in_order[3]
+    assert proposals(qs[3], 104) != in_order[3]  # the seed does decide the draws
