@@ -200,7 +200,10 @@ def test_mbm_problems_run_named_by_scene(tmp_path, run_cli, mbm_dir):
     _, msgs = read_mcap(tmp_path / "trials.mcap")
     queries = [m for t, m in msgs if t == "/query"]
     assert sorted(q["query_id"] for q in queries)[:2] == ["bookshelf_small_panda/0001", "bookshelf_small_panda/0002"]
-    assert len(queries) == 6 and recheck(msgs) >= 5
+    # Every logged success passes the re-check; a path RRT-Connect checked at 0.02 rad may
+    # clip an obstacle at the judge's finer step and is logged as recheck_collision.
+    assert len(queries) == 6 and recheck(msgs) == sum(q["success"] for q in queries) >= 4
+    assert all(q["success"] or q["failure"] == "recheck_collision" for q in queries)
     ws = next(m for t, m in msgs if t == "/workspace")
     assert ws["robot"]["kind"] == "arm" and ws["robot"]["name"] == "panda"
     assert {o.get("type") for o in ws["obstacles"]} >= {"box", "cylinder"}

@@ -17,8 +17,17 @@ NOT_RESULTS = ("rerun", "resume", "progress", "cache_dir", "jobs", "hydra", "sha
 
 
 def file_digest(path: str | Path) -> str:
-    with open(path, "rb") as f:
-        return "sha256:" + hashlib.file_digest(f, "sha256").hexdigest()
+    """sha256 of a problem file; of a folder of them (MotionBenchMaker's), over every file's
+    relative path and sha256, in sorted order."""
+    path = Path(path)
+    if not path.is_dir():
+        with open(path, "rb") as f:
+            return "sha256:" + hashlib.file_digest(f, "sha256").hexdigest()
+    h = hashlib.sha256()
+    for f in sorted(p for p in path.rglob("*") if p.is_file()):
+        with open(f, "rb") as fh:
+            h.update(str(f.relative_to(path)).encode() + b"\0" + hashlib.file_digest(fh, "sha256").digest())
+    return "sha256:" + h.hexdigest()
 
 
 def _flatten(value, prefix: str, out: dict) -> None:
