@@ -95,15 +95,17 @@ PAIR_KEY = ["env", "split", "seed", "query_id"]
 
 
 def bit_star_pairs(q: pd.DataFrame) -> pd.DataFrame:
-    """Per query solved by a planner and by bit_star (paired on env, split, seed, query id):
-    env, split, planner, seed, query_id, path_cost, bit_star_cost, ratio. A query logged in
-    several files of the same (env, planner, seed) counts once, with the mean of its costs."""
+    """Per query solved by a planner and by bit_star of the same run label (paired on env, split,
+    seed, query id): env, split, planner, seed, query_id, path_cost, bit_star_cost, ratio. A query
+    logged in several files of the same (env, planner, seed) counts once, with the mean of its costs."""
     cols = KEYS + ["seed", "query_id", "path_cost", "bit_star_cost", "ratio"]
     solved = q[q["success"] & np.isfinite(q["path_cost"])]
     if solved.empty:
         return pd.DataFrame(columns=cols)
-    c = solved.groupby(["planner"] + PAIR_KEY, sort=False)["path_cost"].mean().reset_index()
-    b = c[(c["planner"] == "bit_star") & (c["path_cost"] > 0)].drop(columns="planner")
-    m = c[c["planner"] != "bit_star"].merge(b.rename(columns={"path_cost": "bit_star_cost"}), on=PAIR_KEY)
+    key = PAIR_KEY + ["run_label"]
+    c = solved.groupby(["planner", "logged_planner"] + key, sort=False)["path_cost"].mean().reset_index()
+    bit = c["logged_planner"] == "bit_star"
+    b = c[bit & (c["path_cost"] > 0)].drop(columns=["planner", "logged_planner"])
+    m = c[~bit].merge(b.rename(columns={"path_cost": "bit_star_cost"}), on=key)
     m["ratio"] = m["path_cost"] / m["bit_star_cost"]
     return m[cols]
