@@ -21,7 +21,7 @@ from harness.cli import CONF_DIR
 from harness.log import TrialLog
 from harness.report.__main__ import main
 from harness.report.facts import Facts, planner_facts, run_facts
-from harness.report.figures import pick_example
+from harness.report.figures import pick_example, solved_within, success_vs_time
 from harness.report.load import load, queries_frame
 from harness.report.names import env_rank
 from harness.report.stats import BOOT_N, boot_interval, boot_medians, fisher_p, wilson
@@ -413,7 +413,7 @@ def test_figures_and_example_choice(tmp_path, capsys):
     rc, out = report(tmp_path, logs)
     assert rc == 0 and capsys.readouterr().err == ""
     names = {p.name for p in (out / "figures").iterdir()}
-    for fig in ("time_per_planner", "success", "time_boxplot", "example_rigid", "example_c3d"):
+    for fig in ("success", "success_vs_time", "time_boxplot", "example_rigid", "example_c3d"):
         assert {fig + ".png", fig + ".svg"} <= names
     files, _, _ = load([logs])
     q = queries_frame(files)
@@ -1011,3 +1011,25 @@ def test_labelled_runs_are_not_pooled(tmp_path, capsys):
     assert "s2d bit_star seed 0: 2 queries logged in more than one file" in capsys.readouterr().err
     r = pd.read_csv(pooled / "results.csv")
     assert r["planner"].tolist() == ["bit_star"] and r["queries"].tolist() == [4]
+
+
+def test_success_vs_time_numbers():
+    """The share solved within a budget counts successes with time <= budget over all queries
+    (failures and successes without a time included), with the Wilson interval at each budget."""
+    curve = solved_within([0.3, 0.1, 0.2, math.nan], 5, [0.05, 0.1, 0.25, 10.0])
+    assert curve["solved"].tolist() == [0, 1, 2, 3] and curve["share"].tolist() == [0.0, 0.2, 0.4, 0.6]
+    for k, lo, hi in zip(curve["solved"], curve["ci_low"], curve["ci_high"]):
+        assert (lo, hi) == pytest.approx(wilson(k, 5), abs=1e-12)
+    q = pd.DataFrame(
+        {
+            "env": "s2d",
+            "split": "seen",
+            "planner": ["a", "a", "a", "b", "b"],
+            "success": [True, True, False, True, False],
+            "time_s": [0.5, 0.1, 9.0, 2.0, 8.0],
+        }
+    )
+    c = success_vs_time(q).set_index(["planner", "budget_s"])
+    assert c.loc["a", "solved"].to_dict() == {0.1: 1, 0.5: 2, 9.0: 2}
+    assert c.loc["b", "share"].to_dict() == {2.0: 0.5, 9.0: 0.5}
+    assert (c["n"].to_dict()[("a", 9.0)], c["n"].to_dict()[("b", 9.0)]) == (3, 2)

@@ -251,8 +251,14 @@ logged in more than one file, figures left out):
   and planner, and the BIT*/MPNet (NR) ratio{paper_rows}.
 - `success_cost.md`, `success_cost.tex`, `success_cost.csv`: success rate [%] (mean ± std over
   seeds; pooled with its Wilson 95% interval) and mean path cost.
-{files_extra}- `figures/`: `time_per_planner` (bars: mean; error bars: std, the lower one clipped at a tenth
-  of the mean on the log axis), `success`, `time_boxplot`, `example_<env>`; PNG and SVG.
+{files_extra}- `figures/` (PNG and SVG; each says its n): `success` (per env, each split × planner's pooled
+  success rate with its Wilson 95% interval, n queries in its label; the axis spans the
+  intervals, not 0-100); `success_vs_time` (per env × split, each planner's share of queries
+  solved within a time budget, log axis, with a Wilson 95% band at each budget; a success
+  without a logged time never counts as within one; n in the legend); `time_boxplot` (per env,
+  the times of the successes of each split × planner on a log axis: box quartiles, whiskers
+  5th-95th percentile, solved / queries in the labels); `example_<env>` (one query: a
+  workspace with an MPNet and a BIT* path).
 - `benchmark.db`: an OMPL benchmark database (one experiment per env × split, one run per
   query); open it in Planner Arena (plannerarena.org).
 

@@ -34,6 +34,21 @@ def wilson(k: int, n: int) -> tuple[float, float]:
     return float(ci.low), float(ci.high)
 
 
+def wilson_arrays(k, n) -> tuple[np.ndarray, np.ndarray]:
+    """wilson() for arrays of counts at once (the closed form, the same numbers): a curve's band
+    at thousands of points costs no test per point; NaN where n == 0."""
+    from scipy.stats import norm
+
+    k, n = np.asarray(k, float), np.asarray(n, float)
+    z = float(norm.ppf(1 - ALPHA / 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = k / n
+        mid = (p + z * z / (2 * n)) / (1 + z * z / n)
+        half = z / (1 + z * z / n) * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+        lo, hi = np.clip(mid - half, 0.0, 1.0), np.clip(mid + half, 0.0, 1.0)
+    return np.where(n > 0, lo, np.nan), np.where(n > 0, hi, np.nan)
+
+
 def fisher_p(k1: int, n1: int, k2: int, n2: int) -> float:
     """Two-sided Fisher exact test of k1 / n1 against k2 / n2 (scipy); NaN when either is empty."""
     if n1 <= 0 or n2 <= 0:
