@@ -455,9 +455,12 @@ def test_stale_figures_are_removed(tmp_path):
     rc, out = report(tmp_path, logs)
     assert rc == 0 and (out / "figures" / "example_c2d.svg").exists()
     (out / "figures" / "notes.txt").write_text("mine")
+    (out / "figures" / "perf_growth.png").write_text("another tool's figure")
+    (out / "figures" / "time_per_planner.svg").write_text("an older report's figure")
     rc, out = report(tmp_path, logs / "s")
     names = {p.name for p in (out / "figures").iterdir()}
-    assert rc == 0 and "example_s2d.png" in names and "notes.txt" in names
+    assert rc == 0 and "example_s2d.png" in names and {"notes.txt", "perf_growth.png"} <= names
+    assert "time_per_planner.svg" not in names
     assert not {"example_c2d.png", "example_c2d.svg"} & names
 
 

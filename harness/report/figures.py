@@ -17,6 +17,8 @@ from harness.report.names import PLANNER_COLORS, env_label, env_rank, natural_ke
 from harness.report.render import fmt_g
 from harness.report.stats import wilson_arrays
 
+# The report's figures, and those of earlier versions of it (removed when it runs again).
+REPORT_FIGURES = ("success", "success_vs_time", "time_boxplot", "time_per_planner")
 TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 
 
@@ -282,10 +284,12 @@ def write_figures(
 ) -> tuple[list[Path], list[str]]:
     """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
     whose data is malformed is left out with a warning line. The PNG and SVG files of an
-    earlier report in out are removed first, so none outlives the data it was drawn from."""
+    earlier report in out are removed first, so none outlives the data it was drawn from; other
+    tools' figures there (reports/figures/perf_*.png) are kept."""
     out.mkdir(parents=True, exist_ok=True)
     for old in out.iterdir():
-        if old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
+        ours = old.stem in REPORT_FIGURES or old.stem.startswith("example_")
+        if ours and old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
             old.unlink()
     makers = [
         ("success", lambda: fig_success(res, facts)),
