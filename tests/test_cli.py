@@ -555,7 +555,7 @@ def test_table1_experiment_and_report(tmp_path, run_cli):
     ]
     table = (out / "table1.md").read_text()
     assert "MPNet (NR)" in table and "BIT*" in table and "paper" in table
-    for fig in ("time_per_planner", "success", "time_boxplot", "example_s2d"):
+    for fig in ("success", "success_vs_time", "time_boxplot", "example_s2d"):
         assert (out / "figures" / f"{fig}.png").stat().st_size > 0
     con = sqlite3.connect(out / "benchmark.db")
     assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 32

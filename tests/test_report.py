@@ -21,7 +21,7 @@ from harness.cli import CONF_DIR
 from harness.log import TrialLog
 from harness.report.__main__ import main
 from harness.report.facts import Facts, planner_facts, run_facts
-from harness.report.figures import pick_example
+from harness.report.figures import pick_example, solved_within, success_vs_time
 from harness.report.load import load, queries_frame
 from harness.report.names import env_rank
 from harness.report.stats import BOOT_N, boot_interval, boot_medians, fisher_p, wilson
@@ -413,7 +413,7 @@ def test_figures_and_example_choice(tmp_path, capsys):
     rc, out = report(tmp_path, logs)
     assert rc == 0 and capsys.readouterr().err == ""
     names = {p.name for p in (out / "figures").iterdir()}
-    for fig in ("time_per_planner", "success", "time_boxplot", "example_rigid", "example_c3d"):
+    for fig in ("success", "success_vs_time", "time_boxplot", "example_rigid", "example_c3d"):
         assert {fig + ".png", fig + ".svg"} <= names
     files, _, _ = load([logs])
     q = queries_frame(files)
@@ -455,9 +455,12 @@ def test_stale_figures_are_removed(tmp_path):
     rc, out = report(tmp_path, logs)
     assert rc == 0 and (out / "figures" / "example_c2d.svg").exists()
     (out / "figures" / "notes.txt").write_text("mine")
+    (out / "figures" / "perf_growth.png").write_text("another tool's figure")
+    (out / "figures" / "time_per_planner.svg").write_text("an older report's figure")
     rc, out = report(tmp_path, logs / "s")
     names = {p.name for p in (out / "figures").iterdir()}
-    assert rc == 0 and "example_s2d.png" in names and "notes.txt" in names
+    assert rc == 0 and "example_s2d.png" in names and {"notes.txt", "perf_growth.png"} <= names
+    assert "time_per_planner.svg" not in names
     assert not {"example_c2d.png", "example_c2d.svg"} & names
 
 
@@ -961,3 +964,75 @@ def test_incomplete_and_unfinished_runs_are_flagged(tmp_path, capsys):
     assert f"warning: {cut}: was not finalised" in err and "harness.repair" in err
     assert f"warning: {full}:" not in err
     assert "incomplete run: 1 of 400" in (out / "README.md").read_text()
+
+
+@pytest.mark.slow  # the whole report, end to end
+def test_output_folder_is_never_overwritten_by_accident(tmp_path, capsys):
+    """The default output is DIR/report/; a folder the report did not make is refused (one line)
+    unless --force; a folder it made is written into again."""
+    logs = tmp_path / "logs"
+    write_log(logs / "bit", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0)])
+    assert main([str(logs)]) == 0
+    assert (logs / "report" / "results.csv").is_file() and (logs / "report" / ".mpnet-report").is_file()
+    assert main([str(logs)]) == 0  # its own folder: fine
+    capsys.readouterr()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    assert main([str(logs), "--out", str(mine)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and "--force" in err
+    assert {p.name for p in mine.iterdir()} == {"notes.txt"}
+    assert main([str(logs), "--out", str(mine), "--force"]) == 0
+    assert (mine / "results.csv").is_file() and (mine / "notes.txt").read_text() == "mine"
+    assert main([str(logs), "--out", str(mine)]) == 0  # --force marked it as the report's
+    assert "--out" in (mine / "README.md").read_text().splitlines()[2]
+
+
+@pytest.mark.slow  # the whole report, end to end
+def test_labelled_runs_are_not_pooled(tmp_path, capsys):
+    """Two labelled folders with the same env, planner and seed are two rows of results.csv, two
+    columns of Table I and two series of the figures; unlabelled, they are pooled."""
+    a, b = tmp_path / "rev_a", tmp_path / "rev_b"
+    write_log(a / "bit", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 1.0), Q("seen", "0", 1, True, 2.0)])
+    write_log(b / "bit", "s2d", "bit_star", 0, [Q("seen", "0", 0, True, 4.0), Q("seen", "0", 1, False, 9.0)])
+    out = tmp_path / "out"
+    assert main(["--label", f"A={a}", "--label", f"B={b}", "--out", str(out)]) == 0
+    assert "more than one file" not in capsys.readouterr().err
+    r = pd.read_csv(out / "results.csv").set_index("planner")
+    assert list(r.index) == ["bit_star [A]", "bit_star [B]"]
+    assert r.loc["bit_star [A]", ["queries", "successes"]].tolist() == [2, 2]
+    assert r.loc["bit_star [B]", ["queries", "successes"]].tolist() == [2, 1]
+    assert r.loc["bit_star [B]", "time_mean_s"] == pytest.approx(4.0)
+    t1 = pd.read_csv(out / "table1.csv").iloc[0]
+    assert (t1["bit_star [A]_time_mean_s"], t1["bit_star [B]_time_mean_s"]) == (pytest.approx(1.5), 4.0)
+    assert "| BIT* [A] | BIT* [B] |" in (out / "table1.md").read_text()
+    assert main(["--label", "nobrackets", "--out", str(out)]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    pooled = tmp_path / "pooled"
+    assert main([str(a), str(b), "--out", str(pooled)]) == 0
+    assert "s2d bit_star seed 0: 2 queries logged in more than one file" in capsys.readouterr().err
+    r = pd.read_csv(pooled / "results.csv")
+    assert r["planner"].tolist() == ["bit_star"] and r["queries"].tolist() == [4]
+
+
+def test_success_vs_time_numbers():
+    """The share solved within a budget counts successes with time <= budget over all queries
+    (failures and successes without a time included), with the Wilson interval at each budget."""
+    curve = solved_within([0.3, 0.1, 0.2, math.nan], 5, [0.05, 0.1, 0.25, 10.0])
+    assert curve["solved"].tolist() == [0, 1, 2, 3] and curve["share"].tolist() == [0.0, 0.2, 0.4, 0.6]
+    for k, lo, hi in zip(curve["solved"], curve["ci_low"], curve["ci_high"]):
+        assert (lo, hi) == pytest.approx(wilson(k, 5), abs=1e-12)
+    q = pd.DataFrame(
+        {
+            "env": "s2d",
+            "split": "seen",
+            "planner": ["a", "a", "a", "b", "b"],
+            "success": [True, True, False, True, False],
+            "time_s": [0.5, 0.1, 9.0, 2.0, 8.0],
+        }
+    )
+    c = success_vs_time(q).set_index(["planner", "budget_s"])
+    assert c.loc["a", "solved"].to_dict() == {0.1: 1, 0.5: 2, 9.0: 2}
+    assert c.loc["b", "share"].to_dict() == {2.0: 0.5, 9.0: 0.5}
+    assert (c["n"].to_dict()[("a", 9.0)], c["n"].to_dict()[("b", 9.0)]) == (3, 2)

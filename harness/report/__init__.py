@@ -1,5 +1,7 @@
-"""`python -m harness.report DIR... [--out OUT] [--paper]`: the paper's tables, figures and an
-OMPL benchmark database, regenerated from trial logs alone (DESIGN §6 "Report").
+"""`python -m harness.report DIR... [--label NAME=DIR]... [--out OUT] [--force] [--paper]`: the paper's
+tables, figures and an OMPL benchmark database, regenerated from trial logs alone (DESIGN §6
+"Report"), into DIR/report/ unless --out names another folder; never into a folder the report did
+not make (build.MARKER) without --force. Labelled runs are shown as `planner [NAME]`, never pooled.
 
 Only the `trials.mcap` files found under the given directories are read (topics `/run`,
 `/workspace`, `/query`): no planning, no artifacts, no torch or OMPL. A file that cannot be

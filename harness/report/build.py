@@ -1,8 +1,11 @@
-"""write_report: read the logs once and write every output of the report into one directory."""
+"""write_report: read the logs once and write every output of the report into one directory, one
+that the report made (it marks it with MARKER) or that it is told to write into anyway (force): a
+report never overwrites a folder by accident."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import shlex
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from harness.report.arena import write_benchmark_db
@@ -30,13 +33,58 @@ from harness.report.tables import (
     table1,
 )
 
+MARKER = ".mpnet-report"
 
-def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper: bool = False) -> dict:
-    """Read the trial logs under dirs and write every output into out. Returns a summary
-    dict (files, skipped, warnings, queries, outputs); files == 0 or queries == 0 means nothing
-    was written."""
-    files, warns, skipped = load(dirs)
-    summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": []}
+
+class OutputTaken(Exception):
+    """The output folder exists, holds files and was not made by the report (no MARKER in it)."""
+
+
+def default_out(inputs: Sequence[str | Path]) -> Path:
+    """Where a report goes unless told: `report/` in the first input directory (beside a file
+    given as input), never the committed reports/."""
+    first = Path(inputs[0]) if inputs else Path(".")
+    return (first.parent if first.is_file() else first) / "report"
+
+
+def check_out(out: Path, force: bool) -> None:
+    """Raise OutputTaken unless out is missing, empty, marked as the report's own, or force."""
+    if force or not out.exists() or (out / MARKER).is_file():
+        return
+    if not out.is_dir():
+        raise OutputTaken(f"{out} exists and is not a folder")
+    if any(out.iterdir()):
+        raise OutputTaken(
+            f"{out} exists and was not written by the report (no {MARKER} in it): "
+            "pass --force to write into it anyway, or name another --out"
+        )
+
+
+def claim_out(out: Path) -> None:
+    """Make out and mark it as the report's, so that the next report may write into it again."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text(
+        "Written by `python -m harness.report`: a report run into this folder again overwrites its outputs.\n"
+    )
+
+
+def write_report(
+    dirs: Iterable[str | Path],
+    out: str | Path | None = None,
+    paper: bool = False,
+    force: bool = False,
+    labels: Sequence[tuple[str, str | Path]] = (),
+) -> dict:
+    """Read the trial logs under dirs (and under each labelled directory of labels: (label, dir)
+    pairs, whose planners are shown as `planner [label]`) and write every output into out
+    (default_out when None). Raises OutputTaken before reading anything when out is not the
+    report's to write (check_out). Returns a summary dict (files, skipped, warnings, queries,
+    outputs, out); files == 0 or queries == 0 means nothing was written."""
+    dirs = list(dirs)
+    out = Path(out) if out is not None else default_out(dirs + [d for _, d in labels])
+    check_out(out, force)
+    files, warns, skipped = load(dirs, labels)
+    summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": [], "out": out}
     if not files or not any(tf.queries for tf in files):
         return summary
     facts, fact_warns = planner_facts(files)
@@ -44,8 +92,7 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
     q = queries_frame(files)
     summary["queries"] = len(q)
     warns += duplicate_warnings(q, files, facts)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    claim_out(out)
     res = results_table(q, facts)
     res.to_csv(out / "results.csv", index=False)
     written = [out / "results.csv"]
@@ -94,6 +141,10 @@ def write_report(dirs: Iterable[str | Path], out: str | Path = "reports", paper:
     summary["figures"], fig_warns = write_figures(main_res, q[q["planner"].isin(shown)], files, out / "figures", facts)
     warns += fig_warns
     write_benchmark_db(q, files, out / "benchmark.db", facts)
-    (out / "README.md").write_text(readme_text(len(files), len(q), paper, provenance(files), dirs, warns, extra))
+    args = [str(d) for d in dirs] + [a for lab, d in labels for a in ("--label", f"{lab}={d}")]
+    args += ["--out", str(out)] + (["--paper"] if paper else [])
+    (out / "README.md").write_text(
+        readme_text(len(files), len(q), paper, provenance(files), shlex.join(args), warns, extra, str(out))
+    )
     summary["outputs"] = written + [out / "benchmark.db", out / "README.md"]
     return summary

@@ -31,6 +31,7 @@ from harness.report.names import (
     PAPER_PLANNERS,
     PLANNER_LABELS,
     env_rank,
+    labelled,
     split_rank,
 )
 
@@ -143,17 +144,29 @@ def run_facts(run: dict) -> PlannerFacts | None:
 
 class Facts:
     """The facts of every planner name in the logs, and what follows from them: a row's place,
-    label and comparator. A name it does not know is a plain planner."""
+    label and comparator. A name it does not know is a plain planner. A labelled name (`bit_star
+    [A]`, from `--label A=DIR`) is the logged planner's, compared with planners of its own label."""
 
-    def __init__(self, by_planner: Mapping[str, PlannerFacts] | None = None):
+    def __init__(
+        self,
+        by_planner: Mapping[str, PlannerFacts] | None = None,
+        tags: Mapping[str, tuple[str, str | None]] | None = None,
+    ):
         self.by_planner = dict(by_planner or {})
+        self.tags = dict(tags or {})
 
     def of(self, planner: str) -> PlannerFacts:
         return self.by_planner.get(planner, PLAIN)
 
+    def tag(self, planner: str) -> tuple[str, str | None]:
+        """(the logged planner name, its --label or None) of a shown name."""
+        return self.tags.get(planner, (planner, None))
+
     def ablation(self, planner: str) -> tuple[str, str] | None:
-        """(base, variant) for an MPNet ablation, e.g. ("mpnet_nr", "random"), else None."""
-        return self.of(planner).ablation
+        """(base, variant) for an MPNet ablation, e.g. ("mpnet_nr", "random"), else None; the base
+        carries the ablation's label (`mpnet_nr [A]`)."""
+        ab = self.of(planner).ablation
+        return None if ab is None else (labelled(ab[0], self.tag(planner)[1]), ab[1])
 
     def equal_quality(self, planner: str) -> tuple[str, str, float] | None:
         """(algorithm, target, factor) for a time-to-equal-quality run, e.g. ("bit_star", "nr", 1.1), else None."""
@@ -161,38 +174,51 @@ class Facts:
 
     def comparator(self, planner: str) -> str | None:
         """The planner a row's significance marks compare with: an ablation's own base (mpnet_nr or
-        mpnet_hr), none for mpnet_nr itself, mpnet_nr for every other planner (MPNet (HR) included)."""
+        mpnet_hr), none for mpnet_nr itself, mpnet_nr for every other planner (MPNet (HR) included);
+        of the same label."""
         ab = self.ablation(planner)
         if ab is not None:
             return ab[0]
-        return None if planner == "mpnet_nr" else "mpnet_nr"
+        plain, label = self.tag(planner)
+        return None if plain == "mpnet_nr" else labelled("mpnet_nr", label)
 
     def rank(self, planner: str) -> tuple:
         """The paper's planners, the known extras, any other planner by name, then the ablations
-        (by base, then variant), then the time-to-equal-quality planners."""
+        (by base, then variant), then the time-to-equal-quality planners; a labelled planner right
+        after the unlabelled one (labels by name)."""
+        plain, label = self.tag(planner)
+        return self._rank(plain, self.of(planner)) + (label or "",)
+
+    @staticmethod
+    def _rank(plain: str, pf: PlannerFacts) -> tuple:
         known = PAPER_PLANNERS + KNOWN_EXTRAS
-        if planner in known:
-            return (0, known.index(planner), "")
-        ab = self.ablation(planner)
+        if plain in known:
+            return (0, known.index(plain), "")
+        ab = pf.ablation
         if ab is not None:
             variants = list(ABLATIONS)
             v = variants.index(ab[1]) if ab[1] in variants else len(variants)
-            return (2, ABLATION_BASES.index(ab[0]) * (len(variants) + 1) + v, planner)
-        if self.equal_quality(planner) is not None:
-            return (3, 0, planner)
-        return (1, 0, planner)
+            return (2, ABLATION_BASES.index(ab[0]) * (len(variants) + 1) + v, plain)
+        if pf.equal_quality is not None:
+            return (3, 0, plain)
+        return (1, 0, plain)
 
     def label(self, planner: str) -> str:
-        if planner in PLANNER_LABELS:
-            return PLANNER_LABELS[planner]
-        ab = self.ablation(planner)
+        plain, label = self.tag(planner)
+        return self._label(plain, self.of(planner)) + (f" [{label}]" if label else "")
+
+    @staticmethod
+    def _label(plain: str, pf: PlannerFacts) -> str:
+        if plain in PLANNER_LABELS:
+            return PLANNER_LABELS[plain]
+        ab = pf.ablation
         if ab is not None:
             return f"{PLANNER_LABELS[ab[0]]}: {ab[1]}"
-        eq = self.equal_quality(planner)
+        eq = pf.equal_quality
         if eq is not None:
             alg, target, factor = eq
             return f"{PLANNER_LABELS.get(alg, alg)} to {target.upper()}" + (f" ×{factor:g}" if factor != 1.0 else "")
-        return planner
+        return plain
 
     def sort(self, df: pd.DataFrame, cols=("env", "split", "planner")) -> pd.DataFrame:
         """df's rows in report order (envs, splits, then planners as rank orders them)."""
@@ -208,9 +234,10 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     `planner` section; plus one warning line per file whose config has none, or makes the planner
     another ablation or time-to-equal-quality run than that first file does."""
     by: dict[str, PlannerFacts] = {}
-    first, no_config, warns = {}, [], []
+    first, no_config, warns, tags = {}, [], [], {}
     for tf in files:
-        name = str(tf.run["planner"])
+        name = tf.planner
+        tags[name] = (str(tf.run["planner"]), tf.label)
         f = run_facts(tf.run)
         if f is None:
             no_config.append((tf.path, name))
@@ -224,4 +251,4 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     for path, name in no_config:
         how = f"taken as {first[name]} says ({by[name].describe()})" if name in by else "counted as a plain planner"
         warns.append(f"warning: {path}: its /run has no readable config with a planner section: {name} {how}")
-    return Facts(by), warns
+    return Facts(by, tags), warns

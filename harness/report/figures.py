@@ -1,5 +1,6 @@
-"""The figures, as PNG and SVG: mean time and success per planner (the paper's Fig. 4), per-query times,
-and one example workspace per env with an MPNet and a BIT* path (its Fig. 3)."""
+"""The figures, as PNG and SVG: success per planner with its Wilson interval, the share solved within a
+time budget, per-query times as boxes on a log axis (in place of the paper's mean bars of Fig. 4), and
+one example workspace per env with an MPNet and a BIT* path (its Fig. 3); every one says its n."""
 
 from __future__ import annotations
 
@@ -14,6 +15,11 @@ from harness.report.facts import Facts
 from harness.report.load import TrialFile
 from harness.report.names import PLANNER_COLORS, env_label, env_rank, natural_key, split_rank
 from harness.report.render import fmt_g
+from harness.report.stats import wilson_arrays
+
+# The report's figures, and those of earlier versions of it (removed when it runs again).
+REPORT_FIGURES = ("success", "success_vs_time", "time_boxplot", "time_per_planner")
+TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 
 
 def _figure(n_panels: int, w: float = 4.0, h: float = 3.4):
@@ -40,95 +46,136 @@ def _save(fig, out: Path, name: str) -> list[Path]:
     return paths
 
 
-def _grouped_bars(
-    res: pd.DataFrame, facts: Facts, value: str, err: str, scale: float, ylabel: str, log: bool, title: str
-):
-    """One panel per env: splits on x, one bar per planner (error bar: std), as the paper's Fig. 4."""
-    envs = sorted(res["env"].unique(), key=env_rank)
-    planners = sorted(res["planner"].unique(), key=facts.rank)
-    fig, axes = _figure(len(envs))
-    width = 0.8 / max(len(planners), 1)
-    for ax, env in zip(axes, envs):
-        d = res[res["env"] == env]
-        splits = sorted(d["split"].unique(), key=split_rank)
-        x = np.arange(len(splits))
-        for k, p in enumerate(planners):
-            dp = d[d["planner"] == p].set_index("split").reindex(splits)
-            m = dp[value].to_numpy(float) * scale
-            s = np.nan_to_num(dp[err].to_numpy(float) * scale)
-            lower = np.minimum(s, 0.9 * m) if log else s  # a log axis has no zero: clip the lower bar
-            ax.bar(
-                x - 0.4 + width * (k + 0.5),
-                m,
-                width,
-                yerr=np.vstack([lower, s]),
-                capsize=2,
-                color=PLANNER_COLORS.get(p),
-                label=facts.label(p),
-                error_kw={"elinewidth": 0.8},
-            )
-        ax.set_xticks(x, splits)
-        ax.set_title(env_label(env))
-        ax.set_ylabel(ylabel)
-        if log:
-            ax.set_yscale("log")
-        ax.grid(axis="y", alpha=0.3)
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 6), frameon=False)
-    fig.suptitle(title)
-    return fig
-
-
-def fig_time_per_planner(res: pd.DataFrame, facts: Facts):
-    d = res[np.isfinite(res["time_mean_s"].astype(float))] if len(res) else res
-    if d.empty:
-        return None
-    return _grouped_bars(
-        d,
-        facts,
-        "time_mean_s",
-        "time_std_s",
-        1.0,
-        "planning time [s]",
-        True,
-        "Mean planning time ± std (successful queries)",
-    )
+def _colors(planners: list[str]) -> dict[str, str]:
+    """Each planner's color: the paper's planners their own, any other (a labelled run, an
+    extra planner) the next free one of matplotlib's tab10, so series never share a color."""
+    palette = [c for c in TAB10 if c not in PLANNER_COLORS.values()] + list(PLANNER_COLORS.values())
+    others = [p for p in planners if p not in PLANNER_COLORS]
+    return {p: PLANNER_COLORS.get(p) or palette[others.index(p) % len(palette)] for p in planners}
 
 
 def fig_success(res: pd.DataFrame, facts: Facts):
+    """One panel per env: each split x planner's pooled success rate with its Wilson 95% interval
+    and its n in the row's label; the axis spans the intervals (not 0-100), so that 90% and 95%
+    read apart."""
     if res.empty:
         return None
-    return _grouped_bars(
-        res, facts, "success_mean", "success_std", 100.0, "success [%]", False, "Success rate, mean ± std over seeds"
-    )
+    envs = sorted(res["env"].unique(), key=env_rank)
+    colors = _colors(sorted(res["planner"].unique(), key=facts.rank))
+    rows = max(len(facts.sort(res[res["env"] == e])) for e in envs)
+    fig, axes = _figure(len(envs), 5.0, 0.9 + 0.32 * rows)
+    for ax, env in zip(axes, envs):
+        d = facts.sort(res[res["env"] == env])
+        y = np.arange(len(d))[::-1]
+        rate, lo, hi = (100.0 * d[c].to_numpy(float) for c in ("success_rate", "success_ci_low", "success_ci_high"))
+        for yi, r, a, b, p in zip(y, rate, lo, hi, d["planner"]):
+            ax.errorbar(r, yi, xerr=[[r - a], [b - r]], fmt="o", color=colors[p], capsize=3)
+        ax.set_yticks(y, [f"{s} {facts.label(p)} (n={n})" for s, p, n in zip(d["split"], d["planner"], d["queries"])])
+        span = max(float(np.nanmax(hi) - np.nanmin(lo)), 1.0)
+        ax.set_xlim(max(0.0, np.nanmin(lo) - 0.1 * span), min(100.0, np.nanmax(hi) + 0.1 * span))
+        ax.set_xlabel("queries solved [%] (Wilson 95% interval)")
+        ax.set_title(env_label(env))
+        ax.grid(axis="x", alpha=0.3)
+    fig.suptitle("Success rate, all seeds pooled (n: queries)")
+    return fig
 
 
 def fig_time_boxplot(q: pd.DataFrame, facts: Facts):
+    """One panel per env: the planning times of the successes of each split x planner as boxes on a
+    log axis (box: quartiles, whiskers: 5th-95th percentile), n solved of all in the labels."""
     ok = q[q["success"] & (q["time_s"] > 0)]
     if ok.empty:
         return None
     envs = sorted(ok["env"].unique(), key=env_rank)
-    fig, axes = _figure(len(envs))
+    colors = _colors(sorted(ok["planner"].unique(), key=facts.rank))
+    n_all = q.groupby(["env", "split", "planner"]).size()
+    fig, axes = _figure(len(envs), 5.0, 4.2)
     for ax, env in zip(axes, envs):
         d = ok[ok["env"] == env]
-        planners = sorted(d["planner"].unique(), key=facts.rank)
-        data = [d.loc[d["planner"] == p, "time_s"].to_numpy() for p in planners]
+        groups = facts.sort(d[["env", "split", "planner"]].drop_duplicates())
+        keys = list(zip(groups["split"], groups["planner"]))
+        data = [d.loc[(d["split"] == s) & (d["planner"] == p), "time_s"].to_numpy() for s, p in keys]
         bp = ax.boxplot(
             data,
-            tick_labels=[facts.label(p) for p in planners],
+            tick_labels=[
+                f"{facts.label(p)}\n{s}, {len(x)}/{n_all[(env, s, p)]} solved" for (s, p), x in zip(keys, data)
+            ],
             whis=(5, 95),
             showfliers=False,
             patch_artist=True,
             medianprops={"color": "black"},
         )
-        for box, p in zip(bp["boxes"], planners):
-            box.set_facecolor(PLANNER_COLORS.get(p, "#bbbbbb"))
+        for box, (_, p) in zip(bp["boxes"], keys):
+            box.set_facecolor(colors[p])
         ax.set_yscale("log")
         ax.set_title(env_label(env))
-        ax.set_ylabel("planning time [s]")
-        ax.tick_params(axis="x", labelrotation=30)
+        ax.set_ylabel("planning time of a success [s]")
+        ax.set_xlabel("planner, split (n: solved / queries)")
+        ax.tick_params(axis="x", labelrotation=60, labelsize=7)
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle("Per-query planning time of successes (box: quartiles, whiskers: 5th-95th percentile)")
+    return fig
+
+
+def solved_within(times, n: int, budgets) -> pd.DataFrame:
+    """The share of n queries solved within each time budget: times are the successes' times (a
+    success without a finite time is never counted as within a budget), n all the queries
+    (failures included). Columns budget_s, solved, n, share, ci_low, ci_high (Wilson 95%)."""
+    t = np.sort(np.asarray(times, float))
+    t = t[np.isfinite(t)]
+    b = np.asarray(budgets, float)
+    k = np.searchsorted(t, b, side="right")
+    lo, hi = wilson_arrays(k, np.full(len(b), n))
+    return pd.DataFrame(
+        {"budget_s": b, "solved": k, "n": n, "share": k / n if n else np.nan, "ci_low": lo, "ci_high": hi}
+    )
+
+
+def success_vs_time(q: pd.DataFrame) -> pd.DataFrame:
+    """solved_within per env x split x planner, at each of its successes' times (where its curve
+    steps) and at the longest time any query of that env x split logged (the budget, in effect)."""
+    parts = []
+    for (env, split, planner), d in q.groupby(["env", "split", "planner"], sort=False):
+        times = d.loc[d["success"], "time_s"].to_numpy(float)
+        longest = np.nanmax(q.loc[(q["env"] == env) & (q["split"] == split), "time_s"].to_numpy(float), initial=0.0)
+        grid = np.unique(np.append(times[np.isfinite(times)], longest))
+        parts.append(solved_within(times, len(d), grid).assign(env=env, split=split, planner=planner))
+    cols = ["env", "split", "planner", "budget_s", "solved", "n", "share", "ci_low", "ci_high"]
+    return pd.concat(parts, ignore_index=True)[cols] if parts else pd.DataFrame(columns=cols)
+
+
+def fig_success_vs_time(q: pd.DataFrame, facts: Facts):
+    """One panel per env x split: each planner's share of queries solved within a time budget
+    (log axis), a step at each success, with its Wilson 95% band; n in the legend."""
+    curves = success_vs_time(q)
+    curves = curves[curves["budget_s"] > 0]
+    if curves.empty or not (curves["solved"] > 0).any():
+        return None
+    panels = facts.sort(curves[["env", "split"]].drop_duplicates(), ("env", "split"))
+    colors = _colors(sorted(curves["planner"].unique(), key=facts.rank))
+    fig, axes = _figure(len(panels))
+    for ax, (env, split) in zip(axes, zip(panels["env"], panels["split"])):
+        d = curves[(curves["env"] == env) & (curves["split"] == split)]
+        x0 = d.loc[d["solved"] > 0, "budget_s"].min() / 2 if (d["solved"] > 0).any() else d["budget_s"].min() / 2
+        for p in sorted(d["planner"].unique(), key=facts.rank):
+            c = d[d["planner"] == p]
+            n = int(c["n"].iat[0])
+            lo0, hi0 = wilson_arrays([0], [n])
+            x = np.append(x0, c["budget_s"].to_numpy(float))
+            y, lo, hi = (
+                np.append(v0, c[col].to_numpy(float))
+                for v0, col in ((0.0, "share"), (lo0[0], "ci_low"), (hi0[0], "ci_high"))
+            )
+            ax.step(x, 100 * y, where="post", color=colors[p], label=f"{facts.label(p)} (n={n})")
+            ax.fill_between(x, 100 * lo, 100 * hi, step="post", color=colors[p], alpha=0.2, lw=0)
+        ax.set_xscale("log")
+        ax.set_xlim(x0, d["budget_s"].max())
+        ax.set_xlabel("time budget [s]")
+        ax.set_ylabel("queries solved within it [%]")
+        ax.set_title(f"{env_label(env)}, {split}", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left", frameon=False)
+    fig.suptitle("Share of queries solved within a time budget (band: Wilson 95%)")
     return fig
 
 
@@ -195,13 +242,14 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts)
                 lw=0.5,
             )
         )
+    colors = _colors(sorted(chosen, key=facts.rank))
     for p in sorted(chosen, key=facts.rank):
         r = chosen[p]
         m = files[int(q.at[r, "file"])].queries[int(q.at[r, "qidx"])]
         path = np.asarray(m.get("path") or [], float)
         if path.ndim != 2 or len(path) < 2:
             continue
-        color = PLANNER_COLORS.get(p, "black")
+        color = colors[p]
         ax.plot(
             path[:, 0],
             path[:, 1],
@@ -219,9 +267,12 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts)
     ax.set_xlim(*bounds[0])
     ax.set_ylim(*bounds[1])
     ax.set_aspect("equal")
+    ax.set_xlabel("x (workspace units)")
+    ax.set_ylabel("y (workspace units)")
     proj = ", x-y projection" if wd == 3 else ""
     ax.set_title(
-        f"{env_label(env)}: {msg.get('split')} workspace {msg.get('workspace_id')}, query {msg.get('query_id')}{proj}",
+        f"{env_label(env)}: one query (n=1), {msg.get('split')} workspace {msg.get('workspace_id')}, "
+        f"query {msg.get('query_id')}{proj}",
         fontsize=10,
     )
     fig.legend(loc="outside lower center", ncols=2, fontsize=8, frameon=False)
@@ -233,14 +284,16 @@ def write_figures(
 ) -> tuple[list[Path], list[str]]:
     """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
     whose data is malformed is left out with a warning line. The PNG and SVG files of an
-    earlier report in out are removed first, so none outlives the data it was drawn from."""
+    earlier report in out are removed first, so none outlives the data it was drawn from; other
+    tools' figures there (reports/figures/perf_*.png) are kept."""
     out.mkdir(parents=True, exist_ok=True)
     for old in out.iterdir():
-        if old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
+        ours = old.stem in REPORT_FIGURES or old.stem.startswith("example_")
+        if ours and old.suffix.lower() in (".png", ".svg") and (old.is_file() or old.is_symlink()):
             old.unlink()
     makers = [
-        ("time_per_planner", lambda: fig_time_per_planner(res, facts)),
         ("success", lambda: fig_success(res, facts)),
+        ("success_vs_time", lambda: fig_success_vs_time(q, facts)),
         ("time_boxplot", lambda: fig_time_boxplot(q, facts)),
     ]
     makers += [

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from harness.log import MCAP_NAME, read_log
-from harness.report.names import env_rank
+from harness.report.names import env_rank, labelled
 
 __all__ = [
     "QUERY_COLS",
@@ -62,6 +62,12 @@ class TrialFile:
     workspaces: dict[tuple[str, str], dict] = field(default_factory=dict)
     queries: list[dict] = field(default_factory=list)
     finalised: bool = True
+    label: str | None = None  # the --label of its directory: its planner is shown as `planner [label]`
+
+    @property
+    def planner(self) -> str:
+        """The planner's name as the report shows it: the logged name, with the file's label."""
+        return labelled(str(self.run["planner"]), self.label)
 
 
 def find_logs(dirs: Iterable[str | Path]) -> tuple[list[Path], list[str]]:
@@ -134,17 +140,28 @@ def run_seed(run: dict) -> int | None:
     return seed if isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)) else None
 
 
-def load(dirs: Iterable[str | Path]) -> tuple[list[TrialFile], list[str], int]:
-    """Readable trial files, warnings (one line each) and the number of files skipped."""
-    paths, warns = find_logs(dirs)
+def load(
+    dirs: Iterable[str | Path], labels: Iterable[tuple[str, str | Path]] = ()
+) -> tuple[list[TrialFile], list[str], int]:
+    """Readable trial files, warnings (one line each) and the number of files skipped. labels:
+    (label, dir) pairs whose files carry that label (a file also under an unlabelled dir
+    keeps its label), so that runs of different revisions or settings are never pooled."""
+    label_of: dict[Path, tuple[Path, str | None]] = {}
+    warns = []
+    for label, d in [*labels, *((None, d) for d in dirs)]:
+        found, w = find_logs([d])
+        warns += w
+        for p in found:
+            label_of.setdefault(p.resolve(), (p, label))
     files, skipped = [], 0
-    for p in paths:
+    for p, label in sorted(label_of.values(), key=lambda pl: str(pl[0])):
         tf, w = read_trials(p)
         if w:
             warns.append(w)
         if tf is None:
             skipped += 1
             continue
+        tf.label = label
         files.append(tf)
         if tf.queries and run_seed(tf.run) is None:
             warns.append(
@@ -168,7 +185,8 @@ def _numbers(col: pd.Series) -> pd.Series:
 
 
 def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
-    """One row per logged query (no paths): the run's env, planner and seed, the query's
+    """One row per logged query (no paths): the run's env, planner (as shown: with its label;
+    logged_planner and run_label apart) and seed, the query's
     scalar fields, and (file, qidx) to find the full message again. A file without an
     integer seed gets a negative seed of its own, below every logged one, so that it is
     neither pooled with another file nor lost."""
@@ -209,14 +227,18 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
         df["file"] = i
         df["qidx"] = np.arange(len(df))
         df["env"] = str(tf.run["env"])
-        df["planner"] = str(tf.run["planner"])
+        df["planner"] = tf.planner
+        df["logged_planner"] = str(tf.run["planner"])
+        df["run_label"] = tf.label or ""
         seed = run_seed(tf.run)
         if seed is None:
             seed, free_seed = free_seed, free_seed - 1
         df["seed"] = int(seed)
         parts.append(df)
     if not parts:
-        return pd.DataFrame(columns=list(QUERY_COLS) + ["file", "qidx", "env", "planner", "seed"])
+        return pd.DataFrame(
+            columns=list(QUERY_COLS) + ["file", "qidx", "env", "planner", "logged_planner", "run_label", "seed"]
+        )
     df = pd.concat(parts, ignore_index=True)
     df["success"] = df["success"].astype(bool)
     return df

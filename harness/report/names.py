@@ -63,6 +63,11 @@ ABLATIONS = {
 APPROX = "≈"
 
 
+def labelled(planner: str, label: str | None) -> str:
+    """A planner's name as shown for runs given with `--label label=DIR`: `bit_star [label]`."""
+    return f"{planner} [{label}]" if label else planner
+
+
 def env_rank(env: str) -> tuple:
     return (ENV_ORDER.index(env), "") if env in ENV_ORDER else (len(ENV_ORDER), env)
 

@@ -141,8 +141,7 @@ def render_table1(
 
     md_rows, tex_rows, groups = [], [], []
     prev = None
-    for r in t.itertuples(index=False):
-        r = r._asdict()
+    for r in t.to_dict("records"):  # not itertuples: a labelled planner's columns are no identifiers
         first = (r["env"], r["split"]) != prev
         prev = (r["env"], r["split"])
         lead = [env_label(r["env"]) if first else "", r["split"] if first else ""]

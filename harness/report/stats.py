@@ -34,6 +34,21 @@ def wilson(k: int, n: int) -> tuple[float, float]:
     return float(ci.low), float(ci.high)
 
 
+def wilson_arrays(k, n) -> tuple[np.ndarray, np.ndarray]:
+    """wilson() for arrays of counts at once (the closed form, the same numbers): a curve's band
+    at thousands of points costs no test per point; NaN where n == 0."""
+    from scipy.stats import norm
+
+    k, n = np.asarray(k, float), np.asarray(n, float)
+    z = float(norm.ppf(1 - ALPHA / 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = k / n
+        mid = (p + z * z / (2 * n)) / (1 + z * z / n)
+        half = z / (1 + z * z / n) * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+        lo, hi = np.clip(mid - half, 0.0, 1.0), np.clip(mid + half, 0.0, 1.0)
+    return np.where(n > 0, lo, np.nan), np.where(n > 0, hi, np.nan)
+
+
 def fisher_p(k1: int, n1: int, k2: int, n2: int) -> float:
     """Two-sided Fisher exact test of k1 / n1 against k2 / n2 (scipy); NaN when either is empty."""
     if n1 <= 0 or n2 <= 0:
@@ -95,15 +110,17 @@ PAIR_KEY = ["env", "split", "seed", "query_id"]
 
 
 def bit_star_pairs(q: pd.DataFrame) -> pd.DataFrame:
-    """Per query solved by a planner and by bit_star (paired on env, split, seed, query id):
-    env, split, planner, seed, query_id, path_cost, bit_star_cost, ratio. A query logged in
-    several files of the same (env, planner, seed) counts once, with the mean of its costs."""
+    """Per query solved by a planner and by bit_star of the same run label (paired on env, split,
+    seed, query id): env, split, planner, seed, query_id, path_cost, bit_star_cost, ratio. A query
+    logged in several files of the same (env, planner, seed) counts once, with the mean of its costs."""
     cols = KEYS + ["seed", "query_id", "path_cost", "bit_star_cost", "ratio"]
     solved = q[q["success"] & np.isfinite(q["path_cost"])]
     if solved.empty:
         return pd.DataFrame(columns=cols)
-    c = solved.groupby(["planner"] + PAIR_KEY, sort=False)["path_cost"].mean().reset_index()
-    b = c[(c["planner"] == "bit_star") & (c["path_cost"] > 0)].drop(columns="planner")
-    m = c[c["planner"] != "bit_star"].merge(b.rename(columns={"path_cost": "bit_star_cost"}), on=PAIR_KEY)
+    key = PAIR_KEY + ["run_label"]
+    c = solved.groupby(["planner", "logged_planner"] + key, sort=False)["path_cost"].mean().reset_index()
+    bit = c["logged_planner"] == "bit_star"
+    b = c[bit & (c["path_cost"] > 0)].drop(columns=["planner", "logged_planner"])
+    m = c[~bit].merge(b.rename(columns={"path_cost": "bit_star_cost"}), on=key)
     m["ratio"] = m["path_cost"] / m["bit_star_cost"]
     return m[cols]

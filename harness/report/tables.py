@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from harness.report.facts import Facts
-from harness.report.names import ABLATION_BASES, ABLATIONS, KEYS, PAPER_PLANNERS, RATIO_COL, env_rank, split_rank
+from harness.report.names import ABLATIONS, KEYS, PAPER_PLANNERS, RATIO_COL, env_rank, split_rank
 from harness.report.stats import (
     ALPHA,
     bit_star_pairs,
@@ -349,7 +349,8 @@ def ablation_table(res: pd.DataFrame, facts: Facts) -> pd.DataFrame:
     rows = []
     for _, d in facts.sort(res, ("env", "split")).groupby(["env", "split"], sort=False):
         by = {p: r for p, r in zip(d["planner"], d.to_dict("records"))}
-        for base in ABLATION_BASES:
+        bases = sorted({ab[0] for ab in map(facts.ablation, by) if ab}, key=facts.rank)
+        for base in bases:
             abl = sorted((p for p in by if (facts.ablation(p) or ("",))[0] == base), key=facts.rank)
             if not abl:
                 continue
