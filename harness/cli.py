@@ -5,11 +5,14 @@ fails with "unrecognized arguments"), so the flag is moved to the front first. T
 `+env=`/`+planner=` choices are checked before Hydra composes, so a missing or unknown
 name gets one line listing the choices instead of Hydra's traceback-like report; so does
 a `hydra.run.dir` / `hydra.sweep.dir` that cannot be created (Hydra makes it before our
-code runs, and reports the OSError with a traceback).
+code runs, and reports the OSError with a traceback). A key override is checked against
+the composed config: Hydra accepts `+budget=5` and nothing reads it, and answers `budget=5`
+and `env=s2d` with several lines of advice. `--help` is ours (harness/cli_help.py).
 """
 
 from __future__ import annotations
 
+import difflib
 import functools
 import sys
 import tempfile
@@ -17,6 +20,12 @@ from pathlib import Path
 
 CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
 MULTIRUN_FLAGS = ("-m", "--multirun")
+ADDED_GROUPS = ("env", "planner", "experiment")  # no default: chosen with +group=NAME
+# Keys the code reads when present (harness/config.py env_spec) that not every env declares.
+OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin")
+# Hydra's flags that take the next argument as their value.
+VALUE_FLAGS = ("-c", "--cfg", "-p", "--package", "-cn", "--config-name", "-cp", "--config-path", "-cd", "--config-dir")
+HELP_FLAGS = ("-h", "--help")
 
 
 class UsageError(Exception):
@@ -62,6 +71,128 @@ def check_groups(argv: list[str], required: tuple[str, ...], optional: tuple[str
         for v in values:
             if v not in names and "*" not in v:
                 raise UsageError(f"unknown {group} {v!r} (choices: {', '.join(names)})")
+
+
+def _overrides(argv: list[str]) -> list[str]:
+    out, skip = [], False
+    for a in argv:
+        if not skip and not a.startswith("-"):
+            out.append(a)
+        skip = a in VALUE_FLAGS
+    return out
+
+
+def _is_group(name: str) -> bool:
+    return "/" in name or (CONF_DIR / name).is_dir()
+
+
+def check_plus(argv: list[str]) -> None:
+    """UsageError for `env=s2d` (a group without a default needs +) and `+scale=tiny` (one with
+    a default takes none)."""
+    for arg in _overrides(argv):
+        key, sep, value = arg.partition("=")
+        if not sep:
+            continue
+        if key in ADDED_GROUPS:
+            raise UsageError(f"write +{arg} ({key} is a choice added with +)")
+        bare = key.lstrip("+")
+        if key != bare and bare not in ADDED_GROUPS and _is_group(bare):
+            raise UsageError(f"write {bare}={value} ({bare} has a default choice; + is for {', '.join(ADDED_GROUPS)})")
+
+
+def _compose(config_name: str, overrides: list[str]):
+    """The config Hydra would compose from these group choices, hydra.* included; None when
+    it cannot (Hydra then reports why itself)."""
+    from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
+
+    try:
+        with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
+            return compose(config_name, overrides, return_hydra_config=True)
+    except (HydraException, OmegaConfBaseException):
+        return None
+
+
+def _dotted(node, prefix: str = "") -> list[str]:
+    from omegaconf import DictConfig
+
+    out = []
+    for k in node.keys():
+        child = node._get_node(k)
+        out.append(prefix + str(k))
+        if isinstance(child, DictConfig) and not child._is_none():
+            out += _dotted(child, f"{prefix}{k}.")
+    return out
+
+
+def _lookup(cfg, key: str) -> str:
+    """'known', 'open' (under a map that takes any key, as planner.params) or 'unknown'."""
+    from omegaconf import DictConfig, ListConfig
+
+    node = cfg
+    for part in key.split("."):
+        if isinstance(node, ListConfig) or node._is_none():
+            return "open"
+        if not isinstance(node, DictConfig):
+            return "unknown"
+        if len(node) == 0:
+            return "open"
+        if part not in node:
+            return "unknown"
+        node = node._get_node(part)
+    return "known"
+
+
+def _swept_groups(cfg, given: list[str]) -> list[str]:
+    """The group choices an experiment's sweep makes (`+env: s2d,c2d` in conf/experiment/),
+    their first values, so that keys under them can be checked too."""
+    params = cfg.hydra.sweeper.get("params") or {}
+    names = {g.partition("=")[0].lstrip("+~") for g in given}
+    out = []
+    for key, value in params.items():
+        bare = key.lstrip("+~")
+        first = (_override_values([f"{bare}={value}"], bare) or [""])[0]
+        if bare not in names and _is_group(bare) and first and "*" not in first:
+            out.append(f"{key}={first}")
+    return out
+
+
+def check_keys(argv: list[str], config_name: str) -> None:
+    """UsageError for an override of a key that the composed config lacks (naming the closest
+    one), and for `+key=` on a key it has. Keys of a group an experiment's sweep chooses
+    (planner.* under +experiment=table1) are left to Hydra."""
+    groups, keys = [], []
+    for arg in _overrides(argv):
+        key, sep, value = arg.partition("=")
+        bare = key.lstrip("+~")
+        if "@" in bare or not bare:
+            continue
+        if _is_group(bare):
+            values = _override_values([f"{bare}={value}"], bare) or []
+            if values and "*" not in values[0]:
+                groups.append(f"{key}={values[0]}")
+        elif sep or key.startswith("~"):
+            keys.append((key, bare, value))
+    if not keys:
+        return
+    cfg = _compose(config_name, groups)
+    swept = [] if cfg is None else _swept_groups(cfg, groups)
+    if swept:
+        cfg = _compose(config_name, groups + swept)
+    if cfg is None:
+        return
+    for key, bare, value in keys:
+        found = "known" if bare in OPTIONAL_KEYS else _lookup(cfg, bare)
+        if found == "known" and key.startswith("+") and not key.startswith("++") and bare not in OPTIONAL_KEYS:
+            raise UsageError(f"write {bare}={value} ({bare} is already in the config; + adds a new key)")
+        if found == "open" and not key.startswith(("+", "~")):
+            raise UsageError(f"write +{bare}={value} ({bare} is a new key: add it with +)")
+        if found != "unknown" or (bare.split(".")[0] not in cfg and _is_group(bare.split(".")[0])):
+            continue
+        known = [k for k in _dotted(cfg) if bare.startswith("hydra.") or not k.startswith("hydra")]
+        close = difflib.get_close_matches(bare, known, n=1)
+        raise UsageError(f"unknown config key {bare}" + (f" (did you mean {close[0]}?)" if close else ""))
 
 
 OUTPUT_DIR_KEYS = ("hydra.run.dir", "hydra.sweep.dir")
@@ -111,13 +242,27 @@ def user_errors(main):
     return wrapped
 
 
+def _prog() -> str:
+    """`harness.data` for `python -m harness.data`, `harness` for `python -m harness`."""
+    spec = getattr(sys.modules["__main__"], "__spec__", None)
+    return spec.name.removesuffix(".__main__") if spec else ""
+
+
 def run_hydra(main, required: tuple[str, ...], optional: tuple[str, ...] = ("scale",)) -> None:
     """Check and normalise sys.argv, then call a @hydra.main function."""
+    from harness.cli_help import ENTRIES, help_text
+
     argv = sys.argv[1:]
+    prog = _prog()
+    if prog in ENTRIES and any(a in HELP_FLAGS for a in argv):
+        print(help_text(prog))
+        sys.exit(0)
     if not any(a in ("-h", "--help", "--hydra-help", "--info", "--cfg", "-c") or a.startswith("--info") for a in argv):
         try:
+            check_plus(argv)
             check_groups(argv, required, optional)
             check_output_dirs(argv)
+            check_keys(argv, ENTRIES[prog].config if prog in ENTRIES else "config")
         except UsageError as e:
             print(f"error: {e}", file=sys.stderr)
             sys.exit(2)

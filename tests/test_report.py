@@ -363,28 +363,23 @@ def test_benchmark_db(tmp_path, known):
     names = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"experiments", "plannerConfigs", "runs", "progress", "enums"} <= names
     assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 11
-    assert [r[0] for r in con.execute("SELECT name FROM experiments ORDER BY id")] == ["s2d seen", "s2d unseen"]
+    experiments = con.execute("SELECT name, env, split FROM experiments ORDER BY id").fetchall()
+    assert experiments == [("s2d", "s2d", "seen"), ("s2d", "s2d", "unseen")]
     planners = {r[0] for r in con.execute("SELECT name FROM plannerConfigs")}
     assert planners == {"geometric_mpnet_nr", "geometric_bit_star"}
     enums = dict(con.execute("SELECT description, value FROM enums WHERE name='status'"))
     cols = [r[1] for r in con.execute("PRAGMA table_info(runs)")]
     assert cols[:3] == ["id", "experimentid", "plannerid"]
-    assert {
-        "time",
-        "memory",
-        "solved",
-        "status",
-        "solution_length",
-        "collision_checks",
-        "seed",
-        "split",
-        "workspace_id",
-        "query_id",
-    } <= set(cols)
+    assert {"time", "solved", "status", "solution_length", "collision_checks", "pnet_calls"} <= set(cols)
+    # Planner Arena plots every column of runs: numbers only, none NULL in every row
+    assert not {"memory", "seed", "split", "workspace_id", "query_id", "failure"} & set(cols)
+    for col in cols[3:]:
+        assert con.execute(f"SELECT count(*) FROM runs WHERE typeof({col}) = 'text'").fetchone() == (0,), col
+        assert con.execute(f"SELECT count({col}) FROM runs").fetchone()[0] > 0, col
     rows = con.execute(
-        "SELECT r.solved, r.status, r.solution_length, r.time, r.failure, r.query_id FROM runs r "
-        "JOIN plannerConfigs p ON p.id = r.plannerid WHERE p.name = 'geometric_mpnet_nr' "
-        "AND r.seed = 0 AND r.split = 'seen' ORDER BY r.query_id"
+        "SELECT r.solved, r.status, r.solution_length, r.time, q.failure, q.query_id FROM runs r "
+        "JOIN run_queries q ON q.runid = r.id JOIN plannerConfigs p ON p.id = r.plannerid "
+        "WHERE p.name = 'geometric_mpnet_nr' AND q.seed = 0 AND q.split = 'seen' ORDER BY q.query_id"
     ).fetchall()
     assert rows == [
         (1, enums["Exact solution"], 10.0, 0.1, None, "0/0"),
@@ -392,7 +387,9 @@ def test_benchmark_db(tmp_path, known):
         (1, enums["Exact solution"], 30.0, 0.3, None, "1/0"),
         (0, enums["Timeout"], None, 9.0, "timeout", "1/1"),
     ]
-    assert con.execute("SELECT status FROM runs WHERE failure = 'no_solution'").fetchone()[0] == enums["Unknown status"]
+    no_solution = "SELECT r.status FROM runs r JOIN run_queries q ON q.runid = r.id WHERE q.failure = 'no_solution'"
+    assert con.execute(no_solution).fetchone()[0] == enums["Abort"]
+    assert con.execute("SELECT count(*) FROM run_queries").fetchone()[0] == 11
     assert con.execute("SELECT count(*) FROM progress").fetchone()[0] == 0
     con.close()
 
@@ -464,6 +461,59 @@ def test_stale_figures_are_removed(tmp_path):
     assert not {"example_c2d.png", "example_c2d.svg"} & names
 
 
+@pytest.mark.slow  # the whole report, end to end, and Planner Arena's plots
+def test_benchmark_db_opens_in_planner_arena(tmp_path, known):
+    """Planner Arena's own loading code and the performance page's data and plots, for every
+    attribute it offers, with the split as a problem parameter (aggregated, separate, one)."""
+    pytest.importorskip("plannerarena")
+    import matplotlib
+    import polars as pl
+    from plannerarena import performance as page
+    from plannerarena.database import load_database
+    from plannerarena.widgets import (
+        PROBLEM_PARAMETERS_AGGREGATE_TEXT,
+        PROBLEM_PARAMETERS_SEPARATE_TEXT,
+        problem_parameter_filter,
+        problem_parameter_groups,
+        problem_parameter_widgets,
+    )
+
+    matplotlib.use("Agg")
+    rc, out = report(tmp_path, known)
+    assert rc == 0
+    db = load_database(out / "benchmark.db")
+    assert db["problem_names"] == ["s2d"] and db["parameters"] == ["env", "split"]
+    assert problem_parameter_widgets(db["experiments"], db["parameters"]) is not None
+    assert db["attributes"][:4] == ["time", "solved", "status", "approximate solution"]
+    runs = db["runs"].filter(pl.col("experiment") == "s2d")
+    assert runs.height == 11 and set(runs["planner"].cast(pl.String)) == {"mpnet_nr", "bit_star"}
+    statuses = runs.join(db["enums"], left_on="status", right_on="value")["description"]
+    assert statuses.len() == 11 and "Unknown status" not in statuses.to_list()
+    for split in (PROBLEM_PARAMETERS_AGGREGATE_TEXT, PROBLEM_PARAMETERS_SEPARATE_TEXT, "seen"):
+        params = {"env": "s2d", "split": split}
+        grouping = problem_parameter_groups(params)
+        df = problem_parameter_filter(runs, params)
+        if grouping:  # as the page does: the parameter as an ordered category
+            df = df.with_columns(pl.col(grouping).cast(pl.String).cast(pl.Enum(sorted(df[grouping].unique()))))
+        for attr in db["attributes"]:
+            assert df[attr].dtype.is_numeric() and df[attr].null_count() < df.height, attr
+            enums = db["enums"].filter(pl.col("name") == attr)
+            plots = [page.enums_plot(df, enums, grouping)] if len(enums) else []
+            plots += (
+                [] if len(enums) else [page.boxplot(df, attr, grouping, "o", False), page.ecdf_plot(df, attr, grouping)]
+            )
+            for plot in plots:
+                fig = plot.draw()
+                assert all(np.isfinite(ax.get_ylim()).all() for ax in fig.axes), attr
+                matplotlib.pyplot.close(fig)
+            missing = (
+                df.with_columns(pl.col(attr).is_null().alias("missing"))
+                .group_by("planner")
+                .agg(pl.col("missing").sum(), pl.len().alias("total"))
+            )
+            assert missing["total"].sum() == df.height
+
+
 @pytest.mark.slow  # the whole report, end to end
 def test_benchmark_db_configs_segments_versions(tmp_path):
     logs = tmp_path / "logs"
@@ -494,21 +544,21 @@ def test_benchmark_db_configs_segments_versions(tmp_path):
     ]
     seeds_of = dict(
         con.execute(
-            "SELECT p.settings, group_concat(DISTINCT r.seed) FROM runs r "
+            "SELECT p.settings, group_concat(DISTINCT q.seed) FROM runs r JOIN run_queries q ON q.runid = r.id "
             "JOIN plannerConfigs p ON p.id = r.plannerid GROUP BY p.id"
         )
     )
     assert sorted(seeds_of.values()) == ["0,2", "1"]
     rows = con.execute(
-        "SELECT r.query_id, r.solved, r.solution_segments, r.memory FROM runs r "
-        "JOIN experiments e ON e.id = r.experimentid WHERE e.name = 's2d seen' AND r.seed = 0 "
-        "ORDER BY r.query_id"
+        "SELECT q.query_id, r.solved, r.solution_segments FROM runs r JOIN run_queries q ON q.runid = r.id "
+        "JOIN experiments e ON e.id = r.experimentid WHERE e.name = 's2d' AND e.split = 'seen' AND q.seed = 0 "
+        "ORDER BY q.query_id"
     ).fetchall()
-    assert rows == [("0/0", 1, 2, None), ("0/1", 0, None, None), ("0/2", 1, None, None)]
-    assert con.execute("SELECT count(*) FROM runs WHERE memory IS NOT NULL OR solution_segments < 0").fetchone() == (0,)
+    assert rows == [("0/0", 1, 2), ("0/1", 0, None), ("0/2", 1, None)]
+    assert con.execute("SELECT count(*) FROM runs WHERE solution_segments < 0").fetchone() == (0,)
     assert dict(con.execute("SELECT name, version FROM experiments")) == {
-        "s2d seen": "OMPL 2.0.1",
-        "c2d seen": "OMPL 1.6.0",
+        "s2d": "OMPL 2.0.1",
+        "c2d": "OMPL 1.6.0",
     }
     con.close()
 
@@ -544,7 +594,7 @@ def test_files_without_an_integer_seed_are_seeds_of_their_own(tmp_path, capsys):
     r = pd.read_csv(out / "results.csv").iloc[0]
     assert (r["queries"], r["seeds"], r["success_mean"]) == (3, 3, pytest.approx(2 / 3))
     con = sqlite3.connect(out / "benchmark.db")
-    assert sorted(con.execute("SELECT seed FROM runs").fetchall(), key=str) == [(0,), (None,), (None,)]
+    assert sorted(con.execute("SELECT seed FROM run_queries").fetchall(), key=str) == [(0,), (None,), (None,)]
     assert con.execute("SELECT seed FROM experiments").fetchone() == ("0",)
     con.close()
 

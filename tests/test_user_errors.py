@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from harness.cli import UsageError, check_output_dirs
+from harness.cli import UsageError, check_keys, check_output_dirs, check_plus
 from harness.config import check_config
 
 
@@ -67,6 +67,93 @@ def test_output_dir_that_cannot_be_made_is_one_line(tmp_path):
 def test_output_dir_check_leaves_nothing_behind(tmp_path):
     check_output_dirs([f"hydra.run.dir={tmp_path / 'a' / 'b'}", f"hydra.sweep.dir={tmp_path}/c/${{now:%H}}", "seed=1"])
     assert list(tmp_path.iterdir()) == []
+
+
+BENCH = ["+env=s2d", "+planner=bit_star"]
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["env=s2d", "+planner=bit_star"], "write +env=s2d (env is a choice added with +)"),
+        (["+env=s2d", "planner=bit_star"], "write +planner=bit_star (planner is a choice added with +)"),
+        (["-m", "env=s2d,c2d"], "write +env=s2d,c2d (env is a choice added with +)"),
+        ([*BENCH, "+scale=tiny"], "write scale=tiny (scale has a default choice"),
+    ],
+)
+def test_group_with_or_without_plus_names_the_fix(argv, message):
+    with pytest.raises(UsageError) as info:
+        check_plus(argv)
+    assert str(info.value).startswith(message)
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        ([*BENCH, "budget=5"], "unknown config key budget (did you mean budget_s?)"),
+        ([*BENCH, "+budget=5"], "unknown config key budget (did you mean budget_s?)"),
+        ([*BENCH, "planner.stopp=x"], "unknown config key planner.stopp (did you mean planner.stop?)"),
+        ([*BENCH, "hydra.run.dirr=x"], "unknown config key hydra.run.dirr (did you mean hydra.run.dir?)"),
+        ([*BENCH, "+budget_s=3"], "write budget_s=3 (budget_s is already in the config"),
+        ([*BENCH, "planner.params.rewire_factor=1.1"], "write +planner.params.rewire_factor=1.1"),
+        (["+experiment=table1", "-m", "+planner.stopp=1"], "unknown config key planner.stopp"),
+        (
+            ["+env=s2d", "hydra/launcher=slurm", "hydra.launcher.partitio=cpu"],
+            "unknown config key hydra.launcher.partitio (did you mean hydra.launcher.partition?)",
+        ),
+    ],
+)
+def test_unknown_key_names_the_closest_real_one(argv, message):
+    with pytest.raises(UsageError) as info:
+        check_keys(argv, "config")
+    assert str(info.value).startswith(message) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "argv,config",
+    [
+        (
+            [*BENCH, "budget_s=5", "seed=1", "planner.stop=cost", "hydra.run.dir=x", "scale=tiny", "env.collision=fcl"],
+            "config",
+        ),
+        ([*BENCH, "+planner.params.rewire_factor=1.1", "planner.params={range: 2}"], "config"),
+        (["+env=s2d", "+planner=rrt_star", "+env.planner_range=0.5", "~problems"], "config"),
+        (["+env=s2d", "+planner=mpnet_nr,bit_star", "-m", "seed=0,1", "planner.max_steps=10"], "config"),
+        (["+experiment=table1", "-m", "planner.name=x", "env.collision=fcl"], "config"),
+        (["+env=s2d", "scale=tiny", "train.lr=0.1", "train.devices=2", "-m", "hydra/launcher=local"], "config"),
+        (
+            ["+env=s2d", "shards=3", "hydra/launcher=slurm", "hydra.launcher.partition=cpu", "-m", "shard=range(0,3)"],
+            "data",
+        ),
+        (["perf=tiny", "perf.envs=[s2d]", "out=/tmp/x"], "perf_main"),
+    ],
+)
+def test_real_keys_pass_the_key_check(argv, config):
+    check_keys(argv, config)
+
+
+@pytest.mark.slow  # the CLI in subprocesses
+@pytest.mark.parametrize("prog", ["harness", "harness.data", "harness.train", "harness.perf", "harness.overhead"])
+def test_help_has_usage_choices_keys_and_examples(prog, run_cli):
+    out = run_cli(prog, "--help").stdout
+    assert out.startswith(f"usage: python -m {prog} ") and "Compose your configuration" not in out
+    assert "examples:" in out and out.count(f"  python -m {prog} ") >= 3 and "--hydra-help" in out
+    assert ("+env=" in out and "s2d" in out and "scale=" in out) or "perf=" in out
+    assert "Compose your configuration" in run_cli(prog, "--hydra-help").stdout
+
+
+@pytest.mark.slow  # the CLI in subprocesses
+@pytest.mark.parametrize(
+    "args,line",
+    [
+        (["env=s2d", "+planner=bit_star"], "error: write +env=s2d (env is a choice added with +)"),
+        ([*BENCH, "budget=5"], "error: unknown config key budget (did you mean budget_s?)"),
+        ([*BENCH, "+budget=5"], "error: unknown config key budget (did you mean budget_s?)"),
+    ],
+)
+def test_override_mistakes_are_one_line_with_the_fix(args, line, run_cli, tmp_path):
+    p = run_cli("harness", *args, "scale=tiny", f"hydra.run.dir={tmp_path / 'run'}", check=False)
+    assert p.returncode == 2 and p.stderr.strip() == line and not (tmp_path / "run").exists()
 
 
 @pytest.mark.slow  # the CLI in subprocesses

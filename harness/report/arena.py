@@ -1,5 +1,12 @@
 """OUT/benchmark.db: the trial logs as an OMPL benchmark database (the schema of OMPL's benchmark
-statistics script), so that Planner Arena (plannerarena.org) opens them."""
+statistics script), so that Planner Arena (plannerarena.org) opens them.
+
+Planner Arena plots every column of `runs` after the first three as an attribute, so `runs`
+holds only numbers that exist for every run (no `memory`: not measured; a text column such as
+the query id stalls its page); the query's ids, failure reason and seed are in the side table
+`run_queries`. Each env is one experiment (name) with one row per split, and `env` and `split`
+are columns after OMPL's twelve, which Planner Arena offers as problem parameters. `progress`
+stays empty: the logs have no cost over time per query."""
 
 from __future__ import annotations
 
@@ -25,13 +32,15 @@ OMPL_STATUS = (
     "Crash",
     "Abort",
     "Infeasible",
+    "Invalid solution (failed the re-check)",  # ours: an exact path claimed, refused by the harness
 )
-ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH = 0, 1, 4, 6, 7
+ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH, ST_ABORT, ST_RECHECK = 0, 1, 4, 6, 7, 8, 10
+# Planner Arena takes the columns of `experiments` past OMPL's twelve as problem parameters.
+PARAMETERS = (("env", "VARCHAR(64)"), ("split", "VARCHAR(64)"))
 
 
 _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
     ("time", "REAL"),
-    ("memory", "REAL"),
     ("solved", "BOOLEAN"),
     ("status", "ENUM"),
     ("approximate_solution", "BOOLEAN"),
@@ -45,11 +54,6 @@ _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
     ("pnet_calls", "INTEGER"),
     ("replans", "INTEGER"),
     ("fallback_used", "BOOLEAN"),
-    ("seed", "INTEGER"),
-    ("split", "VARCHAR(64)"),
-    ("workspace_id", "VARCHAR(256)"),
-    ("query_id", "VARCHAR(256)"),
-    ("failure", "VARCHAR(256)"),
 )
 
 
@@ -71,6 +75,10 @@ CREATE TABLE runs
     FOREIGN KEY (plannerid) REFERENCES plannerConfigs(id) ON DELETE CASCADE);
 CREATE TABLE progress
     (runid INTEGER, time REAL, PRIMARY KEY (runid, time),
+    FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
+CREATE TABLE run_queries
+    (runid INTEGER PRIMARY KEY, seed INTEGER, split VARCHAR(64), workspace_id VARCHAR(256),
+    query_id VARCHAR(256), failure VARCHAR(256),
     FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
 """
 
@@ -110,14 +118,17 @@ def planner_settings(config) -> str:
 
 
 def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
-    """OMPL PlannerStatus values: exact solution for a success; timeout, invalid start,
-    crash (an exception in the planner) or unknown (no solution, a path that failed the
-    harness's re-check, ...) for a failure."""
+    """OMPL PlannerStatus values: exact solution for a success; for a failure timeout, invalid
+    start, crash (an exception in the planner), abort (the planner gave up within the budget:
+    OMPL's 'no solution for some other reason'), our invalid solution (a path that failed the
+    harness's re-check), or unknown."""
     f = failure.fillna("").astype(str)
     st = np.full(len(f), ST_UNKNOWN)
     st[f.eq("timeout").to_numpy()] = ST_TIMEOUT
     st[f.eq("invalid_query").to_numpy()] = ST_INVALID_START
     st[f.isin(("error", "exception", "crash")).to_numpy()] = ST_CRASH
+    st[f.eq("no_solution").to_numpy()] = ST_ABORT
+    st[f.str.startswith("recheck").to_numpy()] = ST_RECHECK
     st[success.to_numpy(bool)] = ST_EXACT
     return st
 
@@ -129,6 +140,10 @@ def _none(v):
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v.item() if isinstance(v, np.generic) else v
+
+
+def _text(v) -> str | None:
+    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else str(v)
 
 
 def _path_len(v) -> int:
@@ -143,7 +158,7 @@ def _sql_int(x) -> int | str:
 
 def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, facts: Facts) -> int:
     """OUT/benchmark.db in the schema of OMPL's benchmark statistics script, so Planner Arena
-    opens it: one experiment per env x split, one planner config per (planner name, settings)
+    opens it: one experiment row per env x split (named by the env), one planner config per (planner name, settings)
     as that script keys them (runs of one planner with other settings get their own), one run
     per query. Replaces any earlier file. Returns the number of runs written."""
     if path.exists():
@@ -155,6 +170,8 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
         c.executescript(_SCHEMA)
         for name, typ in _RUN_COLUMNS:
             c.execute(f"ALTER TABLE runs ADD {name} {typ}")
+        for name, typ in PARAMETERS:
+            c.execute(f"ALTER TABLE experiments ADD {name} {typ}")
         c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
         configs = [(str(tf.run["planner"]), planner_settings(tf.run.get("config"))) for tf in files]
         config_ids = {}
@@ -184,9 +201,9 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
             git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})
             c.execute(
                 "INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
-                " cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                " cpuinfo, date, seed, setup, env, split) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)",
                 (
-                    f"{env} {split}",
+                    str(env),
                     float(np.nansum(d["time_s"])),
                     max(budgets) if budgets else None,
                     0.0,
@@ -197,6 +214,8 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                     started[0] if started else None,
                     ",".join(str(s) for s in sorted(d.loc[logged_seed, "seed"].unique())),
                     f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}",
+                    str(env),
+                    str(split),
                 ),
             )
             exp_id = c.lastrowid
@@ -205,7 +224,6 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
             plen = np.array([_path_len(files[f].queries[i].get("path")) for f, i in zip(d["file"], d["qidx"])], int)
             cols = {
                 "time": d["time_s"],
-                "memory": np.full(len(d), np.nan),
                 "solved": ok.astype(int),
                 "status": status,
                 "approximate_solution": np.zeros(len(d), int),
@@ -216,14 +234,10 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 "collision_checks": d["collision_checks"],
                 "state_checks": d["state_checks"],
                 "motion_checks": d["motion_checks"],
-                "pnet_calls": d["pnet_calls"],
-                "replans": d["replans"],
-                "fallback_used": d["fallback_used"],
-                "seed": d["seed"].where(logged_seed),
-                "split": d["split"],
-                "workspace_id": d["workspace_id"],
-                "query_id": d["query_id"],
-                "failure": d["failure"],
+                # A classical planner logs none of these: it makes no Pnet call, replans and falls back never.
+                "pnet_calls": d["pnet_calls"].fillna(0),
+                "replans": d["replans"].fillna(0),
+                "fallback_used": d["fallback_used"].fillna(0),
             }
             ints = {
                 "solution_segments",
@@ -233,7 +247,6 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 "pnet_calls",
                 "replans",
                 "fallback_used",
-                "seed",
             }
             data = [[exp_id] * len(d), [file_config[f] for f in d["file"]]]
             for name, _ in _RUN_COLUMNS:
@@ -247,8 +260,16 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                     ]
                 )
             names = ["experimentid", "plannerid"] + [n for n, _ in _RUN_COLUMNS]
+            first = c.execute("SELECT COALESCE(MAX(id), 0) FROM runs").fetchone()[0] + 1
+            ids = list(range(first, first + len(d)))
             c.executemany(
-                f"INSERT INTO runs ({','.join(names)}) VALUES ({','.join('?' * len(names))})", list(zip(*data))
+                f"INSERT INTO runs (id,{','.join(names)}) VALUES (?,{','.join('?' * len(names))})",
+                list(zip(ids, *data)),
+            )
+            seeds = [None if not ok_seed else _sql_int(s) for s, ok_seed in zip(d["seed"], logged_seed)]
+            c.executemany(
+                "INSERT INTO run_queries VALUES (?,?,?,?,?,?)",
+                list(zip(ids, seeds, *(d[k].map(_text) for k in ("split", "workspace_id", "query_id", "failure")))),
             )
             n += len(d)
         c.executescript(_VIEWS)

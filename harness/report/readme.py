@@ -259,8 +259,8 @@ logged in more than one file, figures left out):
   the times of the successes of each split × planner on a log axis: box quartiles, whiskers
   5th-95th percentile, solved / queries in the labels); `example_<env>` (one query: a
   workspace with an MPNet and a BIT* path).
-- `benchmark.db`: an OMPL benchmark database (one experiment per env × split, one run per
-  query); open it in Planner Arena (plannerarena.org).
+- `benchmark.db`: an OMPL benchmark database (one experiment per env, with env and split as
+  problem parameters; one run per query); open it in Planner Arena (plannerarena.org).
 
 How the numbers are computed:
 
@@ -324,10 +324,12 @@ How the numbers are computed:
 - Table I: the paper's four planners, the BIT*/MPNet (NR) ratio, then any other planner;
   "— (0/N)": the planner ran N queries there and solved none; blank: not run.
 - `benchmark.db` status: exact solution for a success, timeout, invalid start (an invalid
-  query), crash (an exception), unknown (no solution, or a path that failed the harness's
-  re-check); `solved` and `correct_solution` are the harness's verdict, `solution_length`
-  the path cost, `solution_segments` the path's points less one (NULL for a failure or an
-  empty path), `memory` NULL (not measured). One planner config per planner name and
+  query), crash (an exception), abort (the planner gave up within the budget), invalid
+  solution (a path that failed the harness's re-check); `solved` and `correct_solution` are
+  the harness's verdict, `solution_length` the path cost, `solution_segments` the path's
+  points less one (NULL for a failure or an empty path); no `memory` (not measured); the
+  seed, split, workspace and query ids and failure reason in `run_queries` (by run id);
+  `progress` empty (no cost over time is logged). One planner config per planner name and
   settings (the run config's `planner:` section); each experiment's `version` is the OMPL
   version its own runs logged.
 
