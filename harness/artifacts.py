@@ -14,7 +14,15 @@ from omegaconf import DictConfig
 from tqdm import tqdm
 
 from harness.cli import UsageError
-from harness.config import data_params, env_spec, geometry_params, lightning_params, model_params, reference_params
+from harness.config import (
+    data_params,
+    enet_params,
+    env_spec,
+    geometry_params,
+    lightning_params,
+    model_params,
+    reference_params,
+)
 from harness.provenance import artifact_provenance
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset
 from mpnet.data.expert import chunks_of
@@ -183,22 +191,49 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
     return TestSet(spec, workspaces, queries)
 
 
+def _check_enet(folder: Path, manifest: dict) -> None:
+    from harness.fit import ENET_FILE
+    from mpnet.models.checkpoint import load_enet_checkpoint
+
+    try:
+        load_enet_checkpoint(folder / ENET_FILE)
+    except ValueError as e:
+        raise ArtifactError(str(e)) from None
+
+
 def ensure_models(cfg: DictConfig, progress: bool = True):
     """The env's trained Enet and Pnet at this scale: from the cache, or trained now
-    (building the dataset first if it is missing)."""
+    (building the dataset first if it is missing). Enet's autoencoder is cached on its
+    own first, so that Ctrl-C during Pnet keeps it and the same command resumes at Pnet."""
     lightning = lightning_params(cfg)  # checked before any work
     spec = env_spec(cfg.env)
     data_folder, data_manifest, _ = ensure_dataset(cfg, progress)
     params = model_params(cfg)
+    enet_config = enet_params(params)
 
     def build(folder: Path) -> dict:
-        from harness.fit import fit_models
+        from harness.fit import fit_enet, fit_models
 
         try:  # only to train: a cached model needs its key alone
             data = load_dataset(data_folder, data_manifest)
         except ArtifactError as e:  # damaged since it was verified: the user's one line, not a traceback
             raise UsageError(str(e)) from None
-        return fit_models(spec, data, params, lightning, folder, progress)
+        if enet_config is None:
+            return fit_models(spec, data, params, lightning, folder, progress)
+        enet_folder, enet_manifest, built = _ensure(
+            cfg.cache_dir,
+            "enet",
+            {"data": data_manifest["key"], **enet_config},
+            lambda f: fit_enet(spec, data, params, lightning, f, progress),
+            provenance,
+            _check_enet,
+        )
+        if not built:
+            print(f"Enet: cached in {enet_folder}; training Pnet", file=sys.stderr)
+        try:
+            return fit_models(spec, data, params, lightning, folder, progress, enet=(enet_folder, enet_manifest))
+        except KeyboardInterrupt:
+            raise KeyboardInterrupt(f"Enet is kept in {enet_folder}; the same command resumes at Pnet") from None
 
     key_config = {"data": data_manifest["key"], **params}
     provenance = lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
