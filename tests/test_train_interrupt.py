@@ -67,3 +67,31 @@ def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli):
         for p in (resumed, straight)
     ]
     assert pnets[0].keys() == pnets[1].keys() and all(torch.equal(pnets[0][k], pnets[1][k]) for k in pnets[0])
+
+
+def test_enet_artifact_trains_what_one_fit_did(tmp_path, compose_config):
+    """Enet cached on its own, then Pnet: the same Pnet as one fit of both with no artifact
+    between (Pnet's fit starts from the random state Enet's left, kept in the artifact)."""
+    from harness.artifacts import ensure_dataset
+    from harness.config import env_spec, lightning_params, model_params
+    from harness.fit import _fit_autoencoder, _fit_pnet, _quiet_lightning, fit_enet, fit_models, load_encoder
+    from mpnet.data.dataset import load_dataset
+
+    cfg = compose_config(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
+    spec, params, lightning = env_spec(cfg.env), model_params(cfg), lightning_params(cfg)
+    data = load_dataset(*ensure_dataset(cfg, progress=False)[:2])
+    one, enet, models = (tmp_path / n for n in ("one", "enet", "models"))
+    for f in (one, enet, models):
+        f.mkdir()
+
+    _quiet_lightning(params["seed"])  # the fit before Enet was an artifact of its own
+    flat = data.train_clouds.reshape(len(data.train_clouds), -1)
+    _fit_autoencoder(spec, data, params, lightning, one, False, flat)
+    with torch.random.fork_rng():  # _fit_autoencoder loaded the best encoder once already
+        encoder = load_encoder(one)
+    _fit_pnet(spec, data, params, lightning, one, False, encoder, flat, frozen=True)
+
+    fields = fit_enet(spec, data, params, lightning, enet, False)
+    fit_models(spec, data, params, lightning, models, False, enet=(enet, {"key": "k", **fields}))
+    a, b = (torch.load(f / "pnet.ckpt", weights_only=True)["state_dict"] for f in (one, models))
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
