@@ -14,7 +14,15 @@ from omegaconf import DictConfig
 from tqdm import tqdm
 
 from harness.cli import UsageError
-from harness.config import data_params, env_spec, geometry_params, lightning_params, model_params, reference_params
+from harness.config import (
+    data_params,
+    enet_params,
+    env_spec,
+    geometry_params,
+    lightning_params,
+    model_params,
+    reference_params,
+)
 from harness.provenance import artifact_provenance
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset
 from mpnet.data.expert import chunks_of
@@ -183,23 +191,90 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
     return TestSet(spec, workspaces, queries)
 
 
-def ensure_models(cfg: DictConfig, progress: bool = True):
-    """The env's trained Enet and Pnet at this scale: from the cache, or trained now
-    (building the dataset first if it is missing)."""
-    lightning = lightning_params(cfg)  # checked before any work
-    spec = env_spec(cfg.env)
-    data_folder, data_manifest, _ = ensure_dataset(cfg, progress)
-    params = model_params(cfg)
+def _check_enet(folder: Path, manifest: dict) -> None:
+    from harness.fit import ENET_FILE
+    from mpnet.models.checkpoint import load_enet_checkpoint
+
+    try:
+        load_enet_checkpoint(folder / ENET_FILE)
+    except ValueError as e:
+        raise ArtifactError(str(e)) from None
+
+
+def models_key_config(cfg: DictConfig) -> dict:
+    """What the models artifact's key hashes: the dataset's key (derived from its params,
+    so that a cached or shipped model needs no dataset built) and the training params."""
+    data_key = content_key({"kind": "data", **data_params(cfg).key_config()})
+    return {"data": data_key, **model_params(cfg)}
+
+
+def _shipped_models(cfg: DictConfig, key_config: dict):
+    """The package's pretrained set for these models, as a checkpoint in the cache (kind
+    "pretrained"), when the cache has no models artifact of this key; else None."""
+    from harness.fit import PNET_FILE
+    from mpnet.models.pretrained import find_pretrained, read_meta, write_checkpoint
+
+    key = content_key({"kind": "models", **key_config})
+    if (Path(cfg.cache_dir) / "models" / key).exists():
+        return None
+    source = find_pretrained(key)
+    if source is None:
+        return None
+    try:
+        weights = read_meta(source)["weights"]
+    except ValueError as e:
+        raise UsageError(str(e)) from None
 
     def build(folder: Path) -> dict:
-        from harness.fit import fit_models
+        try:
+            write_checkpoint(source, folder / PNET_FILE)
+        except ValueError as e:
+            raise UsageError(str(e)) from None
+        print(f"models: the shipped pretrained set {source.name} (key {key})", file=sys.stderr)
+        return {"files": [PNET_FILE], "models_key": key, "source": str(source)}
 
-        try:  # only to train: a cached model needs its key alone
+    return _ensure(cfg.cache_dir, "pretrained", {"models": key, "weights": weights}, build, artifact_provenance, None)
+
+
+def ensure_models(cfg: DictConfig, progress: bool = True, planning: bool = False):
+    """The env's trained Enet and Pnet at this scale: from the cache, or trained now
+    (building the dataset first if it is missing). Enet's autoencoder is cached on its
+    own first, so that Ctrl-C during Pnet keeps it and the same command resumes at Pnet.
+    planning: only Pnet's checkpoint is wanted (encoder and Pnet, no decoder), so the
+    package's pretrained set for this key serves when the cache lacks the models."""
+    lightning = lightning_params(cfg)  # checked before any work
+    spec = env_spec(cfg.env)
+    params = model_params(cfg)
+    key_config = models_key_config(cfg)
+    if planning and (shipped := _shipped_models(cfg, key_config)) is not None:
+        return shipped
+    enet_config = enet_params(params)
+    data_folder = Path(cfg.cache_dir) / "data" / key_config["data"]
+
+    def build(folder: Path) -> dict:
+        from harness.fit import fit_enet, fit_models
+
+        _, data_manifest, _ = ensure_dataset(cfg, progress)
+        try:
             data = load_dataset(data_folder, data_manifest)
         except ArtifactError as e:  # damaged since it was verified: the user's one line, not a traceback
             raise UsageError(str(e)) from None
-        return fit_models(spec, data, params, lightning, folder, progress)
+        if enet_config is None:
+            return fit_models(spec, data, params, lightning, folder, progress)
+        enet_folder, enet_manifest, built = _ensure(
+            cfg.cache_dir,
+            "enet",
+            {"data": key_config["data"], **enet_config},
+            lambda f: fit_enet(spec, data, params, lightning, f, progress),
+            provenance,
+            _check_enet,
+        )
+        if not built:
+            print(f"Enet: cached in {enet_folder}; training Pnet", file=sys.stderr)
+        try:
+            return fit_models(spec, data, params, lightning, folder, progress, enet=(enet_folder, enet_manifest))
+        except KeyboardInterrupt:
+            raise KeyboardInterrupt(f"Enet is kept in {enet_folder}; the same command resumes at Pnet") from None
 
-    key_config = {"data": data_manifest["key"], **params}
     provenance = lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
     return _ensure(cfg.cache_dir, "models", key_config, build, provenance, _check_models)

@@ -269,6 +269,6 @@ def run_hydra(main, required: tuple[str, ...], optional: tuple[str, ...] = ("sca
     sys.argv = [sys.argv[0]] + normalize_argv(argv)
     try:
         main()
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+    except KeyboardInterrupt as e:  # its message, if any, says what was kept
+        print(f"interrupted: {e}" if str(e) else "interrupted", file=sys.stderr)
         sys.exit(130)

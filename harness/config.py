@@ -246,6 +246,18 @@ def model_params(cfg: DictConfig) -> dict:
     return params
 
 
+ENET_KEYS = ("enet_hidden", "latent", "ae_epochs", "batch_size", "seed", "lr", "optimizer", "lam", "val_fraction")
+ENET_KEYS += ("patience", "limit_batches")
+
+
+def enet_params(params: dict) -> dict | None:
+    """What decides Enet's autoencoder alone (its own artifact's key, so that a fit cut
+    short during Pnet keeps it); None where Enet trains with Pnet (`end_to_end`)."""
+    if params.get("end_to_end"):
+        return None
+    return {"format": "mpnet-bench/enet@1", **{k: params[k] for k in ENET_KEYS if k in params}}
+
+
 # Strategies that run the fit in worker processes of this one (Lightning's others re-run the
 # command in each process, whose copies then wait on the model's build lock the first holds).
 SPAWNING_STRATEGIES = ("ddp_spawn", "ddp_fork", "ddp_notebook")

@@ -1,8 +1,15 @@
-"""Lightning training of MPNet's networks into an artifact folder (called by
-harness.artifacts.ensure_models; Lightning is imported only here)."""
+"""Lightning training of MPNet's networks into artifact folders (called by
+harness.artifacts.ensure_models; Lightning is imported only here).
+
+Enet's autoencoder is an artifact of its own, so that a fit cut short during Pnet resumes
+at Pnet. It keeps the random state Pnet's fit starts from, so that a resumed fit trains
+the same Pnet as one run straight through."""
 
 from __future__ import annotations
 
+import os
+import random
+import shutil
 import time
 import warnings
 from pathlib import Path
@@ -12,7 +19,7 @@ import numpy as np
 from mpnet.data.dataset import Dataset
 from mpnet.envs.spec import EnvSpec
 
-ENET_FILE, PNET_FILE = "enet.ckpt", "pnet.ckpt"
+ENET_FILE, PNET_FILE, RNG_FILE = "enet.ckpt", "pnet.ckpt", "rng.npz"
 
 
 def _trainer(
@@ -21,7 +28,8 @@ def _trainer(
     epochs: int,
     patience: int,
     lightning: dict,
-    progress: bool,
+    bar,
+    batches: int,
     limit_batches: int | None = None,
 ):
     import lightning as L
@@ -51,10 +59,11 @@ def _trainer(
         num_nodes=lightning.get("num_nodes", 1),
         logger=loggers,
         default_root_dir=str(folder),
-        callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min")],
-        enable_progress_bar=progress,
+        callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min"), *([bar] if bar else [])],
+        enable_progress_bar=False,  # the stage's own bar (harness.fit_progress) instead of Lightning's
         enable_model_summary=False,
-        log_every_n_steps=10,
+        # every 10 steps, or each epoch's last when an epoch has fewer (Lightning warns otherwise)
+        log_every_n_steps=max(1, min(10, batches, limit_batches or batches)),
         limit_train_batches=limit_batches,
         limit_val_batches=limit_batches,
     )
@@ -82,41 +91,132 @@ def _epochs(trainer, folder: Path, name: str) -> int:
     return int(pd.read_csv(folder / f"{name}_logs" / "version_0" / "metrics.csv")["epoch"].max()) + 1
 
 
-def fit_models(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
-    """Train Enet as a contractive autoencoder, then Pnet on its frozen codes; or, with
-    `end_to_end` (the paper's arm), Enet and Pnet together on Pnet's loss. Returns the
-    manifest fields."""
+def _batches(dm) -> int:
+    """Training batches per epoch."""
+    return -(-len(dm.train_indices) // dm.batch_size)
+
+
+def _fit(trainer, module, dm) -> None:
+    """trainer.fit, with Ctrl-C as KeyboardInterrupt: Lightning turns it into exit status 1
+    with its message silenced, which would pass for a failure."""
+    try:
+        trainer.fit(module, datamodule=dm)
+    except SystemExit:
+        if trainer.interrupted:
+            raise KeyboardInterrupt from None
+        raise
+
+
+def _bar(progress: bool, name: str, epochs: int, stage: int, stages: int, later=()):
+    from harness.fit_progress import StageBar
+
+    return StageBar(name, epochs, stage, stages, tuple(later)) if progress else None
+
+
+def _save_rng(path: Path) -> None:
+    """The random state Pnet's fit starts from (torch's, numpy's, Python's)."""
+    import torch
+
+    np_state = np.random.get_state()
+    version, internal, gauss = random.getstate()
+    np.savez(
+        path,
+        torch=torch.get_rng_state().numpy(),
+        np_keys=np_state[1],
+        np_pos=np.array([np_state[2], np_state[3]]),
+        np_gauss=np.array([np_state[4]]),
+        py=np.array([version, *internal], np.int64),
+        py_gauss=np.array([np.nan if gauss is None else gauss]),
+    )
+
+
+def _restore_rng(path: Path) -> None:
+    import torch
+
+    with np.load(path) as z:
+        torch.set_rng_state(torch.from_numpy(z["torch"].copy()))
+        pos, has_gauss = (int(v) for v in z["np_pos"])
+        np.random.set_state(("MT19937", z["np_keys"], pos, has_gauss, float(z["np_gauss"][0])))
+        py, gauss = [int(v) for v in z["py"]], float(z["py_gauss"][0])
+        random.setstate((py[0], tuple(py[1:]), None if np.isnan(gauss) else gauss))
+
+
+def _quiet_lightning(seed: int) -> None:
     import logging
 
     import lightning as L
 
     # Lightning's hardware banners and tips would flood the Hydra log on every fit.
     logging.getLogger("lightning.pytorch").setLevel(logging.WARNING)
+    L.seed_everything(seed, workers=True, verbose=False)
+
+
+def fit_enet(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
+    """Enet as a contractive autoencoder on the training and extra layouts' clouds, into
+    its own artifact folder (with the random state Pnet's fit goes on from). Returns the
+    manifest fields."""
+    _quiet_lightning(params["seed"])
+    flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
+    fit = _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train)
+    _save_rng(folder / RNG_FILE)
+    return {"files": [ENET_FILE, RNG_FILE], "fit": fit}
+
+
+def load_encoder(enet_folder: Path):
+    """The trained encoder of an Enet artifact."""
+    from mpnet.models import EnetModule
+
+    return EnetModule.load_from_checkpoint(enet_folder / ENET_FILE, map_location="cpu").encoder
+
+
+def fit_models(
+    spec: EnvSpec,
+    data: Dataset,
+    params: dict,
+    lightning: dict,
+    folder: Path,
+    progress: bool,
+    enet: tuple[Path, dict] | None = None,
+) -> dict:
+    """Pnet on the frozen codes of the Enet artifact `enet` (its folder and manifest), whose
+    checkpoint the models folder gets a copy of; or, with `end_to_end` (the paper's arm) and
+    no `enet`, Enet and Pnet together on Pnet's loss. Returns the manifest fields."""
     from mpnet.models import Enet
 
-    L.seed_everything(params["seed"], workers=True, verbose=False)
+    _quiet_lightning(params["seed"])
     flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
-    if params.get("end_to_end"):
-        enet = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"])
-        pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen=False)
+    if enet is None:
+        encoder = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"])
+        pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, frozen=False)
         return {
             "files": [PNET_FILE],
             "fit": {"pnet": pnet_fit, "bytes": {PNET_FILE: (folder / PNET_FILE).stat().st_size}},
         }
-    enet, enet_fit = _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train)
-    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen=True)
+    enet_folder, enet_manifest = enet
+    encoder = load_encoder(enet_folder)
+    _restore_rng(enet_folder / RNG_FILE)  # where a fit run straight through would be now
+    _link_or_copy(enet_folder / ENET_FILE, folder / ENET_FILE)
+    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, frozen=True)
     return {
         "files": [ENET_FILE, PNET_FILE],
+        "enet_key": enet_manifest["key"],
         "fit": {
-            "enet": enet_fit,
+            "enet": enet_manifest["fit"],
             "pnet": pnet_fit,
             "bytes": {f: (folder / f).stat().st_size for f in (ENET_FILE, PNET_FILE)},
         },
     }
 
 
-def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train):
-    """Enet as a contractive autoencoder on the training and extra layouts' clouds."""
+def _link_or_copy(src: Path, dst: Path) -> None:
+    """A hard link where the file system allows one (the checkpoint is not written again)."""
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
+def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train) -> dict:
     from mpnet.models import CloudDataModule, ContractiveAE, Decoder, Enet, EnetModule
 
     ae_clouds = np.concatenate([data.ae_clouds.reshape(len(data.ae_clouds), -1), flat_train])
@@ -125,14 +225,15 @@ def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train
     enet = Enet(in_dim, params["enet_hidden"], params["latent"])
     ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
     ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"], cloud_scale=spec.workspace_scale())
+    dm = CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"], params["seed"])
+    epochs = params["ae_epochs"]
+    bar = _bar(progress, "Enet", epochs, 1, 2, [("Pnet", params["pnet_epochs"])])
     trainer, ckpt = _trainer(
-        folder, "enet", params["ae_epochs"], params["patience"], lightning, progress, params.get("limit_batches")
+        folder, "enet", epochs, params["patience"], lightning, bar, _batches(dm), params.get("limit_batches")
     )
-    trainer.fit(
-        ae_module, datamodule=CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"], params["seed"])
-    )
-    ae_best = EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")
-    return ae_best.encoder, {
+    _fit(trainer, ae_module, dm)
+    EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")  # the random draws Pnet's fit followed
+    return {
         "seconds": time.perf_counter() - t0,
         "epochs": _epochs(trainer, folder, "enet"),
         "best_val_loss": _best_score(ckpt),
@@ -175,10 +276,12 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         groups=pairs.path_id,
         features="codes" if frozen else "clouds",
     )
+    epochs = params["pnet_epochs"]
+    bar = _bar(progress, "Pnet" if frozen else "Enet+Pnet", epochs, 2 if frozen else 1, 2 if frozen else 1)
     trainer, ckpt = _trainer(
-        folder, "pnet", params["pnet_epochs"], params["patience"], lightning, progress, params.get("limit_batches")
+        folder, "pnet", epochs, params["patience"], lightning, bar, _batches(dm), params.get("limit_batches")
     )
-    trainer.fit(module, datamodule=dm)
+    _fit(trainer, module, dm)
     return {
         "seconds": time.perf_counter() - t1,
         "epochs": _epochs(trainer, folder, "pnet"),

@@ -170,5 +170,7 @@ def test_damaged_checkpoint_and_dataset_are_rebuilt_end_to_end(tmp_path, run_cli
     assert "pnet.ckpt" in read_manifest(models, models.name)["rebuilt_after"]  # and it verifies
     _truncate(data / "data.npz")
     third = run_cli(*args, f"hydra.run.dir={tmp_path / 'r3'}")
-    assert "cached:" in third.stdout and f"warning: {data / 'data.npz'}" in third.stderr
-    assert "Traceback" not in first.stderr + again.stderr + third.stderr
+    assert "cached:" in third.stdout  # cached models need the dataset's key, not its files
+    fourth = run_cli("harness.data", *args[1:], f"hydra.run.dir={tmp_path / 'r4'}")  # the dataset itself
+    assert f"warning: {data / 'data.npz'}" in fourth.stderr
+    assert "Traceback" not in first.stderr + again.stderr + third.stderr + fourth.stderr

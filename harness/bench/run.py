@@ -81,7 +81,7 @@ def runtime_objects(cfg: DictConfig, spec) -> dict:
     return {
         "env": spec,
         "seed": int(cfg.seed),
-        "models_dir": lambda: ensure_models(cfg, progress=bool(cfg.progress))[0],
+        "models_dir": lambda: ensure_models(cfg, progress=bool(cfg.progress), planning=True)[0],
         "cloud": lambda ws: spec.cloud(ws, points, data_seed),
     }
 

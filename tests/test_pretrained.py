@@ -1,0 +1,110 @@
+"""The pretrained sets shipped in the package: each loads, its weights are the ones its
+meta.json records, and its key is the one today's config of that env and scale computes
+(a config change that alters the key fails here: regenerate with harness.export_weights).
+A set plans exactly as the checkpoint it was exported from, and stands in for it without
+the dataset being built."""
+
+import json
+
+import pytest
+
+from mpnet.models import load_pnet_checkpoint
+from mpnet.models.pretrained import SHIPPED, export_pretrained, read_meta, write_checkpoint
+
+SETS = sorted(p.parent for p in SHIPPED.glob("*/meta.json"))
+
+
+def test_every_env_ships_a_quick_set():
+    assert {p.name for p in SETS} == {f"{e}-quick" for e in ("s2d", "c2d", "c3d", "rigid", "arm7")}
+
+
+@pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])
+def test_shipped_set_loads_and_matches_its_key(folder, tmp_path, compose_config):
+    from harness.artifacts import models_key_config
+    from mpnet.data.store import content_key
+
+    meta = read_meta(folder)
+    env, scale = folder.name.rsplit("-", 1)
+    key_config = models_key_config(compose_config([f"+env={env}", f"scale={scale}"]))
+    assert meta["config"] == json.loads(json.dumps(key_config))
+    assert meta["key"] == content_key({"kind": "models", **key_config})
+    write_checkpoint(folder, tmp_path / "pnet.ckpt")  # verifies the weights' sha256
+    encode, step = load_pnet_checkpoint(tmp_path / "pnet.ckpt").to_numpy()
+    assert step.state_dim == len(meta["hyper_parameters"]["state_scale"])
+
+
+def test_damaged_set_is_refused(tmp_path):
+    from mpnet.models import CheckpointError
+
+    folder = tmp_path / "set"
+    folder.mkdir()
+    src = SETS[0]
+    (folder / "meta.json").write_text((src / "meta.json").read_text())
+    data = bytearray((src / "weights.npz").read_bytes())
+    data[len(data) // 2] ^= 0xFF  # one byte of the weights flipped
+    (folder / "weights.npz").write_bytes(bytes(data))
+    with pytest.raises(CheckpointError, match="differs"):
+        write_checkpoint(folder, tmp_path / "pnet.ckpt")
+
+
+@pytest.mark.slow
+def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, compose_config):
+    """Tiny s2d trained, exported, and both planning the tiny test set: the same paths."""
+    from harness.artifacts import ensure_testset
+    from harness.bench.run import runtime_objects
+    from harness.config import env_spec
+    from mpnet.planners.base import Problem
+    from mpnet.planners.mpnet import from_checkpoint
+
+    cache = tmp_path / "cache"
+    args = ["+env=s2d", "scale=tiny", "progress=false", f"cache_dir={cache}", f"hydra.run.dir={tmp_path / 'r'}"]
+    out = run_cli("harness.export_weights", *args, f"+export_dir={tmp_path / 'sets'}").stdout
+    assert out.startswith("exported: ")
+    (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
+    shipped = tmp_path / "shipped"
+    shipped.mkdir()
+    write_checkpoint(tmp_path / "sets" / "s2d-tiny", shipped / "pnet.ckpt")
+
+    cfg = compose_config([*args[:4]])
+    spec = env_spec(cfg.env)
+    testset = ensure_testset(cfg, progress=False)
+    cloud = runtime_objects(cfg, spec)["cloud"]
+    problems = [
+        Problem(spec, ws, spec.make_checker(ws), q.start, q.goal, seed=i)
+        for ws in testset.workspaces
+        for i, q in enumerate(testset.queries)
+        if (q.split, q.workspace_id) == (ws.split, ws.id)
+    ]
+    paths = [
+        [from_checkpoint(f, spec, 0, cloud, name="mpnet_hr", hybrid=True).solve(p, 2.0).path for p in problems]
+        for f in (models, shipped)
+    ]
+    assert len(problems) == 8 and any(p is not None for p in paths[0])
+    assert paths[0] == paths[1]
+
+
+def test_export_refuses_non_float32(tmp_path):
+    import torch
+
+    from mpnet.models import CheckpointError
+
+    torch.save({"hyper_parameters": {}, "state_dict": {"pnet.w": torch.zeros(2, dtype=torch.float64)}}, tmp_path / "c")
+    with pytest.raises(CheckpointError, match="float32"):
+        export_pretrained(tmp_path / "c", tmp_path / "out", "k", {})
+
+
+@pytest.mark.slow
+def test_bench_plans_on_the_shipped_set_without_building_the_dataset(tmp_path, run_cli, problems_dir):
+    cache = tmp_path / "cache"
+    p = run_cli(
+        "harness",
+        "+env=rigid",
+        "+planner=mpnet_nr",
+        f"problems={problems_dir / 'rigid.json'}",
+        f"cache_dir={cache}",
+        "rerun=false",
+        "progress=false",
+        f"hydra.run.dir={tmp_path / 'r'}",
+    )
+    assert "models: the shipped pretrained set rigid-quick" in p.stderr
+    assert sorted(d.name for d in cache.iterdir()) == ["pretrained"]  # no dataset, no training

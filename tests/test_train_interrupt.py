@@ -1,0 +1,97 @@
+"""Ctrl-C during Pnet's fit keeps the finished Enet (its own artifact), says so, and the
+next fit resumes at Pnet, training the same Pnet as a fit run straight through."""
+
+import os
+import selectors
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import torch
+
+pytestmark = pytest.mark.slow  # the training CLI in subprocesses
+
+# Pnet wide and with epochs enough that its fit is still running when Ctrl-C comes.
+LONG_PNET = ("scale.fit.pnet_epochs=100000", "scale.model.pnet_hidden=[2048,2048]")
+
+
+def _args(cache, *extra):
+    return ["harness.train", "+env=s2d", "scale=tiny", f"cache_dir={cache}", f"hydra.run.dir={cache / 'run'}", *extra]
+
+
+def _interrupt_in_pnet(repo, cache) -> tuple[int, str]:
+    """Run the fit, send SIGINT once Pnet's bar appears; (exit status, stderr)."""
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "HYDRA_FULL_ERROR": "0"}
+    p = subprocess.Popen(
+        [sys.executable, "-m", *_args(cache, *LONG_PNET)],
+        cwd=repo,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    sel = selectors.DefaultSelector()
+    sel.register(p.stderr, selectors.EVENT_READ)
+    err, deadline = b"", time.monotonic() + 300
+    try:
+        while b"Pnet 0/" not in err:
+            assert time.monotonic() < deadline and p.poll() is None, err.decode()
+            if sel.select(1):
+                err += os.read(p.stderr.fileno(), 1 << 16)
+        p.send_signal(signal.SIGINT)
+        err += p.communicate(timeout=120)[1]
+    finally:
+        if p.poll() is None:
+            p.kill()
+    return p.returncode, err.decode()
+
+
+def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli):
+    cache = tmp_path / "a"
+    rc, err = _interrupt_in_pnet(repo, cache)
+    (enet,) = [d for d in (cache / "enet").iterdir() if d.is_dir()]
+    assert rc == 130, err
+    assert f"interrupted: Enet is kept in {enet}; the same command resumes at Pnet" in err
+    assert not [d for d in (cache / "models").iterdir() if d.is_dir()]  # Pnet's fit was cut short
+    stamp = (enet / "manifest.json").stat().st_mtime_ns
+
+    resumed = run_cli(*_args(cache, "progress=false"), timeout=600)  # the tiny Pnet: a short fit
+    assert f"Enet: cached in {enet}" in resumed.stderr
+    assert (enet / "manifest.json").stat().st_mtime_ns == stamp
+
+    straight = run_cli(*_args(tmp_path / "b", "progress=false"), timeout=600)
+    assert "Enet: cached" not in straight.stderr
+    pnets = [
+        torch.load(p.stdout.split("trained: ", 1)[1].split()[0] + "/pnet.ckpt", weights_only=True)["state_dict"]
+        for p in (resumed, straight)
+    ]
+    assert pnets[0].keys() == pnets[1].keys() and all(torch.equal(pnets[0][k], pnets[1][k]) for k in pnets[0])
+
+
+def test_enet_artifact_trains_what_one_fit_did(tmp_path, compose_config):
+    """Enet cached on its own, then Pnet: the same Pnet as one fit of both with no artifact
+    between (Pnet's fit starts from the random state Enet's left, kept in the artifact)."""
+    from harness.artifacts import ensure_dataset
+    from harness.config import env_spec, lightning_params, model_params
+    from harness.fit import _fit_autoencoder, _fit_pnet, _quiet_lightning, fit_enet, fit_models, load_encoder
+    from mpnet.data.dataset import load_dataset
+
+    cfg = compose_config(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
+    spec, params, lightning = env_spec(cfg.env), model_params(cfg), lightning_params(cfg)
+    data = load_dataset(*ensure_dataset(cfg, progress=False)[:2])
+    one, enet, models = (tmp_path / n for n in ("one", "enet", "models"))
+    for f in (one, enet, models):
+        f.mkdir()
+
+    _quiet_lightning(params["seed"])  # the fit before Enet was an artifact of its own
+    flat = data.train_clouds.reshape(len(data.train_clouds), -1)
+    _fit_autoencoder(spec, data, params, lightning, one, False, flat)
+    with torch.random.fork_rng():  # _fit_autoencoder loaded the best encoder once already
+        encoder = load_encoder(one)
+    _fit_pnet(spec, data, params, lightning, one, False, encoder, flat, frozen=True)
+
+    fields = fit_enet(spec, data, params, lightning, enet, False)
+    fit_models(spec, data, params, lightning, models, False, enet=(enet, {"key": "k", **fields}))
+    a, b = (torch.load(f / "pnet.ckpt", weights_only=True)["state_dict"] for f in (one, models))
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
