@@ -211,18 +211,28 @@ def check_output_dirs(argv: list[str]) -> None:
 
 
 def _check_writable_dir(key: str, path: Path) -> None:
+    """Create what is missing of `path`, write a file there, and remove what was made. Jobs
+    of a sweep may check the same folder at once: one made by another is left to it."""
     missing = [p for p in (path, *path.parents) if not p.exists() and not p.is_symlink()]
     made = []
     try:
         for p in reversed(missing):
-            p.mkdir()
+            try:
+                p.mkdir()
+            except FileExistsError:
+                if not p.is_dir():
+                    raise
+                continue
             made.append(p)
         tempfile.TemporaryFile(dir=path).close()
     except OSError as e:
         raise UsageError(f"config key {key}: cannot create or write {path} ({e.strerror or e})") from None
     finally:
         for p in reversed(made):
-            p.rmdir()
+            try:
+                p.rmdir()
+            except OSError:  # another job of the sweep has written into it meanwhile
+                pass
 
 
 def user_errors(main):

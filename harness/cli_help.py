@@ -72,6 +72,18 @@ ENTRIES = {
             "python -m harness.train scale=tiny hydra/launcher=local -m +env=s2d,c2d",
         ),
     ),
+    "harness.export_weights": Entry(
+        "python -m harness.export_weights +env=ENV [scale=S] [export_dir=DIR] [-m]",
+        "Write an env's trained networks (trained first if missing) as a pretrained set the bench uses.",
+        "export",
+        ("env", "scale"),
+        ("export_dir", "cache_dir"),
+        (
+            "python -m harness.export_weights +env=s2d scale=quick",
+            "python -m harness.export_weights -m +env=s2d,c2d,c3d,rigid,arm7 scale=quick",
+            "python -m harness.export_weights +env=s2d scale=tiny export_dir=/tmp/sets",
+        ),
+    ),
     "harness.overhead": Entry(
         "python -m harness.overhead +env=ENV +planner=PLANNER [scale=S] [KEY=VALUE ...]",
         "What the harness costs per query beside the planner, from a real bench run.",

@@ -1,4 +1,4 @@
-"""`python -m harness.export_weights +env=ENV [scale=quick] [+export_dir=DIR]`: the trained
+"""`python -m harness.export_weights +env=ENV [scale=quick] [export_dir=DIR]`: the trained
 networks of ENV at this scale (from the cache, trained first if missing) as a pretrained
 set: encoder and Pnet as float32 arrays plus the models' content key, by default into the
 package's mpnet/data_files/pretrained/ENV-SCALE, which `python -m harness` uses when its
@@ -14,7 +14,7 @@ from omegaconf import DictConfig
 from harness.cli import run_hydra, user_errors
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+@hydra.main(version_base="1.3", config_path="../conf", config_name="export")
 @user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_models, models_key_config
@@ -27,7 +27,7 @@ def main(cfg: DictConfig) -> None:
     key_config = models_key_config(cfg)
     if manifest["config"] != key_config:  # by construction; a mismatch would ship weights under a wrong key
         raise AssertionError(f"{folder}: manifest config differs from the current config's")
-    out = Path(cfg.get("export_dir") or SHIPPED) / f"{cfg.env.name}-{cfg.scale.name}"
+    out = Path(cfg.export_dir or SHIPPED) / f"{cfg.env.name}-{cfg.scale.name}"
     meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config)
     print(f"exported: {out} ({meta['weights']['bytes'] / 1e6:.1f} MB, key {meta['key']}, from {folder})")
 

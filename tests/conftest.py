@@ -36,14 +36,22 @@ def compose_config(repo):
 
 
 @pytest.fixture(scope="session")
-def run_cli(repo):
-    """run_cli("harness", "+env=s2d", ...) runs `python -m ...` as a user does; raises
-    with its output when it fails and check is true."""
+def workdir(tmp_path_factory) -> Path:
+    """Where the tests' subprocesses run: a command given no cache_dir or run dir writes its
+    cache (.cache/mpnet-bench, shared by the session's tests) and outputs/ here, never into
+    the user's checkout."""
+    return tmp_path_factory.mktemp("cwd")
+
+
+@pytest.fixture(scope="session")
+def run_cli(workdir):
+    """run_cli("harness", "+env=s2d", ...) runs `python -m ...` as a user does (from the
+    session's workdir); raises with its output when it fails and check is true."""
 
     def run(*args, cwd=None, check=True, timeout=600):
         env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
         p = subprocess.run(
-            [sys.executable, "-m", *args], cwd=cwd or repo, capture_output=True, text=True, timeout=timeout, env=env
+            [sys.executable, "-m", *args], cwd=cwd or workdir, capture_output=True, text=True, timeout=timeout, env=env
         )
         if check and p.returncode != 0:
             raise AssertionError(f"exit {p.returncode}\nstdout:\n{p.stdout}\nstderr:\n{p.stderr}")

@@ -217,7 +217,7 @@ def test_overhead_benchmark(run_cli):
     assert "harness overhead" in p.stdout and "log process" in p.stdout and "ratio" in p.stdout
 
 
-def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, repo):
+def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, workdir):
     """SIGKILL mid-run: the log process finalises every query it got; resume=true then
     finishes the run without logging any query twice."""
     import signal
@@ -237,7 +237,7 @@ def test_killed_run_keeps_finished_queries_and_resumes(tmp_path, run_cli, repo):
         f"hydra.run.dir={out}",
         *cheap_refs,
     ]
-    proc = subprocess.Popen(args, cwd=repo, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(args, cwd=workdir, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     csv_file = out / "queries.csv"
     while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 5):

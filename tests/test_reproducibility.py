@@ -53,7 +53,7 @@ def test_seeds_of_any_size_run(tmp_path, seed, run_cli):
     assert len(paths(tmp_path)) == 8
 
 
-def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp_path, run_cli, repo):
+def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp_path, run_cli, workdir):
     """kill -9 of the whole group (the log process too): the file holds what was flushed; the
     same command with resume=true logs every query exactly once, each planned as an
     uninterrupted run plans it, and leaves a file the stock `mcap` reader opens."""
@@ -73,7 +73,7 @@ def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp
     killed = tmp_path / "killed"
     proc = subprocess.Popen(
         [sys.executable, "-m", *args, f"hydra.run.dir={killed}"],
-        cwd=repo,
+        cwd=workdir,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         start_new_session=True,
@@ -104,13 +104,13 @@ def _log_child(pid: int) -> int:
     raise AssertionError("no trial-log process")
 
 
-def test_a_killed_log_process_is_one_line_and_resume_finishes(tmp_path, run_cli, repo):
+def test_a_killed_log_process_is_one_line_and_resume_finishes(tmp_path, run_cli, workdir):
     args = [
         "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
         "rerun=false", "env.reference.bit_star_s=0.01", "env.expert.iterations=10", f"cache_dir={tmp_path / 'c'}",
         f"hydra.run.dir={tmp_path / 'run'}",
     ]  # fmt: skip
-    proc = subprocess.Popen([sys.executable, "-m", *args], cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen([sys.executable, "-m", *args], cwd=workdir, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     csv_file, deadline = tmp_path / "run" / "queries.csv", time.time() + 120
     while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 5):
         time.sleep(0.005)
