@@ -113,19 +113,18 @@ def _stop_before_models():
     raise _SettingsChecked
 
 
-def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
-    """The planner's constructor on its config, given stand-ins for the run's objects
-    (models_dir stops it before any training: from_checkpoint checks its settings first);
-    its complaint as UsageError. The bench builds the planner itself later."""
+def make_planner(planner_cfg, key: str, runtime: dict):
+    """The planner a config names (`_target_` and its constructor arguments), given the
+    run's objects its signature asks for by name (env, seed, models_dir, cloud). An unknown
+    argument, or a constructor's ValueError/TypeError, becomes one line naming the key."""
     import hydra
     from hydra.errors import InstantiationException
 
-    args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}
+    args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}  # a bench hook, not an argument
     try:
         factory = hydra.utils.instantiate(args, _partial_=True)
     except InstantiationException as e:
         raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
-    runtime = {"env": spec, "seed": seed, "models_dir": _stop_before_models, "cloud": lambda ws: None}
     signature = inspect.signature(factory.func)
     kwargs = {**factory.keywords, **{k: v for k, v in runtime.items() if k in signature.parameters}}
     try:
@@ -133,11 +132,20 @@ def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
     except TypeError as e:
         raise UsageError(f"config key {key}: {e}") from None
     try:
-        factory.func(*factory.args, **kwargs)
-    except _SettingsChecked:
-        pass
+        return factory.func(*factory.args, **kwargs)
     except (ValueError, TypeError) as e:  # float("abc"), float(None): not every constructor names its key
         raise UsageError(str(e) if "config key" in str(e) else f"config key {key}: {e}") from None
+
+
+def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
+    """The planner's constructor on its config, given stand-ins for the run's objects
+    (models_dir stops it before any training: from_checkpoint checks its settings first);
+    its complaint as UsageError. The bench builds the planner itself later."""
+    runtime = {"env": spec, "seed": seed, "models_dir": _stop_before_models, "cloud": lambda ws: None}
+    try:
+        make_planner(planner_cfg, key, runtime)
+    except _SettingsChecked:
+        pass
 
 
 def check_config(cfg: DictConfig) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import sys
 from pathlib import Path
 
@@ -14,11 +13,11 @@ from harness.bench.loop import CostTarget, QueryTiming, run_bench
 from harness.bench.settings import run_settings
 from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
-from harness.config import check_config, env_spec
+from harness.config import check_config, env_spec, make_planner
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
 from harness.provenance import run_info
 from mpnet.mbm import is_mbm, load_mbm
-from mpnet.planners.base import Planner, sub_seed
+from mpnet.planners.base import sub_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
 
@@ -47,31 +46,6 @@ def seed_everything(seed: int) -> None:
     except ImportError:
         return
     torch.manual_seed(int(seed) % 2**63)
-
-
-def make_planner(planner_cfg, key: str, runtime: dict) -> Planner:
-    """The planner a config names (`_target_` and its constructor arguments), given the
-    run's objects its signature asks for by name (env, seed, models_dir, cloud).
-    An unknown argument, or a constructor's ValueError (which names the config key),
-    becomes one line for the user."""
-    import hydra
-    from hydra.errors import InstantiationException
-
-    args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}  # a bench hook, not an argument
-    try:
-        factory = hydra.utils.instantiate(args, _partial_=True)
-    except InstantiationException as e:
-        raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
-    signature = inspect.signature(factory.func)
-    kwargs = {**factory.keywords, **{k: v for k, v in runtime.items() if k in signature.parameters}}
-    try:
-        signature.bind(*factory.args, **kwargs)
-    except TypeError as e:
-        raise UsageError(f"config key {key}: {e}") from None
-    try:
-        return factory.func(*factory.args, **kwargs)
-    except ValueError as e:
-        raise UsageError(str(e)) from None
 
 
 def runtime_objects(cfg: DictConfig, spec) -> dict:
