@@ -27,6 +27,7 @@ from harness.provenance import artifact_provenance
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset
 from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
+from mpnet.data.shipped import copy_testset, find_testset
 from mpnet.data.store import ArtifactError, content_key, ensure, partial_dir, read_manifest
 from mpnet.envs.spec import TestSet
 from mpnet.planners.reference import describe, reference_costs
@@ -133,9 +134,8 @@ def dataset_shard(cfg: DictConfig, shard: int, shards: int, progress: bool = Tru
 TESTSET_FORMAT = "mpnet-bench/testset@2"  # @2: reference costs
 
 
-def ensure_testset(cfg: DictConfig, progress: bool = True):
-    """The scale's generated test set, both splits, as problem files in the cache (built
-    now when missing); returns the splits cfg.splits asks for as one TestSet."""
+def testset_key_config(cfg: DictConfig) -> dict:
+    """What the test set artifact's key hashes."""
     spec = env_spec(cfg.env)
     sizes = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in ("seen", "unseen")}
     key_config = {
@@ -147,12 +147,30 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
         "reference": reference_params(cfg, spec),
         **({"geometry": geometry_params(cfg.env)} if geometry_params(cfg.env) else {}),
     }
-    blocked_only = bool(cfg.scale.test.get("blocked_only", True))
-    if not blocked_only:  # only then in the key, so that existing test sets keep theirs
+    if not bool(cfg.scale.test.get("blocked_only", True)):  # only then in the key: existing sets keep theirs
         key_config["blocked_only"] = False
+    return key_config
+
+
+def ensure_testset_artifact(cfg: DictConfig, progress: bool = True):
+    """The scale's generated test set, both splits, as problem files in the cache: copied
+    from the package's shipped set of its key (mpnet.data.shipped), or built now; returns
+    (folder, manifest, built)."""
+    spec = env_spec(cfg.env)
+    key_config = testset_key_config(cfg)
+    sizes = {s: tuple(v) for s, v in key_config["splits"].items()}
+    blocked_only = key_config.get("blocked_only", True)
 
     def build(folder: Path) -> dict:
         from ompl import util as ou
+
+        source = find_testset(content_key({"kind": "testset", **key_config}))
+        if source is not None:
+            print(f"test set: the shipped set {source.name}", file=sys.stderr)
+            try:
+                return copy_testset(source, folder)
+            except ArtifactError as e:
+                raise UsageError(str(e)) from None
 
         ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
         with _bar(sum(n for n, _ in sizes.values()), f"test set {spec.name}", progress) as bar:
@@ -180,7 +198,13 @@ def ensure_testset(cfg: DictConfig, progress: bool = True):
             "reference": {"method": describe(spec), "seconds": ref_s},
         }
 
-    folder, _, _ = _ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance, _testset_check(spec))
+    return _ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance, _testset_check(spec))
+
+
+def ensure_testset(cfg: DictConfig, progress: bool = True):
+    """The splits cfg.splits asks for of the scale's test set (ensure_testset_artifact), as one TestSet."""
+    spec = env_spec(cfg.env)
+    folder, _, _ = ensure_testset_artifact(cfg, progress)
     workspaces, queries = [], []
     for split in cfg.splits:
         part = load_problems(folder / f"{split}.json", spec)

@@ -74,7 +74,7 @@ ENTRIES = {
     ),
     "harness.export_weights": Entry(
         "python -m harness.export_weights +env=ENV [scale=S] [export_dir=DIR] [-m]",
-        "Write an env's trained networks (trained first if missing) as a pretrained set the bench uses.",
+        "Write an env's trained networks and test set (built first if missing) as the sets a fresh clone plans on.",
         "export",
         ("env", "scale"),
         ("export_dir", "cache_dir"),

@@ -1,8 +1,9 @@
-"""`python -m harness.export_weights +env=ENV [scale=quick] [export_dir=DIR]`: the trained
-networks of ENV at this scale (from the cache, trained first if missing) as a pretrained
-set: encoder and Pnet as float32 arrays plus the models' content key, by default into the
-package's mpnet/data_files/pretrained/ENV-SCALE, which `python -m harness` uses when its
-cache lacks the models of that key."""
+"""`python -m harness.export_weights +env=ENV [scale=quick] [export_dir=DIR]`: what a fresh
+clone needs to plan ENV at this scale at once, from the cache (built first if missing):
+the trained networks as a pretrained set (encoder and Pnet as float32 arrays plus the
+models' content key) into DIR/pretrained/ENV-SCALE, and the test set into
+DIR/testsets/ENV-SCALE. DIR defaults to the package's mpnet/data_files, whose sets
+`python -m harness` uses when its cache lacks the artifacts of their keys."""
 
 from __future__ import annotations
 
@@ -17,9 +18,11 @@ from harness.cli import run_hydra, user_errors
 @hydra.main(version_base="1.3", config_path="../conf", config_name="export")
 @user_errors
 def main(cfg: DictConfig) -> None:
-    from harness.artifacts import ensure_models, models_key_config
+    from harness.artifacts import ensure_models, ensure_testset_artifact, models_key_config
     from harness.config import check_config
     from harness.fit import PNET_FILE
+    from mpnet.data.shipped import SHIPPED as SHIPPED_TESTSETS
+    from mpnet.data.shipped import export_testset
     from mpnet.models.pretrained import SHIPPED, export_pretrained
 
     check_config(cfg)
@@ -27,9 +30,16 @@ def main(cfg: DictConfig) -> None:
     key_config = models_key_config(cfg)
     if manifest["config"] != key_config:  # by construction; a mismatch would ship weights under a wrong key
         raise AssertionError(f"{folder}: manifest config differs from the current config's")
-    out = Path(cfg.export_dir or SHIPPED) / f"{cfg.env.name}-{cfg.scale.name}"
+    name = f"{cfg.env.name}-{cfg.scale.name}"
+    root = Path(cfg.export_dir) if cfg.export_dir else SHIPPED.parent
+    out = root / SHIPPED.name / name
     meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config)
     print(f"exported: {out} ({meta['weights']['bytes'] / 1e6:.1f} MB, key {meta['key']}, from {folder})")
+    ts_folder, ts_manifest, _ = ensure_testset_artifact(cfg, progress=bool(cfg.progress))
+    ts_out = root / SHIPPED_TESTSETS.name / name
+    ts_meta = export_testset(ts_folder, ts_manifest, ts_out)
+    size = sum(f["bytes"] for f in ts_meta["files"].values())
+    print(f"exported: {ts_out} ({size / 1e6:.2f} MB, key {ts_meta['key']}, from {ts_folder})")
 
 
 if __name__ == "__main__":

@@ -59,11 +59,11 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, compose_config)
     cache = tmp_path / "cache"
     args = ["+env=s2d", "scale=tiny", "progress=false", f"cache_dir={cache}", f"hydra.run.dir={tmp_path / 'r'}"]
     out = run_cli("harness.export_weights", *args, f"export_dir={tmp_path / 'sets'}").stdout
-    assert out.startswith("exported: ")
+    assert out.startswith("exported: ") and (tmp_path / "sets" / "testsets" / "s2d-tiny" / "seen.json").exists()
     (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
     shipped = tmp_path / "shipped"
     shipped.mkdir()
-    write_checkpoint(tmp_path / "sets" / "s2d-tiny", shipped / "pnet.ckpt")
+    write_checkpoint(tmp_path / "sets" / "pretrained" / "s2d-tiny", shipped / "pnet.ckpt")
 
     cfg = compose_config([*args[:4]])
     spec = env_spec(cfg.env)
