@@ -84,8 +84,9 @@ def test_bench_tiny_other_envs(tmp_path, env, run_cli):
 
 
 def test_used_by_form_multirun(tmp_path, run_cli):
-    """Overrides before and after -m, as users type it."""
-    run_cli(
+    """Overrides before and after -m, as users type it; the sweep ends with one table of
+    all its runs."""
+    p = run_cli(
         "harness",
         "+env=rigid",
         "+planner=rrt_connect",
@@ -99,6 +100,11 @@ def test_used_by_form_multirun(tmp_path, run_cli):
     assert len(files) == 2
     seeds = [next(m for t, m in read_mcap(f)[1] if t == "/run")["seed"] for f in files]
     assert sorted(seeds) == [0, 1]
+    table = p.stdout[p.stdout.index("sweep summary: 2 runs in") :].splitlines()
+    rows = [line.split() for line in table[2:]]
+    assert [(r[0], r[1], r[2], r[3], r[4], r[-1]) for r in rows] == [
+        ("rigid", "rrt_connect", seed, split, "4", "8/8") for seed in ("0", "1") for split in ("seen", "unseen")
+    ]
 
 
 def test_multirun_flag_last(tmp_path, run_cli):
