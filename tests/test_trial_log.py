@@ -897,6 +897,7 @@ def test_rrd_verifies_and_reads_back(tmp_path, env):
         "/stats/collision_checks",
         "/workspaces/seen/ws0/obstacles",
         "/workspaces/unseen/ws1/obstacles",
+        "/legend",  # what the colours mean, with the planner and env
     ):
         assert e in paths, (e, paths)
     assert ("/scene/world/robot" in paths) == is_rect(SPECS[env])

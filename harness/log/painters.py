@@ -126,7 +126,9 @@ class Painter:
         ok = np.array([bool(m.get("success")) for m in msgs])
         colors = np.where(ok[:, None], np.array(rgba8(C_SUCCESS), np.uint8), np.array(rgba8(C_FAILURE), np.uint8))
         strips, ends = self.rerun_trace_strips(msgs)
-        labels = [f"{m['query_id']}: " + ("ok" if m.get("success") else str(m.get("failure"))) for m in msgs]
+        labels = [
+            f"{m['split']} {m['query_id']}: " + ("ok" if m.get("success") else str(m.get("failure"))) for m in msgs
+        ]
         end_colors = np.tile(np.array([rgba8(C_START), rgba8(C_GOAL)], np.uint8), (n, 1))
         return [
             ("scene/world/path", strips_t.columns(strips=strips, colors=colors, labels=labels)),

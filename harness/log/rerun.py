@@ -36,12 +36,15 @@ class RerunSink:
         self.rec.send_recording_name(f"{run.get('env')} {run.get('planner')} seed {run.get('seed')}")
         for entity, archetype in painter.rerun_static(rr, bounds):
             self.rec.log(entity, archetype, static=True)
+        self.rec.log("legend", rr.TextDocument(legend(run), media_type=rr.MediaType.MARKDOWN), static=True)
 
     def _blueprint(self, rrb, bounds: list):
         scene = self.painter.rerun_view(rrb, bounds)
         plots = rrb.Vertical(
+            rrb.TextDocumentView(name="legend", origin="/legend"),
             rrb.TimeSeriesView(name="planning time [s]", origin="/stats/time_s"),
             rrb.TimeSeriesView(name="collision checks", origin="/stats/collision_checks"),
+            row_shares=[1, 2, 2],
         )
         return rrb.Blueprint(
             rrb.Horizontal(scene, plots, column_shares=[2, 1]), rrb.TimePanel(timeline="query"), collapse_panels=True
@@ -101,6 +104,16 @@ class RerunSink:
         finally:
             self.rec.flush()
             self.rec.disconnect()
+
+
+def legend(run: dict) -> str:
+    """What the recording shows, and what its colours mean (the scene has no legend of its own)."""
+    return (
+        f"**{run.get('planner')}** on **{run.get('env')}**, seed {run.get('seed')} ({run.get('split')})\n\n"
+        "- blue point: start; orange point: goal\n"
+        "- green path: a success; red: a failure (its label gives split, query and reason)\n"
+        "- timeline `query`: one query after another"
+    )
 
 
 def _num(v) -> float:
