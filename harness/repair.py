@@ -17,7 +17,7 @@ import os
 import sys
 from pathlib import Path
 
-from harness.log.mcap_io import DAMAGED_SUFFIX, MCAP_NAME, aside_index, dumps, new_writer, start_channels
+from harness.log.mcap_io import MCAP_NAME, dumps, keep_damaged, new_writer, start_channels
 from harness.log.recover import scan_log
 from harness.log.schemas import topic_schemas
 
@@ -42,9 +42,7 @@ def repair_file(path: Path) -> str:
         os.fsync(f.fileno())
     queries = sum(topic == "/query" for topic, *_ in scan.messages)
     if scan.damaged:
-        k = 1 + max(map(aside_index, path.parent.glob(MCAP_NAME + DAMAGED_SUFFIX + "*")), default=0)
-        kept = path.with_name(MCAP_NAME + DAMAGED_SUFFIX + str(k))
-        os.replace(path, kept)
+        kept = keep_damaged(path)
         os.replace(tmp, path)
         return (
             f"{path}: damaged ({scan.describe_damage()}); rewrote its {queries} readable queries, "

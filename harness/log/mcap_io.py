@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,6 +80,15 @@ def aside_index(p: Path) -> int:
     """k of trials.mcap.resume-<k> (files are re-read oldest first)."""
     tail = p.name.rsplit("-", 1)[-1]
     return int(tail) if tail.isdigit() else 0
+
+
+def keep_damaged(path: Path) -> Path:
+    """Move a damaged log to the next free trials.mcap.damaged-<k> beside it (never
+    overwritten, never deleted); its new path."""
+    k = 1 + max(map(aside_index, path.parent.glob(MCAP_NAME + DAMAGED_SUFFIX + "*")), default=0)
+    kept = path.with_name(MCAP_NAME + DAMAGED_SUFFIX + str(k))
+    os.replace(path, kept)
+    return kept
 
 
 @dataclass

@@ -116,7 +116,7 @@ def scan_log(path: str | Path, topics=None) -> LogScan:
             op, length = _HEAD.unpack_from(buf, pos) if len(buf) - pos >= _HEAD.size else (None, 0)
             nxt = _next_chunk(buf, pos + 1)
             if nxt is None:
-                if op in _KNOWN and pos + _HEAD.size + length > len(buf) or op is None:
+                if op is None or (op in _KNOWN and pos + _HEAD.size + length > len(buf)):
                     out.cut_tail = True  # the last record was being written when the writer died
                 else:
                     out.damaged.append((pos, len(buf)))

@@ -30,12 +30,12 @@ from pathlib import Path
 from harness.log.csv import CSV_NAME, QueryCsv
 from harness.log.foxglove import query_scene, workspace_scene
 from harness.log.mcap_io import (
-    DAMAGED_SUFFIX,
     MCAP_NAME,
     RESUME_SUFFIX,
     LoggedMessage,
     aside_index,
     dumps,
+    keep_damaged,
     new_writer,
     plain,
     start_channels,
@@ -251,10 +251,7 @@ class TrialLog:
                 )
             old += msgs
         for p, note in damaged:  # never overwritten or deleted: kept under a name of its own
-            k = 1 + max(map(aside_index, self.run_dir.glob(MCAP_NAME + DAMAGED_SUFFIX + "*")), default=0)
-            kept = p.with_name(MCAP_NAME + DAMAGED_SUFFIX + str(k))
-            os.replace(p, kept)
-            self.notes.append(f"{note}; the file is kept as {kept}")
+            self.notes.append(f"{note}; the file is kept as {keep_damaged(p)}")
             if p in asides:
                 asides.remove(p)
         if self.mcap_path.exists():

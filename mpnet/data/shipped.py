@@ -14,10 +14,10 @@ import json
 import shutil
 from pathlib import Path
 
-from mpnet.data.store import ArtifactError, file_checksum
+from mpnet.data.store import SET_META as META
+from mpnet.data.store import ArtifactError, file_checksum, find_set, read_set_meta
 
 FORMAT = "mpnet-bench/shipped-testset@1"
-META = "meta.json"
 SHIPPED = Path(__file__).resolve().parents[1] / "data_files" / "testsets"
 
 
@@ -38,24 +38,12 @@ def export_testset(folder: Path, manifest: dict, out: Path) -> dict:
 
 
 def read_meta(folder: Path) -> dict:
-    try:
-        meta = json.loads((folder / META).read_text())
-    except (OSError, ValueError) as e:
-        raise ArtifactError(f"{folder / META}: unreadable ({e})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise ArtifactError(f"{folder / META}: not a {FORMAT} set")
-    return meta
+    return read_set_meta(folder, FORMAT)
 
 
 def find_testset(key: str, root: Path = SHIPPED) -> Path | None:
     """The shipped set exported from the test set artifact with this content key."""
-    for meta_path in sorted(root.glob(f"*/{META}")):
-        try:
-            if read_meta(meta_path.parent)["key"] == key:
-                return meta_path.parent
-        except ArtifactError:
-            continue
-    return None
+    return find_set(root, FORMAT, key)
 
 
 def copy_testset(source: Path, folder: Path) -> dict:

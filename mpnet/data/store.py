@@ -40,6 +40,31 @@ def content_key(config: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+SET_META = "meta.json"  # a shipped set's description: format, content key, its files' checksums
+
+
+def read_set_meta(folder: Path, fmt: str) -> dict:
+    """A shipped set's meta.json, which must be of format `fmt`; ArtifactError naming it."""
+    try:
+        meta = json.loads((folder / SET_META).read_text())
+    except (OSError, ValueError) as e:
+        raise ArtifactError(f"{folder / SET_META}: unreadable ({e})") from None
+    if not isinstance(meta, dict) or meta.get("format") != fmt:
+        raise ArtifactError(f"{folder / SET_META}: not a {fmt} set")
+    return meta
+
+
+def find_set(root: Path, fmt: str, key: str) -> Path | None:
+    """The set of format `fmt` under root exported from the artifact with this content key."""
+    for meta_path in sorted(root.glob(f"*/{SET_META}")):
+        try:
+            if read_set_meta(meta_path.parent, fmt)["key"] == key:
+                return meta_path.parent
+        except ArtifactError:
+            continue
+    return None
+
+
 def file_checksum(path: Path) -> dict:
     """{"bytes", "sha256"} of a file, as the manifest records it."""
     digest = hashlib.sha256()

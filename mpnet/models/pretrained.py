@@ -14,11 +14,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from mpnet.data.store import file_checksum
+from mpnet.data.store import SET_META as META
+from mpnet.data.store import ArtifactError, file_checksum, find_set, read_set_meta
 from mpnet.models.checkpoint import CheckpointError, _load
 
 FORMAT = "mpnet-bench/pretrained@1"
-WEIGHTS, META = "weights.npz", "meta.json"
+WEIGHTS = "weights.npz"
 SHIPPED = Path(__file__).resolve().parents[1] / "data_files" / "pretrained"  # the package's sets
 _PLANNER_PARTS = ("pnet.", "encoder.")  # what load_pnet_checkpoint reads
 
@@ -45,23 +46,14 @@ def export_pretrained(pnet_ckpt: Path, out: Path, key: str, key_config: dict) ->
 
 def read_meta(folder: Path) -> dict:
     try:
-        meta = json.loads((folder / META).read_text())
-    except (OSError, ValueError) as e:
-        raise CheckpointError(f"{folder / META}: unreadable ({e})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise CheckpointError(f"{folder / META}: not a {FORMAT} set")
-    return meta
+        return read_set_meta(folder, FORMAT)
+    except ArtifactError as e:
+        raise CheckpointError(str(e)) from None
 
 
 def find_pretrained(key: str, root: Path = SHIPPED) -> Path | None:
     """The set under root exported from the models artifact with this content key."""
-    for meta_path in sorted(root.glob(f"*/{META}")):
-        try:
-            if read_meta(meta_path.parent)["key"] == key:
-                return meta_path.parent
-        except CheckpointError:
-            continue
-    return None
+    return find_set(root, FORMAT, key)
 
 
 def write_checkpoint(folder: Path, path: Path) -> dict:
