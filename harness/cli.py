@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import difflib
 import functools
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -210,9 +211,34 @@ def check_output_dirs(argv: list[str]) -> None:
             _check_writable_dir(key.lstrip("+~"), Path(static))
 
 
-def _check_writable_dir(key: str, path: Path) -> None:
+def _check_writable_dir(key: str, path: Path, attempts: int = 20) -> None:
     """Create what is missing of `path`, write a file there, and remove what was made. Jobs
-    of a sweep may check the same folder at once: one made by another is left to it."""
+    of a sweep may check the same folder at once: one made by another is left to it, and
+    one removed by another under our feet is made again (another attempt)."""
+    for attempt in range(attempts):
+        try:
+            return _try_writable_dir(path)
+        except FileNotFoundError as e:
+            if attempt + 1 < attempts:
+                continue
+            error = e
+        except OSError as e:
+            error = e
+        raise UsageError(f"config key {key}: cannot create or write {path} ({error.strerror or error})")
+
+
+def _is_file(path: Path) -> bool:
+    """Something other than a folder (one stat: a folder another job removes and makes
+    again must not look like a file between two calls)."""
+    try:
+        return not stat.S_ISDIR(path.stat().st_mode)
+    except FileNotFoundError:
+        return False
+    except NotADirectoryError:
+        return True
+
+
+def _try_writable_dir(path: Path) -> None:
     missing = [p for p in (path, *path.parents) if not p.exists() and not p.is_symlink()]
     made = []
     try:
@@ -220,13 +246,11 @@ def _check_writable_dir(key: str, path: Path) -> None:
             try:
                 p.mkdir()
             except FileExistsError:
-                if not p.is_dir():
-                    raise
-                continue
+                if not _is_file(p):  # a folder, or one made and removed by another job meanwhile
+                    continue
+                raise
             made.append(p)
         tempfile.TemporaryFile(dir=path).close()
-    except OSError as e:
-        raise UsageError(f"config key {key}: cannot create or write {path} ({e.strerror or e})") from None
     finally:
         for p in reversed(made):
             try:

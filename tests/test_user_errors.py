@@ -69,6 +69,22 @@ def test_output_dir_check_leaves_nothing_behind(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_output_dir_check_survives_jobs_checking_the_same_folder(tmp_path):
+    """Two jobs of a sweep (or two `harness.data` runs) check one run dir at once: a folder
+    removed by the other job between our mkdir and our write is not an error (CI failed so)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    run = tmp_path / "run" / "dir"
+
+    def hammer(_):
+        for _ in range(300):
+            check_output_dirs([f"hydra.run.dir={run}"])
+
+    with ThreadPoolExecutor(4) as pool:
+        list(pool.map(hammer, range(4)))
+    assert not [f for f in tmp_path.rglob("*") if not f.is_dir()]  # at most an empty folder, which Hydra makes anyway
+
+
 BENCH = ["+env=s2d", "+planner=bit_star"]
 
 
