@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.log import mpl
 from harness.log.foxglove import LINE_LIST, cube, line, p3, rgba
 from harness.log.painters import Painter, register
 from harness.log.style import C_ARM, C_BOUNDS, C_OBSTACLE, rgba8
@@ -89,6 +90,35 @@ class ArmPainter(Painter):
 
     def footprints(self, states):
         return np.zeros((0, 0, 3))
+
+    # --------------------------------------------- the report's example figure (matplotlib)
+    mpl_projection = "3d"
+
+    def mpl_workspace(self, ax, msg):
+        boxes, spans = [], []
+        for o in msg["obstacles"]:
+            rot = quat_matrix(o.get("orientation", IDENTITY))
+            spans.append(mpl.box_corners(o["center"], o["size"], rot))
+            kind = o.get("type", "box")
+            if kind == "box":
+                boxes.append(spans[-1])
+            else:
+                grid = mpl.cylinder_grid if kind == "cylinder" else mpl.ellipsoid_grid
+                mpl.mesh_3d(ax, *grid(o["center"], o["size"], rot))
+        mpl.boxes_3d(ax, boxes)
+        return spans
+
+    def mpl_query(self, ax, msg, color, label):
+        pts = np.asarray(self.trace(msg)[0], float).reshape(-1, 3)
+        if len(pts) < 2:
+            return []
+        w = panda_world()
+        mpl.path(ax, pts, color, label, marks=[w.hand_position(q) for q in _states(msg)])
+        return [pts]
+
+    def mpl_frame(self, ax, msg, drawn):
+        mpl.limits(ax, drawn)  # the logged bounds are the joints'
+        mpl.axes_3d(ax, "m")
 
     # -------------------------------------------------------------- Foxglove
     def foxglove_scene(self, msg: dict) -> dict:

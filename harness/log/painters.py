@@ -1,9 +1,10 @@
 """How each robot kind is drawn: one painter per (robot kind, workspace dimension).
 
 A painter turns the log's own messages (/workspace and /query as JSON) into Foxglove scene
-primitives, Rerun archetypes, and the footprint outlines the report draws. The writer, the
-Rerun sink and the Foxglove module only call a painter, so a new robot kind (an arm) is a new
-painter class registered here, and nothing else changes.
+primitives, Rerun archetypes, and the report's example figure (matplotlib, through
+harness.log.mpl). The writer, the Rerun sink, the Foxglove module and the report only call a
+painter, so a new robot kind (an arm) is a new painter class registered here, and nothing else
+changes.
 
     painter = painter_for(ws_msg["robot"], workspace_dim)
 """
@@ -15,6 +16,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from harness.log import mpl
 from harness.log.foxglove import LINE_LIST, YAW_CUBE, cube, fx, jcolor, line, p3
 from harness.log.style import C_BOUNDS, C_FAILURE, C_GOAL, C_OBSTACLE, C_ROBOT, C_START, C_SUCCESS, THIN_Z, rgba8
 
@@ -53,6 +55,7 @@ class Painter:
     exact_reference: ClassVar[bool] = False
     marker_size: ClassVar[float] = 0.8  # start and goal markers' diameter (workspace units)
     line_width: ClassVar[float] = 0.15  # path strips' width
+    mpl_projection: ClassVar[str | None] = None  # the example figure's axes: None (2D) or "3d"
 
     def __init__(self, robot: dict | str):
         self.robot = robot
@@ -67,6 +70,31 @@ class Painter:
         """Closed outlines of the robot's body at each state, (n, k, workspace_dim) in
         workspace coordinates (what the report draws along a path); a point has none (n = 0)."""
         return np.zeros((0, 0, self.workspace_dim))
+
+    # --------------------------------------------- the report's example figure (matplotlib)
+    def mpl_workspace(self, ax, msg: dict) -> list[np.ndarray]:
+        """Draw a /workspace message's obstacles on axes of `mpl_projection`; return the points
+        they span (for mpl_frame's limits)."""
+        raise NotImplementedError
+
+    def mpl_query(self, ax, msg: dict, color, label: str) -> list[np.ndarray]:
+        """Draw a /query's path (and the robot's body along it); return the points drawn."""
+        pts = np.asarray(self.trace(msg)[0], float).reshape(-1, self.workspace_dim)
+        if len(pts) < 2:
+            return []
+        mpl.path(ax, pts, color, label)
+        return [pts]
+
+    def mpl_endpoints(self, ax, msg: dict) -> list[np.ndarray]:
+        """Draw a /query's start and goal; return their points."""
+        _, start, goal = self.trace(msg)
+        mpl.endpoints(ax, start, goal)
+        return [np.array([start, goal], float)]
+
+    def mpl_frame(self, ax, msg: dict, drawn: list[np.ndarray]) -> None:
+        """Axis limits that hold the workspace's bounds and everything drawn (a body whole),
+        equal scales, axis labels."""
+        raise NotImplementedError
 
     # -------------------------------------------------------------- Foxglove
     def foxglove_workspace(self, msg: dict) -> tuple[list[dict], list[dict]]:
@@ -161,6 +189,19 @@ class _Planar(Painter):
         edges = [p for i in range(4) for p in (c[i], c[(i + 1) % 4])]
         return cubes, [line(LINE_LIST, edges, C_BOUNDS, 0.1)]
 
+    def mpl_workspace(self, ax, msg):
+        obs = msg["obstacles"]
+        c = np.array([o["center"][:2] for o in obs], float).reshape(-1, 2)
+        s = np.array([o["size"][:2] for o in obs], float).reshape(-1, 2)
+        mpl.rectangles_2d(ax, c, s)
+        mpl.bounds_2d(ax, *_lo_hi(msg["bounds"], 2))
+        return [c - s / 2, c + s / 2]
+
+    def mpl_frame(self, ax, msg, drawn):
+        mpl.limits(ax, drawn, msg["bounds"][:2])
+        ax.set_xlabel("x (workspace units)")
+        ax.set_ylabel("y (workspace units)")
+
     def rerun_types(self, rr):
         return rr.Boxes2D, rr.LineStrips2D, rr.Points2D
 
@@ -189,6 +230,7 @@ class _Spatial(Painter):
     """A 3D workspace: obstacles as boxes, Rerun's 3D view."""
 
     workspace_dim = 3
+    mpl_projection = "3d"
 
     def foxglove_workspace(self, msg):
         cubes = [cube(p3(o["center"]), p3(o["size"]), C_OBSTACLE) for o in msg["obstacles"]]
@@ -204,6 +246,15 @@ class _Spatial(Painter):
                     p[d] = q[d] = vd
                     edges += [p, q]
         return cubes, [line(LINE_LIST, edges, C_BOUNDS, 0.1)]
+
+    def mpl_workspace(self, ax, msg):
+        corners = [mpl.box_corners(o["center"][:3], o["size"][:3]) for o in msg["obstacles"]]
+        mpl.boxes_3d(ax, corners)
+        return corners
+
+    def mpl_frame(self, ax, msg, drawn):
+        mpl.limits(ax, drawn, msg["bounds"][:3])
+        mpl.axes_3d(ax, "workspace units")
 
     def rerun_types(self, rr):
         return rr.Boxes3D, rr.LineStrips3D, rr.Points3D
@@ -249,6 +300,14 @@ class RectanglePainter(_Planar):
 
     def footprints(self, states) -> np.ndarray:
         return rect_outlines(states, self.size)
+
+    def mpl_query(self, ax, msg, color, label):
+        drawn = super().mpl_query(ax, msg, color, label)
+        if not drawn:
+            return drawn
+        loops = self.footprints(np.asarray(msg["path"], float))
+        mpl.outlines(ax, loops, color)
+        return drawn + [loops.reshape(-1, 2)]
 
     def foxglove_bodies(self, msg):
         states = msg.get("path") or [msg["start"], msg["goal"]]

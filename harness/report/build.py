@@ -98,9 +98,9 @@ def write_report(
     written = [out / "results.csv"]
     main_res = main_planners(res, facts)
     paper_df = load_paper() if paper else None
-    t, planners = table1(main_res, facts, paper_df)
+    t, layout = table1(main_res, facts, paper_df)
     t.to_csv(out / "table1.csv", index=False)
-    md, tex = render_table1(t, planners, paper, facts, main_res, paper_df)
+    md, tex = render_table1(t, layout, paper, facts, main_res, paper_df)
     (out / "table1.md").write_text(md)
     (out / "table1.tex").write_text(tex)
     sc = success_cost(main_res)

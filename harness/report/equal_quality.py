@@ -10,7 +10,7 @@ import pandas as pd
 
 from harness.report.facts import Facts, cfg_get, config_budget, number, run_config, run_facts
 from harness.report.load import TrialFile
-from harness.report.names import env_rank, split_rank
+from harness.report.names import env_rank, labelled, split_rank
 from harness.report.stats import boot_interval, boot_medians, excludes_one, wilson
 from harness.report.tables import equal_quality_planners
 
@@ -22,6 +22,7 @@ EQ_COLS = [
     "env",
     "split",
     "planner",
+    "label",
     "algorithm",
     "factor",
     "target_planner",
@@ -51,35 +52,36 @@ EQ_COLS = [
 
 
 def equal_quality_table(q: pd.DataFrame, files: list[TrialFile], facts: Facts) -> tuple[pd.DataFrame, list[str]]:
-    """equal_quality.csv: per env x split x (algorithm, factor) of the time-to-equal-quality runs,
-    and warning lines. A query is targeted when its target planner's cost (`target_cost`) was
-    logged; it is reached when it logged success with a path cost <= factor x target cost (a
-    success above that is a miss, with a warning). The median time to reach is over all
-    targeted queries, a miss counting as +inf (censored: the median is a miss, beyond the
-    budget); beside it the median over the reached ones, the target planner's median time
-    (`target_time_s`) over the targeted queries, and the ratio of the two medians. Algorithm, factor
-    and target come from each run's config (facts.py)."""
+    """equal_quality.csv: per env x split x (algorithm, factor) x label (`--label NAME=DIR`, the target
+    planner of that label's runs) of the time-to-equal-quality runs, and warning lines. A query is
+    targeted when its target planner's cost (`target_cost`) was logged; it is reached when it logged
+    success with a path cost <= factor x target cost (a success above that is a miss, with a warning).
+    The median time to reach is over all targeted queries, a miss counting as +inf (censored: the median
+    is a miss, beyond the budget); beside it the median over the reached ones, the target planner's
+    median time (`target_time_s`) over the targeted queries, and the ratio of the two medians.
+    Algorithm, factor and target come from each run's config (facts.py)."""
     eqp = equal_quality_planners(q, facts)
     d = q[q["planner"].isin(eqp)].copy()
     if d.empty:
         return pd.DataFrame(columns=EQ_COLS), []
     meta = {}
     for f in sorted(d["file"].unique()):
-        run = files[int(f)].run
-        name = str(run["planner"])
-        eq = (run_facts(run) or facts.of(name)).equal_quality
+        tf = files[int(f)]
+        eq = (run_facts(tf.run) or facts.of(tf.planner)).equal_quality
         if eq is not None:
             alg, target, factor = eq[0], "mpnet_" + eq[1], eq[2]
         else:  # no cost target in its config, but its queries log a target planner
-            cfg = run_config(run)
-            alg, target = str(cfg_get(cfg, "planner", "algorithm") or name), None
+            cfg = run_config(tf.run)
+            alg, target = str(cfg_get(cfg, "planner", "algorithm") or tf.run["planner"]), None
             factor = number(cfg_get(cfg, "planner", "cost_factor")) or 1.0
-        meta[f] = (alg, factor, target, config_budget(run.get("config")))
+        meta[f] = (alg, factor, target, config_budget(tf.run.get("config")), tf.label or "")
     d["algorithm"] = [meta[f][0] for f in d["file"]]
     d["factor"] = [meta[f][1] for f in d["file"]]
     d["budget_s"] = [meta[f][3] for f in d["file"]]
-    d["target_planner"] = [
-        t if t is not None else meta[f][2] or "unknown" for t, f in zip(d["target_planner"], d["file"])
+    d["label"] = [meta[f][4] for f in d["file"]]
+    d["target_planner"] = [  # the target of a labelled run: its own label's
+        labelled(t if t is not None else meta[f][2] or "unknown", meta[f][4] or None)
+        for t, f in zip(d["target_planner"], d["file"])
     ]
     tgt = d["target_cost"]
     d["targeted"] = np.isfinite(tgt) & (tgt > 0)
@@ -92,14 +94,15 @@ def equal_quality_table(q: pd.DataFrame, files: list[TrialFile], facts: Facts) -
             "cost: counted as not reaching the target"
         )
     rows = []
-    group = ["env", "split", "algorithm", "factor"]
+    group = ["env", "split", "algorithm", "factor", "label"]
     for key, g in d.groupby(group, sort=False):
-        env, split, alg, factor = key
-        targets = sorted(set(g["target_planner"]) - {"unknown"}) or ["unknown"]
+        env, split, alg, factor, label = key
+        unknown = labelled("unknown", label or None)
+        targets = sorted(set(g["target_planner"]) - {unknown}) or [unknown]
         t = g[g["targeted"]]
         k, n = int(t["reached"].sum()), len(t)
         ci = wilson(k, n)
-        tag = (env, split, alg, factor)
+        tag = (env, split, alg, factor) + ((label,) if label else ())
         all_t = np.where(t["reached"], t["time_s"], np.inf)
         all_t = all_t[~np.isnan(all_t)]
         reached_t = t.loc[t["reached"], "time_s"].to_numpy(float)
@@ -122,6 +125,7 @@ def equal_quality_table(q: pd.DataFrame, files: list[TrialFile], facts: Facts) -
                 "env": env,
                 "split": split,
                 "planner": ", ".join(sorted(g["planner"].unique(), key=facts.rank)),
+                "label": label,  # "" for unlabelled runs
                 "algorithm": alg,
                 "factor": factor,
                 "target_planner": ", ".join(targets),
@@ -157,6 +161,7 @@ def equal_quality_table(q: pd.DataFrame, files: list[TrialFile], facts: Facts) -
             split_rank(out["split"].iat[i]),
             out["_alg"].iat[i],
             out["factor"].iat[i],
+            out["label"].iat[i],
         ),
     )
     return out.iloc[order].drop(columns="_alg").reset_index(drop=True), warns

@@ -35,6 +35,8 @@ from harness.report.names import (
     split_rank,
 )
 
+_LABELLED = re.compile(r"(.+) \[([^\[\]]+)\]")  # names.labelled's `planner [label]`
+
 
 def run_config(run: dict) -> dict:
     """A run's resolved config (its YAML text) as a dict; {} when it is not one."""
@@ -159,8 +161,12 @@ class Facts:
         return self.by_planner.get(planner, PLAIN)
 
     def tag(self, planner: str) -> tuple[str, str | None]:
-        """(the logged planner name, its --label or None) of a shown name."""
-        return self.tags.get(planner, (planner, None))
+        """(the logged planner name, its --label or None) of a shown name; a name no file showed
+        (a labelled run's target planner, `mpnet_nr [A]`) is split at its bracketed label."""
+        if planner in self.tags:
+            return self.tags[planner]
+        m = _LABELLED.fullmatch(str(planner))
+        return (m.group(1), m.group(2)) if m else (planner, None)
 
     def ablation(self, planner: str) -> tuple[str, str] | None:
         """(base, variant) for an MPNet ablation, e.g. ("mpnet_nr", "random"), else None; the base

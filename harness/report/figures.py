@@ -210,8 +210,10 @@ def pick_example(q: pd.DataFrame, env: str) -> tuple[dict[str, int], int] | None
 
 
 def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts):
-    """One workspace of env: obstacles, start, goal and the chosen planners' paths."""
-    from matplotlib.patches import Rectangle
+    """One workspace of env: obstacles, start, goal and the chosen planners' paths, drawn by the
+    painter of the logged robot kind (a point in 3D on 3D axes, a rigid body whole at every
+    vertex); None when no painter draws that robot."""
+    from matplotlib.figure import Figure
 
     pick = pick_example(q, env)
     if pick is None:
@@ -227,21 +229,12 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts)
         painter = painter_for(ws.get("robot"), wd)
     except ValueError:  # a robot kind without a painter: no example figure
         return None
-    fig, (ax,) = _figure(1, 6.0, 6.0)
-    bounds = ws.get("bounds") or [[-20, 20], [-20, 20]]
-    for o in ws.get("obstacles", []):
-        c, s = np.asarray(o["center"], float), np.asarray(o["size"], float)
-        ax.add_patch(
-            Rectangle(
-                tuple(c[:2] - s[:2] / 2),
-                s[0],
-                s[1],
-                facecolor="0.55",
-                alpha=0.85 if wd == 2 else 0.35,
-                edgecolor="0.3",
-                lw=0.5,
-            )
-        )
+    fig = Figure(figsize=(6.0, 6.0), layout="constrained")
+    ax = fig.add_subplot(projection=painter.mpl_projection)
+    try:
+        drawn = painter.mpl_workspace(ax, ws)
+    except NotImplementedError:  # a painter that draws no figure
+        return None
     colors = _colors(sorted(chosen, key=facts.rank))
     for p in sorted(chosen, key=facts.rank):
         r = chosen[p]
@@ -249,30 +242,13 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts)
         path = np.asarray(m.get("path") or [], float)
         if path.ndim != 2 or len(path) < 2:
             continue
-        color = colors[p]
-        ax.plot(
-            path[:, 0],
-            path[:, 1],
-            "-o",
-            color=color,
-            ms=3,
-            lw=1.8,
-            label=f"{facts.label(p)} (cost {fmt_g(q.at[r, 'path_cost'])}, {fmt_g(q.at[r, 'time_s'])} s)",
-        )
-        for o in painter.footprints(path):
-            ax.plot(o[:, 0], o[:, 1], color=color, lw=0.7, alpha=0.6)
-    start, goal = np.asarray(msg["start"], float), np.asarray(msg["goal"], float)
-    ax.plot(*start[:2], "o", color="#2050f0", ms=9, label="start", zorder=5)
-    ax.plot(*goal[:2], "*", color="#f09000", ms=14, label="goal", zorder=5)
-    ax.set_xlim(*bounds[0])
-    ax.set_ylim(*bounds[1])
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (workspace units)")
-    ax.set_ylabel("y (workspace units)")
-    proj = ", x-y projection" if wd == 3 else ""
+        label = f"{facts.label(p)} (cost {fmt_g(q.at[r, 'path_cost'])}, {fmt_g(q.at[r, 'time_s'])} s)"
+        drawn += painter.mpl_query(ax, m, colors[p], label)
+    drawn += painter.mpl_endpoints(ax, msg)
+    painter.mpl_frame(ax, ws, drawn)
     ax.set_title(
-        f"{env_label(env)}: one query (n=1), {msg.get('split')} workspace {msg.get('workspace_id')}, "
-        f"query {msg.get('query_id')}{proj}",
+        f"{env_label(env)}\none query (n=1): {msg.get('split')} workspace {msg.get('workspace_id')}, "
+        f"query {msg.get('query_id')}",
         fontsize=10,
     )
     fig.legend(loc="outside lower center", ncols=2, fontsize=8, frameon=False)

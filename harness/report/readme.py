@@ -248,7 +248,8 @@ logged in more than one file, figures left out):
 - `results.csv`: one row per env × split × planner: queries, seeds, success, time, cost,
   collision checks, planner stats.
 - `table1.md`, `table1.tex`, `table1.csv`: Table I, planning time mean ± std [s] per env × split
-  and planner, and the BIT*/MPNet (NR) ratio{paper_rows}.
+  and planner, and the BIT*/MPNet (NR) ratio (runs given as `--label NAME=DIR` after them, with
+  that label's own ratio){paper_rows}.
 - `success_cost.md`, `success_cost.tex`, `success_cost.csv`: success rate [%] (mean ± std over
   seeds; pooled with its Wilson 95% interval) and mean path cost.
 {files_extra}- `figures/` (PNG and SVG; each says its n): `success` (per env, each split × planner's pooled
@@ -258,7 +259,8 @@ logged in more than one file, figures left out):
   without a logged time never counts as within one; n in the legend); `time_boxplot` (per env,
   the times of the successes of each split × planner on a log axis: box quartiles, whiskers
   5th-95th percentile, solved / queries in the labels); `example_<env>` (one query: a
-  workspace with an MPNet and a BIT* path).
+  workspace with an MPNet and a BIT* path; a 3D workspace in 3D, a rigid body whole at each
+  vertex of its path, the state bounds dashed).
 - `benchmark.db`: an OMPL benchmark database (one experiment per env, with env and split as
   problem parameters; one run per query); open it in Planner Arena (plannerarena.org).
 

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from harness.report.facts import Facts
-from harness.report.names import APPROX, CITATION, PAPER, PAPER_PLANNERS, RATIO_COL, RATIO_LABEL, env_label
+from harness.report.names import APPROX, CITATION, PAPER, RATIO_COL, RATIO_LABEL, env_label, labelled
 from harness.report.stats import BOOT_N
 
 
@@ -74,16 +74,16 @@ def _tex_table(
 
 def render_table1(
     t: pd.DataFrame,
-    planners: list[str],
+    layout: list[tuple[str, str | None]],
     with_paper: bool,
     facts: Facts,
     res: pd.DataFrame | None = None,
     paper: pd.DataFrame | None = None,
 ) -> tuple[str, str]:
-    """Table I as (Markdown, LaTeX), columns in t's order (the paper's planners, the ratio, the
-    others). A planner of res that ran but has no time to show reads "— (successes/queries)"
-    rather than blank, which is kept for a planner not run; the paper's rows are its numbers
-    as printed (load_paper's text columns)."""
+    """Table I as (Markdown, LaTeX), columns as table1's layout gives them (the paper's planners,
+    the ratio, the others; then each label's). A planner of res that ran but has no time to show
+    reads "— (successes/queries)" rather than blank, which is kept for a planner not run; the
+    paper's rows are its numbers as printed (load_paper's text columns)."""
     counts = (
         {}
         if res is None
@@ -111,14 +111,10 @@ def render_table1(
             )
         }
     )
-    main = [p for p in planners if p in PAPER_PLANNERS]
-    extra = [p for p in planners if p not in PAPER_PLANNERS]
     head = (
         ["Env", "Split"]
         + (["Source"] if with_paper else [])
-        + [facts.label(p) for p in main]
-        + [RATIO_LABEL]
-        + [facts.label(p) for p in extra]
+        + [facts.label(k) if what == "time" else labelled(RATIO_LABEL, k) for what, k in layout]
     )
 
     def cell(r: dict, p: str, sep: str, dash: str) -> str:
@@ -133,11 +129,15 @@ def render_table1(
             return (APPROX + " " if sep == " ± " else r"$\approx$ ") + text
         return text
 
-    def ratio_cell(r: dict, tex: bool) -> str:
-        text = fmt_g(r[RATIO_COL])
-        if text and r["source"] == "ours" and (r["env"], r["split"], "bit_star") in same_time:
+    def ratio_cell(r: dict, label: str | None, tex: bool) -> str:
+        text = fmt_g(r[labelled(RATIO_COL, label)])
+        if text and r["source"] == "ours" and (r["env"], r["split"], labelled("bit_star", label)) in same_time:
             return (r"$\approx$ " if tex else APPROX + " ") + text
         return text
+
+    def cells(r: dict, tex: bool) -> list[str]:
+        sep, dash = (r" $\pm$ ", "---") if tex else (" ± ", "—")
+        return [cell(r, k, sep, dash) if what == "time" else ratio_cell(r, k, tex) for what, k in layout]
 
     md_rows, tex_rows, groups = [], [], []
     prev = None
@@ -146,19 +146,8 @@ def render_table1(
         prev = (r["env"], r["split"])
         lead = [env_label(r["env"]) if first else "", r["split"] if first else ""]
         src = [r["source"]] if with_paper else []
-        md_rows.append(
-            lead
-            + src
-            + [cell(r, p, " ± ", "—") for p in main]
-            + [ratio_cell(r, False)]
-            + [cell(r, p, " ± ", "—") for p in extra]
-        )
-        tex_rows.append(
-            [_tex_escape(x) for x in lead + src]
-            + [cell(r, p, r" $\pm$ ", "---") for p in main]
-            + [ratio_cell(r, True)]
-            + [cell(r, p, r" $\pm$ ", "---") for p in extra]
-        )
+        md_rows.append(lead + src + cells(r, False))
+        tex_rows.append([_tex_escape(x) for x in lead + src] + cells(r, True))
         groups.append(r["env"])
     what = (
         "Planning time in seconds, mean ± std over the successful queries of all seeds; "
@@ -178,6 +167,12 @@ def render_table1(
         "robot that encodes its scene once and then plans many queries would see it."
     )
     notes = [f"Layout of Table I of {CITATION}.", mark, which]
+    if any(k and (what == "ratio" or facts.tag(k)[1]) for what, k in layout):
+        notes.append(
+            f"Columns marked [NAME] are the runs given as `--label NAME=DIR`; {RATIO_LABEL} [NAME], where "
+            "shown, is the ratio of that label's BIT* and MPNet (NR) mean times, and ≈ compares a labelled "
+            "planner with MPNet (NR) of the same label."
+        )
     if with_paper:
         notes.append(
             "Rows 'paper' are the paper's own numbers as printed; their BIT*/MPNet (NR) is the ratio of "
@@ -434,7 +429,7 @@ def render_equal_quality(eq: pd.DataFrame, facts: Facts) -> str:
                 _is_false(r["time_ratio_significant"]),
             )
         return [
-            facts.label(r["algorithm"]),
+            facts.label(labelled(r["algorithm"], r["label"] or None)),
             f"cost ≤ {r['factor']:g} × {target}'s",
             str(r["no_target"]),
             str(r["targeted"]),

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from harness.report.facts import Facts
-from harness.report.names import ABLATIONS, KEYS, PAPER_PLANNERS, RATIO_COL, env_rank, split_rank
+from harness.report.names import ABLATIONS, KEYS, PAPER_PLANNERS, RATIO_COL, env_rank, labelled, split_rank
 from harness.report.stats import (
     ALPHA,
     bit_star_pairs,
@@ -186,10 +186,33 @@ def _compare(res: pd.DataFrame, keys: list[tuple], draws: dict, facts: Facts) ->
         )
 
 
-def _planner_columns(planners: Iterable[str], facts: Facts) -> list[str]:
-    """Table I's columns: the paper's four planners always, then any other logged planner."""
-    extra = sorted(set(planners) - set(PAPER_PLANNERS), key=facts.rank)
-    return list(PAPER_PLANNERS) + extra
+def table1_layout(planners: Iterable[str], facts: Facts, with_paper: bool = False) -> list[tuple[str, str | None]]:
+    """Table I's columns in order, as ("time", planner) and ("ratio", label) items: the paper's four
+    planners and the BIT*/MPNet (NR) ratio (always, unless every planner logged is a labelled one
+    and the paper's rows are not asked for), then every other unlabelled planner; then, per label
+    (`--label NAME=DIR`, by name), its planners in the same order, with its own ratio after its
+    paper planners when it has both BIT* and MPNet (NR)."""
+    by_label: dict[str | None, list[str]] = {}
+    for p in sorted(set(planners), key=facts.rank):
+        by_label.setdefault(facts.tag(p)[1], []).append(p)
+    out: list[tuple[str, str | None]] = []
+    plain = by_label.pop(None, [])
+    if plain or with_paper or not by_label:
+        out += [("time", p) for p in PAPER_PLANNERS] + [("ratio", None)]
+        out += [("time", p) for p in plain if p not in PAPER_PLANNERS]
+    for label in sorted(by_label):
+        shown = by_label[label]
+        main = [p for p in shown if facts.tag(p)[0] in PAPER_PLANNERS]
+        out += [("time", p) for p in main]
+        if {labelled(b, label) for b in ("bit_star", "mpnet_nr")} <= set(main):
+            out.append(("ratio", label))
+        out += [("time", p) for p in shown if p not in main]
+    return out
+
+
+def ratio_col(label: str | None) -> str:
+    """table1.csv's column of BIT*'s mean time over MPNet (NR)'s (of one label's runs)."""
+    return labelled(RATIO_COL, label)
 
 
 def load_paper() -> pd.DataFrame:
@@ -208,11 +231,14 @@ def _time_cols(planners: Iterable[str]) -> list[str]:
     return [f"{p}_{s}" for p in planners for s in ("time_mean_s", "time_std_s")]
 
 
-def table1(res: pd.DataFrame, facts: Facts, paper: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[str]]:
-    """Table I as numbers: rows env x split (x source: ours, then the paper's where asked),
-    `<planner>_time_mean_s` / `_time_std_s` per planner column, the paper's four planners
-    first, then the BIT*/NR ratio, then any other planner (so the paper's layout comes first)."""
-    planners = _planner_columns(res["planner"] if len(res) else [], facts)
+def table1(
+    res: pd.DataFrame, facts: Facts, paper: pd.DataFrame | None = None
+) -> tuple[pd.DataFrame, list[tuple[str, str | None]]]:
+    """Table I as numbers, and its columns (table1_layout): rows env x split (x source: ours, then
+    the paper's where asked), `<planner>_time_mean_s` / `_time_std_s` per planner column and the
+    BIT*/NR ratio of mean times (`bit_star_over_mpnet_nr`, `... [label]` within a label's runs)."""
+    layout = table1_layout(res["planner"] if len(res) else [], facts, paper is not None)
+    planners = [k for what, k in layout if what == "time"]
     sources = [("ours", res)] + ([("paper", paper)] if paper is not None else [])
     vals = {
         (src, e, s, p): (m, sd)
@@ -228,12 +254,15 @@ def table1(res: pd.DataFrame, facts: Facts, paper: pd.DataFrame | None = None) -
             for p in planners:
                 m, sd = vals.get((src, env, split, p), (math.nan, math.nan))
                 row[f"{p}_time_mean_s"], row[f"{p}_time_std_s"] = float(m), float(sd)
+            for what, label in layout:
+                if what == "ratio":
+                    bit, nr = (row[f"{labelled(b, label)}_time_mean_s"] for b in ("bit_star", "mpnet_nr"))
+                    row[ratio_col(label)] = bit / nr if nr else math.nan
             rows.append(row)
-    t = pd.DataFrame(rows, columns=["env", "split", "source"] + _time_cols(planners))
-    t[RATIO_COL] = t["bit_star_time_mean_s"] / t["mpnet_nr_time_mean_s"]
-    extra = [p for p in planners if p not in PAPER_PLANNERS]
-    t = t[["env", "split", "source"] + _time_cols(PAPER_PLANNERS) + [RATIO_COL] + _time_cols(extra)]
-    return t.reset_index(drop=True), planners
+    cols = ["env", "split", "source"]
+    for what, k in layout:
+        cols += _time_cols([k]) if what == "time" else [ratio_col(k)]
+    return pd.DataFrame(rows, columns=cols).reset_index(drop=True), layout
 
 
 def main_planners(res: pd.DataFrame, facts: Facts) -> pd.DataFrame:
