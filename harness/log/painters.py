@@ -89,7 +89,7 @@ class Painter:
         for kind, (_, dashed, _) in PARTIAL_STYLE.items():
             pts = self.states_trace(partial[kind]) if partial.get(kind) else np.zeros((0, self.workspace_dim))
             if len(pts):
-                pts = pts.round(4)  # a drawing: 0.1 mm on the arm, and a third of the JSON text
+                pts = pts.round(4)  # a drawing (0.1 mm on the arm): shorter JSON text
                 out.append((kind, dashes(pts, 1.5 * self.marker_size) if dashed else [pts]))
         return out
 
