@@ -245,7 +245,8 @@ def test_scene_validates_against_foxglove_schema(tmp_path, env):
     assert len(q_scenes) == 3 and len(ws_scenes) == 3  # ws0, ws1, then ws0 again before ws0-1
     assert len(set(e for e in ids if e.startswith("query/"))) == 3
     for s in ws_scenes:
-        (e,) = s["entities"]
+        e, legend = s["entities"]  # the workspace, and the legend drawn again after the clear
+        assert legend["id"] == "legend" and legend["texts"]
         assert e["frame_id"] == "world" and len(e["cubes"]) == 2
         assert s["deletions"][0]["type"] == 1  # a new workspace clears the scene
         cube = e["cubes"][0]
@@ -572,7 +573,7 @@ def test_arm_painter_draws_posed_obstacles_the_hand_trace_and_the_links():
     }
     scene = json.loads(workspace_scene(p, ws, 1))
     jsonschema.validate(scene, scene_update_schema())
-    (ent,) = scene["entities"]
+    ent, _legend = scene["entities"]
     assert (len(ent["cubes"]), len(ent["cylinders"]), len(ent["spheres"])) == (1, 1, 1)
     kinds = dict(p.rerun_obstacle_entities(rr, ws))
     assert isinstance(kinds["cylinders"], rr.Cylinders3D) and isinstance(kinds["spheres"], rr.Ellipsoids3D)

@@ -59,6 +59,24 @@ def plan_time(wall: float, stats: dict) -> float:
     return wall if enc is None else max(0.0, wall - float(enc))
 
 
+# A failed query's partial paths are logged thinned to at most this many states each (ends
+# kept): enough to see where a planner got stuck, while an OMPL approximate path in a long
+# narrow passage cannot blow up trials.mcap.
+PARTIAL_MAX_STATES = 200
+
+
+def logged_partial(partial: dict | None, most: int = PARTIAL_MAX_STATES) -> dict | None:
+    """Result.partial as /query's `partial`: each path thinned evenly to `most` states."""
+    if not partial:
+        return None
+    out = {}
+    for kind, states in partial.items():
+        if len(states) > most:
+            states = [states[i] for i in np.linspace(0, len(states) - 1, most).round().astype(int)]
+        out[kind] = states
+    return out
+
+
 def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     """Solve one query, timed: the record's fields. `failure` is None when the planner
     claims an exact path within the budget; the log process re-checks that claim."""
@@ -74,6 +92,7 @@ def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     rec = {
         "failure": failure,
         "path": res.path if res.path is not None else [],
+        "partial": logged_partial(res.partial) if failure is not None else None,
         "time_s": wall,
         "plan_s": plan_time(wall, res.stats),
         "cpu_s": cpu,
@@ -95,6 +114,7 @@ def unplanned(problem: Problem, reason: str) -> dict:
     return {
         "failure": reason,
         "path": [],
+        "partial": None,
         "time_s": 0.0,
         "plan_s": 0.0,
         "cpu_s": 0.0,

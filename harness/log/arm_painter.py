@@ -88,6 +88,19 @@ class ArmPainter(Painter):
         pts = [w.hand_position(q) for q in _dense(np.asarray(path, float), TRACE_STEP)] if len(path) else []
         return pts, w.hand_position(msg["start"]), w.hand_position(msg["goal"])
 
+    def states_trace(self, states):
+        """The hand's trace along a list of joint states (missing values left out)."""
+        q = np.array(states, dtype=float).reshape(len(states), -1)
+        q = q[np.isfinite(q).all(axis=1)]
+        if not len(q):
+            return np.zeros((0, 3))
+        w = panda_world()
+        return np.array([w.hand_position(x) for x in _dense(q, TRACE_STEP)], float).reshape(-1, 3)
+
+    def legend_layout(self, msg):
+        """Beside the arm's reach (the bounds are joint limits), stacked downward."""
+        return np.array([0.0, -0.9, 1.2]), np.array([0.0, 0.0, -0.06]), 0.04
+
     def footprints(self, states):
         return np.zeros((0, 0, 3))
 
@@ -195,8 +208,8 @@ class ArmPainter(Painter):
             ),
         ]
 
-    def rerun_queries(self, rr, msgs):
-        out = super().rerun_queries(rr, msgs)  # end-effector traces (via trace) and end points
+    def rerun_queries(self, rr, msgs, planner=""):
+        out = super().rerun_queries(rr, msgs, planner)  # end-effector traces (via trace) and end points
         boxes = [[b for st in ghost_states(m) for b in arm_boxes(st)] for m in msgs]
         lens = [len(b) for b in boxes]
         flat = [b for bs in boxes for b in bs]

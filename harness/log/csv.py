@@ -20,7 +20,7 @@ CSV_FIXED = (
     "path_cost",
     "collision_checks",
 )
-_NON_CSV = frozenset(("start", "goal", "path"))
+_NON_CSV = frozenset(("start", "goal", "path", "partial"))
 
 
 class QueryCsv:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 
 from harness.log.mcap_io import dumps
-from harness.log.style import C_FAILURE, C_GOAL, C_START, C_SUCCESS, rgba
+from harness.log.style import C_FAILURE, C_GOAL, C_START, C_SUCCESS, LEGEND, PARTIAL_STYLE, rgba
 
 FRAME_ID = "world"
 LINE_STRIP, LINE_LOOP, LINE_LIST = 0, 1, 2
@@ -63,8 +63,29 @@ def entity(eid: str, stamp: dict, **prims) -> dict:
     return e
 
 
+def text(position, words: str, color, font_size: float, scale_invariant: bool = False) -> dict:
+    """A Foxglove TextPrimitive facing the camera."""
+    pose = {"position": p3(position), "orientation": ID_QUAT}
+    return {
+        "pose": pose,
+        "billboard": True,
+        "font_size": font_size,
+        "scale_invariant": scale_invariant,
+        "color": rgba(color),
+        "text": words,
+    }
+
+
+def legend_texts(painter, msg: dict) -> list[dict]:
+    """What the scene's colours mean, one text per colour in that colour, stacked down from
+    the painter's legend corner (Foxglove's 3D panel has no legend of its own)."""
+    corner, down, size = painter.legend_layout(msg)
+    return [text(corner + k * down, words, color, size) for k, (words, color) in enumerate(LEGEND)]
+
+
 def workspace_scene(painter, msg: dict, t: int) -> bytes:
-    """Clear the scene and draw the workspace of a /workspace message (obstacles, bounds)."""
+    """Clear the scene and draw the workspace of a /workspace message (obstacles, bounds),
+    with the legend."""
     st = stamp(t)
     split, wid = msg["split"], msg["workspace_id"]
     ent = entity(
@@ -73,12 +94,25 @@ def workspace_scene(painter, msg: dict, t: int) -> bytes:
         **painter.foxglove_scene(msg),
         metadata=[{"key": "workspace_id", "value": wid}, {"key": "split", "value": split}],
     )
-    return dumps({"deletions": [{"timestamp": st, "type": 1, "id": ""}], "entities": [ent]})
+    key = entity("legend", st, texts=legend_texts(painter, msg))
+    return dumps({"deletions": [{"timestamp": st, "type": 1, "id": ""}], "entities": [ent, key]})
 
 
-def query_scene(painter, msg: dict, t: int) -> bytes:
+def partial_lines(painter, msg: dict) -> str:
+    """JSON text of a failed query's partial paths (comma-separated line primitives): a
+    strip per kind in its colour, a dashed kind as a line list of its dashes."""
+    out = []
+    for kind, strips in painter.partial_strips(msg):
+        color, dashed, _ = PARTIAL_STYLE[kind]
+        pts = [p for s in strips for p in s] if dashed else strips[0]
+        out.append(dumps(line(LINE_LIST if dashed else LINE_STRIP, pts, color, painter.line_width * 0.7)).decode())
+    return "".join("," + x for x in out)
+
+
+def query_scene(painter, msg: dict, t: int, planner: str = "") -> bytes:
     """A /query message's scene: its path as a line strip (green on success, red on failure),
-    start and goal as spheres, and the painter's robot bodies as cubes.
+    a failure's partial paths (`partial`) in their colours, start and goal as spheres, the
+    painter's robot bodies as cubes, and a label at the start (planner, split, query, outcome).
 
     Encoded from string templates because it is on the per-query path and json.dumps of
     these nested dicts costs ~50 us; tests validate the output against the
@@ -95,7 +129,10 @@ def query_scene(painter, msg: dict, t: int) -> bytes:
         ]
     )
     cubes = painter.foxglove_bodies(msg)
-    meta = json.dumps([{"key": k, "value": str(msg.get(k))} for k in _SCENE_META], separators=(",", ":"))
+    meta = [{"key": k, "value": str(msg.get(k))} for k in _SCENE_META]
+    meta = json.dumps([{"key": "planner", "value": planner}, *meta], separators=(",", ":"))
+    label = json.dumps(f"{planner} {label_of(msg)}".strip())
+    label_color = _J_SUCCESS if ok else _J_FAILURE
     ent = _ENTITY % (
         t // 1_000_000_000,
         t % 1_000_000_000,
@@ -103,9 +140,18 @@ def query_scene(painter, msg: dict, t: int) -> bytes:
         meta,
         cubes,
         spheres,
-        _STRIP % (repr(painter.line_width), pts, _J_SUCCESS if ok else _J_FAILURE),
+        _STRIP % (repr(painter.line_width), pts, _J_SUCCESS if ok else _J_FAILURE)
+        + ("" if ok or not msg.get("partial") else partial_lines(painter, msg)),
+        _LABEL % (fx(start[0]), fx(start[1]), fx(start[2]) if len(start) > 2 else "0.0", label_color, label)
+        if start is not None
+        else "",
     )
     return ('{"deletions":[],"entities":[%s]}' % ent).encode()  # noqa: UP031  (the templates above are %-style)
+
+
+def label_of(msg: dict) -> str:
+    """A query's label: split, id and outcome (the recordings put the planner before it)."""
+    return f"{msg['split']} {msg['query_id']}: " + ("ok" if msg.get("success") else str(msg.get("failure")))
 
 
 def fx(x) -> str:
@@ -132,6 +178,12 @@ _STRIP = (
 _ENTITY = (
     '{"timestamp":{"sec":%d,"nsec":%d},"frame_id":"' + FRAME_ID + '","id":%s,'
     '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":%s,"arrows":[],"cubes":[%s],'
-    '"spheres":[%s],"cylinders":[],"lines":[%s],"triangles":[],"texts":[],"models":[]}'
+    '"spheres":[%s],"cylinders":[],"lines":[%s],"triangles":[],"texts":[%s],"models":[]}'
 )
-_SCENE_META = ("query_id", "workspace_id", "success", "failure", "time_s", "path_cost", "collision_checks")
+# The query's label at its start, in its path's colour: position x, y, z (JSON number texts),
+# color (JSON), text (JSON string); its size in pixels, whatever the zoom.
+_LABEL = (
+    '{"pose":{"position":' + P3 + ',"orientation":' + _J_ID_QUAT + '},"billboard":true,"font_size":14.0,'
+    '"scale_invariant":true,"color":%s,"text":%s}'
+)
+_SCENE_META = ("query_id", "workspace_id", "split", "success", "failure", "time_s", "path_cost", "collision_checks")

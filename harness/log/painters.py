@@ -17,8 +17,19 @@ from typing import Any, ClassVar
 import numpy as np
 
 from harness.log import mpl
-from harness.log.foxglove import LINE_LIST, YAW_CUBE, cube, fx, jcolor, line, p3
-from harness.log.style import C_BOUNDS, C_FAILURE, C_GOAL, C_OBSTACLE, C_ROBOT, C_START, C_SUCCESS, THIN_Z, rgba8
+from harness.log.foxglove import LINE_LIST, YAW_CUBE, cube, fx, jcolor, label_of, line, p3
+from harness.log.style import (
+    C_BOUNDS,
+    C_FAILURE,
+    C_GOAL,
+    C_OBSTACLE,
+    C_ROBOT,
+    C_START,
+    C_SUCCESS,
+    PARTIAL_STYLE,
+    THIN_Z,
+    rgba8,
+)
 
 _PAINTERS: dict[tuple[str, int], type[Painter]] = {}
 
@@ -65,6 +76,33 @@ class Painter:
         """A /query's path, start and goal as workspace points (for a body: its reference point)."""
         d = self.workspace_dim
         return [p[:d] for p in (msg.get("path") or [])], msg["start"][:d], msg["goal"][:d]
+
+    def states_trace(self, states) -> np.ndarray:
+        """Workspace points (n, workspace_dim) drawn for a list of states (for a body: its
+        reference point); states with a missing (non-finite) value are left out."""
+        pts = np.array(states, dtype=float).reshape(len(states), -1)[:, : self.workspace_dim]
+        return pts[np.isfinite(pts).all(axis=1)]
+
+    def partial_strips(self, msg: dict) -> list[tuple[str, list[np.ndarray]]]:
+        """A failed /query's partial paths (`partial`) as (kind, strips) in PARTIAL_STYLE's
+        order: the path as one strip, a dashed kind as its dashes (2-point strips). Kinds
+        the message lacks, or that have no style, are left out."""
+        partial = msg.get("partial") or {}
+        out = []
+        for kind, (_, dashed, _) in PARTIAL_STYLE.items():
+            pts = self.states_trace(partial[kind]) if partial.get(kind) else np.zeros((0, self.workspace_dim))
+            if len(pts):
+                pts = pts.round(4)  # a drawing (0.1 mm on the arm): shorter JSON text
+                out.append((kind, dashes(pts, 1.5 * self.marker_size) if dashed else [pts]))
+        return out
+
+    def legend_layout(self, msg: dict) -> tuple[np.ndarray, np.ndarray, float]:
+        """Where Foxglove's legend goes for a /workspace message: its first line's position,
+        the step from line to line, and the font size (workspace units): beside the bounds."""
+        b = np.array(msg["bounds"][: self.workspace_dim], float)
+        size = 0.04 * float(np.max(b[:, 1] - b[:, 0]))
+        corner = np.array([b[0, 1] + size, b[1, 1], b[2, 1] if self.workspace_dim > 2 else 0.0])
+        return corner, np.array([0.0, -1.6 * size, 0.0]), size
 
     def footprints(self, states) -> np.ndarray:
         """Closed outlines of the robot's body at each state, (n, k, workspace_dim) in
@@ -146,17 +184,15 @@ class Painter:
         ]
         return strips, np.array([[m["start"][:d], m["goal"][:d]] for m in msgs], float).reshape(2 * len(msgs), d)
 
-    def rerun_queries(self, rr, msgs: list[dict]) -> list[tuple[str, Any]]:
+    def rerun_queries(self, rr, msgs: list[dict], planner: str = "") -> list[tuple[str, Any]]:
         """(entity path, columns) with one row per /query message: path strips labelled
-        with the outcome, start and goal points."""
+        with the planner, split, query and outcome, start and goal points."""
         _, strips_t, points_t = self.rerun_types(rr)
         n = len(msgs)
         ok = np.array([bool(m.get("success")) for m in msgs])
         colors = np.where(ok[:, None], np.array(rgba8(C_SUCCESS), np.uint8), np.array(rgba8(C_FAILURE), np.uint8))
         strips, ends = self.rerun_trace_strips(msgs)
-        labels = [
-            f"{m['split']} {m['query_id']}: " + ("ok" if m.get("success") else str(m.get("failure"))) for m in msgs
-        ]
+        labels = [f"{planner} {label_of(m)}".strip() for m in msgs]
         end_colors = np.tile(np.array([rgba8(C_START), rgba8(C_GOAL)], np.uint8), (n, 1))
         return [
             ("scene/world/path", strips_t.columns(strips=strips, colors=colors, labels=labels)),
@@ -167,6 +203,37 @@ class Painter:
                 ).partition([2] * n),
             ),
         ]
+
+    def rerun_partials(self, rr, msgs: list[dict], planner: str, shown: set) -> list[tuple[str, list[int], Any]]:
+        """(scene/world/partial/<kind>, rows, columns) of the failures' partial paths in
+        /query messages: strips in the kind's colour, one label (planner, split, query, kind).
+
+        A kind has a row only where a query has it, and an empty row at the next query that
+        has not (clearing it), so successes cost nothing; `shown` holds the kinds on screen
+        after the previous batch and is updated."""
+        strips_t = self.rerun_types(rr)[1]
+        drawn = [dict(self.partial_strips(m)) if m.get("partial") else {} for m in msgs]
+        out = []
+        for kind, (color, _, _) in PARTIAL_STYLE.items():
+            rows, prev = [], kind in shown
+            for i, d in enumerate(drawn):
+                if kind in d or prev:
+                    rows.append(i)
+                prev = kind in d
+            (shown.add if prev else shown.discard)(kind)
+            if not rows:
+                continue
+            strips = [drawn[i].get(kind, []) for i in rows]
+            has = [int(bool(s)) for s in strips]
+            labels = [
+                f"{planner} {msgs[i]['split']} {msgs[i]['query_id']}: {kind}".strip() for i in rows if kind in drawn[i]
+            ]
+            columns = strips_t.columns(strips=[s for r in strips for s in r]).partition([len(r) for r in strips])
+            style = strips_t.columns(
+                colors=np.tile(np.array(rgba8(color), np.uint8), (len(labels), 1)), labels=labels
+            ).partition(has)
+            out.append((f"scene/world/partial/{kind}", rows, [*columns, *style]))
+        return out
 
 
 class _Planar(Painter):
@@ -330,8 +397,8 @@ class RectanglePainter(_Planar):
             ]
         )
 
-    def rerun_queries(self, rr, msgs):
-        out = super().rerun_queries(rr, msgs)
+    def rerun_queries(self, rr, msgs, planner=""):
+        out = super().rerun_queries(rr, msgs, planner)
         outl = [self.footprints(np.asarray(m.get("path") or [m["start"], m["goal"]], float)) for m in msgs]
         lens = [len(o) for o in outl]
         outl = np.concatenate(outl)
@@ -344,6 +411,25 @@ class RectanglePainter(_Planar):
             )
         )
         return out
+
+
+def dashes(points: np.ndarray, length: float, most: int = 30) -> list[np.ndarray]:
+    """A polyline as dashes of `length` with gaps as long (2-point strips; at most `most`
+    dashes, longer ones on a long path): how a dashed line is drawn."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    total = float(cum[-1])
+    if total <= 0:
+        return [points[[0, 0]]]
+    length = max(length, total / (2 * most))
+    starts = np.arange(0.0, total, 2 * length)
+
+    def at(s):
+        k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
+        frac = np.where(seg[k] > 0, (s - cum[k]) / np.where(seg[k] > 0, seg[k], 1.0), 0.0)
+        return points[k] + frac[:, None] * (points[k + 1] - points[k])
+
+    return list(np.stack([at(starts), at(np.minimum(starts + length, total))], axis=1).round(4))
 
 
 def rect_outlines(states, size) -> np.ndarray:

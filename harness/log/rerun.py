@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.log.painters import Painter
+from harness.log.style import LEGEND
 
 RRD_NAME = "trials.rrd"
 
@@ -26,10 +27,12 @@ class RerunSink:
 
         self.rr = rr
         self.painter = painter
+        self.planner = run.get("planner", "")
         self.batch, self.every_s = max(1, int(batch)), every_s
         self.pending: list[tuple[int, dict, dict]] = []
         self.last_send = time.monotonic()
         self.shown_ws: tuple[str, str] | None = None
+        self.shown_partial: set[str] = set()  # the kinds of partial paths on screen
         rid = uuid.uuid5(uuid.NAMESPACE_URL, "mpnet-bench:" + str(path.resolve().parent))
         self.rec = rr.RecordingStream("mpnet_bench", recording_id=rid)
         self.rec.save(path, default_blueprint=self._blueprint(rrb, bounds))
@@ -95,8 +98,11 @@ class RerunSink:
             indexes=idx,
             columns=rr.Scalars.columns(scalars=np.array([_num(m.get("collision_checks")) for m in msgs], float)),
         )
-        for entity, columns in self.painter.rerun_queries(rr, msgs):
+        for entity, columns in self.painter.rerun_queries(rr, msgs, str(self.planner)):
             rec.send_columns(entity, indexes=idx, columns=columns)
+        seq = [i for i, _, _ in items]
+        for entity, rows, columns in self.painter.rerun_partials(rr, msgs, str(self.planner), self.shown_partial):
+            rec.send_columns(entity, indexes=[rr.TimeColumn("query", sequence=[seq[r] for r in rows])], columns=columns)
 
     def close(self):
         try:
@@ -108,10 +114,12 @@ class RerunSink:
 
 def legend(run: dict) -> str:
     """What the recording shows, and what its colours mean (the scene has no legend of its own)."""
+    lines = "".join(f"- {words}\n" for words, _ in LEGEND)
     return (
         f"**{run.get('planner')}** on **{run.get('env')}**, seed {run.get('seed')} ({run.get('split')})\n\n"
-        "- blue point: start; orange point: goal\n"
-        "- green path: a success; red: a failure (its label gives split, query and reason)\n"
+        f"{lines}"
+        "- labels: planner, split, query, and the outcome (a failure's reason) or the partial path's kind\n"
+        "- a failure's partial paths show what the planner had when it stopped (`scene/world/partial`)\n"
         "- timeline `query`: one query after another"
     )
 

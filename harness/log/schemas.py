@@ -120,6 +120,15 @@ QUERY_SCHEMA = {
         "success": {"type": "boolean"},
         "failure": {"type": ["string", "null"], "description": "null on success, else the reason"},
         "path": _STATE_LIST,
+        "partial": {
+            "type": ["object", "null"],
+            "additionalProperties": _STATE_LIST,
+            "description": "A failed query's partial paths, what the planner had when it stopped "
+            "(mpnet.planners.base.Result.partial), by kind: forward and backward (MPNet: the last "
+            "NeuralPlanner run's paths from its start and from its goal), last_path (MPNet: the last coarse "
+            "or replanned path, not feasible), approximate (OMPL: the approximate solution); at most 200 "
+            "states each. null or absent for a success",
+        },
         "time_s": {"type": ["number", "null"], "description": "Wall-clock planning time (null if not finite)"},
         "cpu_s": {"type": ["number", "null"]},
         "path_cost": {"type": ["number", "null"]},

@@ -83,6 +83,7 @@ class TrialLog:
         self.robot = plain(spec.robot_json())
         self.bounds = plain(spec.bounds_json())
         self.painter = painter_for(self.robot, spec.workspace_dim)
+        self.planner = str(run["planner"])  # in every scene label
         self.mcap_path = self.run_dir / MCAP_NAME
         self.rrd_path = self.run_dir / RRD_NAME if rerun else None
         self.csv_path = self.run_dir / CSV_NAME
@@ -306,7 +307,7 @@ class TrialLog:
             # front), and again only if queries switch back to it.
             self._w.add_message(self._ch["/scene"], t, workspace_scene(self.painter, self._workspaces[ws_key], t), t)
             self._scene_ws = ws_key
-        self._w.add_message(self._ch["/scene"], t, query_scene(self.painter, msg, t), t)
+        self._w.add_message(self._ch["/scene"], t, query_scene(self.painter, msg, t, self.planner), t)
         self._logged.add(key)
         self._csv.add(msg)
         if self._rr is not None:

@@ -18,6 +18,14 @@ TIMEOUT = "timeout"
 INVALID_QUERY = "invalid_query"
 NO_SOLUTION = "no_solution"
 
+# Result.partial's keys: what a planner had when it failed, each a list of states.
+FORWARD = "forward"  # MPNet: the last NeuralPlanner run's path grown from its start
+BACKWARD = "backward"  # ... and the one grown from its goal, when they did not connect
+LAST_PATH = "last_path"  # MPNet: the last coarse or replanned path, which was not feasible
+APPROXIMATE = "approximate"  # OMPL: its approximate solution, start to the state nearest the goal
+# (under stop=cost, the best path, which missed the cost target)
+PARTIAL_KINDS = (FORWARD, BACKWARD, LAST_PATH, APPROXIMATE)
+
 
 @dataclass
 class Problem:
@@ -44,11 +52,17 @@ def sub_seed(seed: int, *path: int) -> int:
 
 @dataclass
 class Result:
-    """What a planner returns: its path (None when it claims none), why it stopped, its stats."""
+    """What a planner returns: its path (None when it claims none), why it stopped, its stats.
+
+    partial: on a failure, what the planner had when it stopped, so a recording can show
+    where it got stuck: {kind: list of states} with kinds from PARTIAL_KINDS (only those it
+    had); None on success, and when it had nothing (an invalid query, BIT*'s timeout).
+    Planners copy these states only when they fail, so successes cost nothing."""
 
     path: list[list[float]] | None
     status: str
     stats: dict = field(default_factory=dict)
+    partial: dict[str, list[list[float]]] | None = None
 
     @property
     def solved(self) -> bool:

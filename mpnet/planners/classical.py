@@ -11,7 +11,16 @@ from ompl import util as ou
 
 from mpnet.envs.ompl_space import make_problem
 from mpnet.motion import path_cost
-from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints, sub_seed
+from mpnet.planners.base import (
+    APPROXIMATE,
+    EXACT,
+    NO_SOLUTION,
+    TIMEOUT,
+    Problem,
+    Result,
+    check_endpoints,
+    sub_seed,
+)
 
 ALGORITHMS = {
     "informed_rrt_star": og.InformedRRTstar,
@@ -32,7 +41,9 @@ class OmplPlanner:
     solution (timeout). stop="time": run the whole budget and return the best path (a
     budgeted reference run). `range` is the planner's maximum edge length
     (None: the env's `planner_range`, else OMPL's default); `params` are OMPL planner parameters by
-    snake_case name (rewire_factor -> setRewireFactor).
+    snake_case name (rewire_factor -> setRewireFactor). keep_partial: a failed solve's
+    Result carries OMPL's approximate solution when there is one (MPNet-HR's fallback,
+    which may fail and restart many times in one query, turns it off).
     """
 
     def __init__(
@@ -43,6 +54,7 @@ class OmplPlanner:
         cost_factor: float = 1.0,
         range: float | None = None,
         params: dict | None = None,
+        keep_partial: bool = True,
     ):
         if algorithm not in ALGORITHMS:
             raise ValueError(
@@ -56,6 +68,7 @@ class OmplPlanner:
         self.cost_factor = float(cost_factor)
         self.range = range
         self.params = dict(params or {})
+        self.keep_partial = keep_partial
 
     def solve(self, problem: Problem, budget_s: float) -> Result:
         t0 = time.perf_counter()
@@ -88,20 +101,23 @@ class OmplPlanner:
         ptc = self._termination(planner, target, max(0.0, budget_s - (time.perf_counter() - t0)))
         status = planner.solve(ptc)
         exact = pdef.hasExactSolution()
-        path = None
+        path = partial = None
         if exact:
             path = [list(to_tuple(s)) for s in pdef.getSolutionPath().getStates()]
             path = snap_endpoints(path, problem)
+        elif self.keep_partial and pdef.hasApproximateSolution():  # a failure: copied only now
+            partial = {APPROXIMATE: [list(to_tuple(s)) for s in pdef.getSolutionPath().getStates()]}
         stats = {"planner_status": status.asString() if hasattr(status, "asString") else str(status)}
         if self.algorithm in OPTIMIZING:
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
         del planner, pdef, si, keep
         if path is not None and target is not None and path_cost(problem.spec, path) > target * (1 + 1e-9):
-            path = None  # stop=cost claims a solution only at the target: a longer path is not one
+            # stop=cost claims a solution only at the target: a longer path is not one
+            path, partial = None, ({APPROXIMATE: path} if self.keep_partial else None)
         if path is None:
             timed_out = time.perf_counter() - t0 >= budget_s * 0.999
-            return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats)
+            return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats, partial)
         return Result(path, EXACT, stats)
 
     def _termination(self, planner, target: float | None, seconds: float):

@@ -64,7 +64,8 @@ def from_checkpoint(
         dropout=dropout,
         replanning=replanning,
     )
-    planner.fallback = OmplPlanner(fallback, fallback) if hybrid else None
+    # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
+    planner.fallback = OmplPlanner(fallback, fallback, keep_partial=False) if hybrid else None
     folder = Path(models_dir() if callable(models_dir) else models_dir)
     encode, pnet_step = load_pnet_checkpoint(folder / PNET_FILE).to_numpy()
     if encoding == "zeros":

@@ -16,7 +16,18 @@ from dataclasses import replace
 import numpy as np
 
 from mpnet.motion import MotionMemo, is_feasible, lazy_states_contraction, steer_to
-from mpnet.planners.base import EXACT, NO_SOLUTION, TIMEOUT, Problem, Result, check_endpoints, sub_seed
+from mpnet.planners.base import (
+    BACKWARD,
+    EXACT,
+    FORWARD,
+    LAST_PATH,
+    NO_SOLUTION,
+    TIMEOUT,
+    Problem,
+    Result,
+    check_endpoints,
+    sub_seed,
+)
 
 
 class MPNetPlanner:
@@ -51,7 +62,13 @@ class MPNetPlanner:
     ablated planner may not carry MPNet's own name, so the logs never mix the two.
 
     Every proposal is kept (stage, the tree end it grew from, the proposal) for
-    `diagnose`, which the harness calls after the query's time is taken.
+    `diagnose`, which the harness calls after the query's time is taken. A failed query's
+    Result.partial holds the two paths of the last NeuralPlanner run that did not connect
+    (`forward` from its start, `backward` from its goal, each in the order grown: the
+    query's ends in the first run, a segment's in replanning) and the last coarse or
+    replanned path, which was not feasible (`last_path`; for HR, the path its fallback
+    could not complete). Only references are kept while planning; the states are copied
+    when the query fails.
     """
 
     def __init__(
@@ -108,6 +125,7 @@ class MPNetPlanner:
         self.trace: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.codes: dict[str, np.ndarray] = {}
         self.last_code = None
+        self._trees: tuple[list, list] | None = None  # the last unconnected NeuralPlanner run's paths
 
     def steer_step(self, stage: int) -> float | None:
         """steerTo's step at stage 0 (first NeuralPlanner run) or replanning round `stage`."""
@@ -116,7 +134,7 @@ class MPNetPlanner:
     def solve(self, problem: Problem, budget_s: float) -> Result:
         t0 = time.perf_counter()
         deadline = t0 + budget_s
-        self.trace, self.last_code = [], None
+        self.trace, self.last_code, self._trees = [], None, None
         if problem.seed is not None:  # the query's own stream: the same draws whatever ran before
             self.rng = np.random.default_rng(sub_seed(problem.seed, 1))
         bad = check_endpoints(problem)
@@ -143,14 +161,14 @@ class MPNetPlanner:
         path = self.neural_planner(problem, z, start, goal, self.max_steps, stats, deadline, step, 0, forgiving)
         if path is None:
             if not forgiving:  # Algorithm 1: no coarse path, no replanning
-                return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+                return self.failed(deadline, stats)
             path = [start, goal]  # every segment of [start, goal] is left to replanning
         else:
             path = self.contract(checker, path, step, stats)
         ok = self.feasible(checker, path, stats)
         while not ok and stats["replans"] < self.replan_rounds:
             if time.perf_counter() > deadline:
-                return Result(None, TIMEOUT, stats)
+                return self.failed(deadline, stats, path)
             stats["replans"] += 1
             step = self.steer_step(stats["replans"])
             t, inner = time.perf_counter(), stats["pnet_s"] + stats["steer_s"]
@@ -158,22 +176,35 @@ class MPNetPlanner:
             stats["replan_s"] += time.perf_counter() - t - (stats["pnet_s"] + stats["steer_s"] - inner)
             path = self.contract(checker, path, step, stats)
             if stuck and not forgiving and not self.hybrid:  # the public code: an unconnected segment fails the query
-                return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+                return self.failed(deadline, stats, path)
             ok = self.feasible(checker, path, stats)
             if stuck and not forgiving:
                 break  # HR: the classical planner takes the path as it stands
         if not ok and self.hybrid:
             stats["fallback_used"] = True
-            t = time.perf_counter()
+            t, handed = time.perf_counter(), path
             path = self.classical_replan(problem, path, deadline, stats, raw)
             stats["fallback_s"] = time.perf_counter() - t
             if path is not None:
                 path = self.contract(checker, path, None, stats)
                 ok = self.feasible(checker, path, stats)
+            else:
+                path = handed
         if not ok:
-            return Result(None, TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION, stats)
+            return self.failed(deadline, stats, path)
         path = [problem.start.tolist(), *[np.asarray(q, float).tolist() for q in path[1:-1]], problem.goal.tolist()]
         return Result(path, EXACT, stats)
+
+    def failed(self, deadline: float, stats: dict, path=None) -> Result:
+        """A failed query's Result (timeout past the deadline), with what the planner had
+        (Result.partial): the states are copied here, never while planning."""
+        status = TIMEOUT if time.perf_counter() > deadline else NO_SOLUTION
+        partial = {}
+        if self._trees is not None:
+            partial[FORWARD], partial[BACKWARD] = map(_states, self._trees)
+        if path is not None:
+            partial[LAST_PATH] = _states(path)
+        return Result(None, status, stats, partial or None)
 
     @staticmethod
     def contract(checker, path, step, stats: dict) -> list:
@@ -224,7 +255,7 @@ class MPNetPlanner:
             return [start, goal]
         for _ in range(max_steps):
             if time.perf_counter() > deadline:
-                return None
+                break
             t = time.perf_counter()
             x_new = self.propose(problem, z, a[-1], b[-1])
             stats["pnet_s"] += time.perf_counter() - t
@@ -237,6 +268,7 @@ class MPNetPlanner:
             if connected:
                 return a + b[::-1] if a[0] is start else b + a[::-1]
             a, b = b, a
+        self._trees = (a, b) if a[0] is start else (b, a)  # references only: copied if the query fails
         return None
 
     def replan(self, problem: Problem, z, path, stats: dict, deadline: float, step: float | None = None):
@@ -392,6 +424,11 @@ def straight_step(spec, x, target, length: float) -> np.ndarray:
     norm = float(np.linalg.norm(d / space.half_widths()))
     nxt = np.asarray(x, float) + (d if norm <= length else d * (length / norm))
     return space.wrap(nxt)
+
+
+def _states(path) -> list[list[float]]:
+    """A copy of a path's states as plain lists."""
+    return [np.asarray(q, float).tolist() for q in path]
 
 
 def _repair(checker, path, connect, step: float | None = None, stop_on_fail: bool = False):
