@@ -174,7 +174,7 @@ def fig_success_vs_time(q: pd.DataFrame, facts: Facts):
         ax.set_ylabel("queries solved within it [%]")
         ax.set_title(f"{env_label(env)}, {split}", fontsize=10)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left", frameon=False)
+        ax.legend(fontsize=7, loc="lower right", frameon=True, framealpha=0.9)
     fig.suptitle("Share of queries solved within a time budget (band: Wilson 95%)")
     return fig
 
