@@ -95,6 +95,29 @@ def test_stop_at_first_is_fast_and_stop_at_cost_is_better():
     assert res.stats["best_cost"] >= optimum - 1e-6  # it found paths, none at the target
 
 
+@pytest.mark.parametrize("algorithm", ["bit_star", "informed_rrt_star", "rrt_star"])
+def test_optimizing_planners_log_best_cost_over_time(algorithm):
+    """`progress`: each improvement's time and cost, times rising within the solve, costs
+    falling, the last one the returned path's; RRT-Connect, which does not optimize, has none."""
+    start, goal = (-10.0, 0.0), (10.0, 0.0)
+    optimum = 2 * math.hypot(8.0, 15.0) + 4.0
+    p = problem("s2d", WALL, start, goal, reference_cost=optimum)
+    t = time.perf_counter()
+    res = OmplPlanner(algorithm, algorithm, stop="cost", cost_factor=1.1).solve(p, 10.0)
+    elapsed = time.perf_counter() - t
+    assert res.solved
+    prog = res.stats["progress"]
+    assert len(prog) >= 2  # a first path, then better ones down to the target
+    times, costs = np.array(prog).T
+    assert np.all(np.diff(times) >= 0) and 0 < times[0] and times[-1] <= elapsed
+    assert np.all(np.diff(costs) < 0) and costs[0] > 1.1 * optimum
+    assert costs[-1] == pytest.approx(res.stats["best_cost"])
+    assert costs[-1] == pytest.approx(path_cost(p.spec, res.path), rel=1e-6)
+    first = OmplPlanner(algorithm, algorithm).solve(problem("s2d", WALL, start, goal), 10.0)
+    assert len(first.stats["progress"]) == 1  # stop at the first solution: one point
+    assert "progress" not in OmplPlanner("rrt_connect", "rrt_connect").solve(p, 5.0).stats
+
+
 def test_bad_planner_config():
     with pytest.raises(ValueError, match="stop"):
         OmplPlanner("x", "bit_star", stop="never")

@@ -19,6 +19,7 @@ from mcap.writer import Writer
 
 from harness.cli import CONF_DIR
 from harness.log import TrialLog
+from harness.report import arena
 from harness.report.__main__ import main
 from harness.report.facts import Facts, planner_facts, run_facts
 from harness.report.figures import pick_example, solved_within, success_vs_time
@@ -149,7 +150,10 @@ def known(tmp_path):
             "s2d",
             "bit_star",
             0,
-            [Q("seen", "0", 0, True, 2.0, cost=12.0), Q("seen", "0", 1, True, 3.0, cost=14.0)],
+            [
+                Q("seen", "0", 0, True, 2.0, cost=12.0, stats={"progress": [[0.5, 20.0], [1.5, 12.0]]}),
+                Q("seen", "0", 1, True, 3.0, cost=14.0, stats={"progress": [[1.0, 14.0]]}),
+            ],
         )
     return logs
 
@@ -390,8 +394,38 @@ def test_benchmark_db(tmp_path, known):
     no_solution = "SELECT r.status FROM runs r JOIN run_queries q ON q.runid = r.id WHERE q.failure = 'no_solution'"
     assert con.execute(no_solution).fetchone()[0] == enums["Abort"]
     assert con.execute("SELECT count(*) FROM run_queries").fetchone()[0] == 11
-    assert con.execute("SELECT count(*) FROM progress").fetchone()[0] == 0
+    # progress: BIT*'s logged best cost over time, sampled from 0 to each run's end; MPNet logs none
+    prog = con.execute(
+        "SELECT p.runid, p.time, p.best_cost, r.time FROM progress p JOIN runs r ON r.id = p.runid "
+        "JOIN plannerConfigs c ON c.id = r.plannerid WHERE c.name = 'geometric_bit_star' ORDER BY p.runid, p.time"
+    ).fetchall()
+    assert con.execute("SELECT count(DISTINCT runid) FROM progress").fetchone()[0] == 4
+    by_run = {}
+    for runid, t, cost, end in prog:
+        by_run.setdefault(runid, []).append((t, cost, end))
+    for rows in by_run.values():
+        end = rows[0][2]
+        assert rows[0][:2] == (0.0, None) and rows[-1][0] == pytest.approx(end)
+        costs = [c for _, c, _ in rows if c is not None]
+        assert costs == sorted(costs, reverse=True) and costs[-1] in (12.0, 14.0)
+        assert 1 < len(rows) <= arena.PROGRESS_SAMPLES + 2
     con.close()
+
+
+def test_progress_rows_sample_the_best_cost_like_ompl():
+    rows = arena.progress_rows(7, [[0.25, 9.0], [0.5, 8.0]], 1.1, 0.2)
+    assert rows == [
+        (7, 0.0, None),
+        (7, 0.2, None),
+        (7, 0.4, 9.0),
+        (7, pytest.approx(0.6), 8.0),
+        (7, 0.8, 8.0),
+        (7, 1.0, 8.0),
+        (7, 1.1, 8.0),
+    ]
+    assert arena.progress_rows(7, [], 1.0, 0.1) == []
+    assert arena.progress_rows(7, [[0.3, 5.0]], 0.2, 0.1)[-1] == (7, 0.3, 5.0)  # an event after the clock's end
+    assert arena.progress_period([0.5, 2.0]) == 2.0 / arena.PROGRESS_SAMPLES
 
 
 @pytest.mark.slow  # the whole report, end to end
@@ -512,6 +546,20 @@ def test_benchmark_db_opens_in_planner_arena(tmp_path, known):
                 .agg(pl.col("missing").sum(), pl.len().alias("total"))
             )
             assert missing["total"].sum() == df.height
+    # the progress page: its attribute list and its plot, built as progress_server builds them
+    import plotnine as p9
+
+    assert db["progress"].columns[2:] == ["best cost"]  # its name for best_cost
+    df = db["progress"].join(runs.select(["id", "planner"]), left_on="runid", right_on="id")
+    assert set(df["planner"].cast(pl.String)) == {"bit_star"} and df["best cost"].null_count() < df.height
+    plot = (
+        p9.ggplot(df, p9.aes(x="time", y="best cost", color="planner", fill="planner"))
+        + p9.geom_smooth(na_rm=True, method="loess", span=0.1, se=False)
+        + p9.geom_point()
+    )
+    fig = plot.draw()
+    assert all(np.isfinite(ax.get_ylim()).all() for ax in fig.axes)
+    matplotlib.pyplot.close(fig)
 
 
 @pytest.mark.slow  # the whole report, end to end

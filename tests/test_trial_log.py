@@ -1000,3 +1000,35 @@ def test_arm_link_boxes_cover_the_links_where_pybullet_has_them():
         w.set_q(q)
         lo, hi = np.array(w.pb.getAABB(w.robot, w.links[k], physicsClientId=w.client))
         assert np.abs(world.min(0) - lo).max() < 0.015 and np.abs(world.max(0) - hi).max() < 0.015, k
+
+
+def test_an_optimizing_planners_best_cost_over_time_is_logged(tmp_path):
+    """BIT*'s `progress` goes from its Result into /query, valid under the schema, and back."""
+    from harness.bench.loop import plan_query
+    from harness.log.schemas import QUERY_SCHEMA
+    from mpnet.planners import Problem
+    from mpnet.planners.classical import OmplPlanner
+
+    spec = SPECS["s2d"]
+    wall = Workspace("ws0", "seen", [[0.0, 0.0]], [[4.0, 30.0]])
+    optimum = 2 * math.hypot(8.0, 15.0) + 4.0
+    problem = Problem(spec, wall, spec.make_checker(wall), np.array([-10.0, 0.0]), np.array([10.0, 0.0]), optimum, 1)
+    rec = plan_query(OmplPlanner("bit_star", "bit_star", stop="cost", cost_factor=1.1), problem, 5.0)
+    assert rec["failure"] is None and len(rec["progress"]) > 1
+    assert rec["progress"][-1][0] <= rec["time_s"] and rec["progress"][-1][1] == rec["best_cost"]
+    full = {
+        **rec,
+        "query_id": "ws0/0",
+        "workspace_id": "ws0",
+        "split": "seen",
+        "start": [-10.0, 0.0],
+        "goal": [10.0, 0.0],
+        "success": True,
+        "path_cost": rec["best_cost"],
+    }
+    jsonschema.validate(full, QUERY_SCHEMA)
+    with TrialLog(tmp_path, make_run(), spec, rerun=False) as log:
+        log.add_workspace(wall)
+        log.add_query(full)
+    (q,) = by_topic(read_all(tmp_path / "trials.mcap")[1], "/query")
+    assert q["progress"] == rec["progress"]

@@ -139,6 +139,13 @@ QUERY_SCHEMA = {
         "replans": {"type": ["integer", "null"]},
         "fallback_used": {"type": ["boolean", "null"]},
         "planner_status": {"type": ["string", "null"]},
+        "best_cost": {"type": ["number", "null"], "description": "OMPL's optimizing planners: the best cost found"},
+        "progress": {
+            "type": "array",
+            "items": {"type": "array", "items": _NUM, "minItems": 2, "maxItems": 2},
+            "description": "OMPL's optimizing planners (BIT*, Informed-RRT*, RRT*): [seconds since the solve "
+            "began, best cost] at each improvement, in time order (mpnet.planners.classical.BestCostWatch)",
+        },
         "diagnostics": {
             "type": "object",
             "description": "MPNet only: Pnet's proposals (trace: stage, tree end, proposal) and their shares "

@@ -6,7 +6,9 @@ holds only numbers that exist for every run (no `memory`: not measured; a text c
 the query id stalls its page); the query's ids, failure reason and seed are in the side table
 `run_queries`. Each env is one experiment (name) with one row per split, and `env` and `split`
 are columns after OMPL's twelve, which Planner Arena offers as problem parameters. `progress`
-stays empty: the logs have no cost over time per query."""
+holds the best cost over time of the queries whose planner logged it (OMPL's optimizing
+planners: BIT*, Informed-RRT*, RRT*), sampled like OMPL's Benchmark samples it (see
+progress_rows)."""
 
 from __future__ import annotations
 
@@ -74,7 +76,7 @@ CREATE TABLE runs
     FOREIGN KEY (experimentid) REFERENCES experiments(id) ON DELETE CASCADE,
     FOREIGN KEY (plannerid) REFERENCES plannerConfigs(id) ON DELETE CASCADE);
 CREATE TABLE progress
-    (runid INTEGER, time REAL, PRIMARY KEY (runid, time),
+    (runid INTEGER, time REAL, best_cost REAL, PRIMARY KEY (runid, time),
     FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
 CREATE TABLE run_queries
     (runid INTEGER PRIMARY KEY, seed INTEGER, split VARCHAR(64), workspace_id VARCHAR(256),
@@ -154,6 +156,34 @@ def _sql_int(x) -> int | str:
     """An integer for SQLite, which holds 64 bits: a larger one (a seed may be any size) as text."""
     v = int(x)
     return v if -(2**63) <= v < 2**63 else str(v)
+
+
+# A run's best cost is sampled at most this many times (plus its end): OMPL's Benchmark samples
+# every 0.05 s of a fixed budget; ours end anywhere from microseconds to the budget, so the
+# period is each experiment's longest logged run over this.
+PROGRESS_SAMPLES = 100
+
+
+def progress_period(ends: list[float]) -> float:
+    """The sampling period of an experiment's progress rows, from its runs' end times."""
+    return max(max(ends, default=0.0) / PROGRESS_SAMPLES, 1e-6)
+
+
+def progress_rows(runid: int, events, end_s: float, period: float) -> list[tuple]:
+    """(runid, time, best_cost) every `period` seconds from 0 to the run's end, and at its end:
+    the best cost of the last improvement logged by then (`events`: [time, cost] pairs in time
+    order), NULL before the first solution. The rows OMPL's Benchmark writes for the planner
+    property "best cost"."""
+    if not events:
+        return []
+    t_ev = np.array([e[0] for e in events], float)
+    c_ev = np.array([e[1] for e in events], float)
+    end = max(float(end_s), float(t_ev[-1]))
+    times = np.arange(0, int(end / period) + 1) * period
+    if times[-1] < end:
+        times = np.append(times, end)
+    k = np.searchsorted(t_ev, times, side="right") - 1
+    return [(runid, float(t), None if i < 0 else float(c_ev[i])) for t, i in zip(times, k)]
 
 
 def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, facts: Facts) -> int:
@@ -266,6 +296,11 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 f"INSERT INTO runs (id,{','.join(names)}) VALUES (?,{','.join('?' * len(names))})",
                 list(zip(ids, *data)),
             )
+            events = [files[f].queries[i].get("progress") for f, i in zip(d["file"], d["qidx"])]
+            logged = [(r, e, t) for r, e, t in zip(ids, events, d["time_s"]) if e and math.isfinite(t)]
+            period = progress_period([t for _, _, t in logged])
+            for runid, e, t in logged:
+                c.executemany("INSERT INTO progress VALUES (?,?,?)", progress_rows(runid, e, t, period))
             seeds = [None if not ok_seed else _sql_int(s) for s, ok_seed in zip(d["seed"], logged_seed)]
             c.executemany(
                 "INSERT INTO run_queries VALUES (?,?,?,?,?,?)",

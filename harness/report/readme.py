@@ -331,7 +331,9 @@ How the numbers are computed:
   the harness's verdict, `solution_length` the path cost, `solution_segments` the path's
   points less one (NULL for a failure or an empty path); no `memory` (not measured); the
   seed, split, workspace and query ids and failure reason in `run_queries` (by run id);
-  `progress` empty (no cost over time is logged). One planner config per planner name and
+  `progress`: `best_cost` of OMPL's optimizing planners, sampled from each query's logged
+  improvements every (longest such query in the experiment / 100) s and at its end, NULL
+  before the first solution. One planner config per planner name and
   settings (the run config's `planner:` section); each experiment's `version` is the OMPL
   version its own runs logged.
 

@@ -43,7 +43,9 @@ class OmplPlanner:
     (None: the env's `planner_range`, else OMPL's default); `params` are OMPL planner parameters by
     snake_case name (rewire_factor -> setRewireFactor). keep_partial: a failed solve's
     Result carries OMPL's approximate solution when there is one (MPNet-HR's fallback,
-    which may fail and restart many times in one query, turns it off).
+    which may fail and restart many times in one query, turns it off). An optimizing planner's
+    stats carry `progress`: [seconds since solve began, best cost] at each improvement, what
+    Planner Arena's progress page plots (see BestCostWatch).
     """
 
     def __init__(
@@ -98,7 +100,10 @@ class OmplPlanner:
         planner.setProblemDefinition(pdef)
         planner.setup()
 
-        ptc = self._termination(planner, target, max(0.0, budget_s - (time.perf_counter() - t0)))
+        watch = BestCostWatch(planner, t0, self.stop, target) if self.algorithm in OPTIMIZING else None
+        timed = ob.timedPlannerTerminationCondition(max(0.0, budget_s - (time.perf_counter() - t0)))
+        # No period argument: a periodic condition runs on a thread and aborts at exit.
+        ptc = timed if watch is None else ob.plannerOrTerminationCondition(timed, ob.PlannerTerminationCondition(watch))
         status = planner.solve(ptc)
         exact = pdef.hasExactSolution()
         path = partial = None
@@ -111,6 +116,7 @@ class OmplPlanner:
         if self.algorithm in OPTIMIZING:
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
+            stats["progress"] = watch.seen(cost, time.perf_counter() - t0)
         del planner, pdef, si, keep
         if path is not None and target is not None and path_cost(problem.spec, path) > target * (1 + 1e-9):
             # stop=cost claims a solution only at the target: a longer path is not one
@@ -120,16 +126,33 @@ class OmplPlanner:
             return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats, partial)
         return Result(path, EXACT, stats)
 
-    def _termination(self, planner, target: float | None, seconds: float):
-        timed = ob.timedPlannerTerminationCondition(seconds)
-        if self.algorithm not in OPTIMIZING or self.stop == "time":
-            return timed
-        if self.stop == "cost":
-            done = ob.PlannerTerminationCondition(lambda: planner.bestCost().value() <= target)
-        else:
-            done = ob.PlannerTerminationCondition(lambda: math.isfinite(planner.bestCost().value()))
-        # No period argument: a periodic condition runs on a thread and aborts at exit.
-        return ob.plannerOrTerminationCondition(timed, done)
+
+class BestCostWatch:
+    """An optimizing planner's stop rule, polled by OMPL at every iteration of its solve, that
+    also records each new best cost with its time. (OMPL 2.0.1's Python binding cannot take
+    the problem's intermediate-solution callback: its std::function over State pointers has no
+    converter; the poll sees an improvement at the next iteration, microseconds later.)
+    stop: "first" (any solution), "cost" (best cost <= target) or "time" (never: the budget ends it)."""
+
+    def __init__(self, planner, t0: float, stop: str, target: float | None):
+        self.planner, self.t0, self.stop, self.target = planner, t0, stop, target
+        self.last = math.inf
+        self.progress: list[list[float]] = []
+
+    def seen(self, cost: float, t: float) -> list[list[float]]:
+        """Record `cost` at time `t` if it is a new best; the progress so far."""
+        if cost < self.last:
+            self.last = cost
+            self.progress.append([t, cost])
+        return self.progress
+
+    def __call__(self) -> bool:
+        cost = self.planner.bestCost().value()
+        if cost < self.last:
+            self.seen(cost, time.perf_counter() - self.t0)
+        if self.stop == "first":
+            return math.isfinite(cost)
+        return self.stop == "cost" and cost <= self.target
 
 
 def seed_ompl(seed: int) -> None:
