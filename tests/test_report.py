@@ -1134,3 +1134,15 @@ def test_success_vs_time_numbers():
     assert c.loc["a", "solved"].to_dict() == {0.1: 1, 0.5: 2, 9.0: 2}
     assert c.loc["b", "share"].to_dict() == {2.0: 0.5, 9.0: 0.5}
     assert (c["n"].to_dict()[("a", 9.0)], c["n"].to_dict()[("b", 9.0)]) == (3, 2)
+
+
+def test_a_scale_with_env_specific_sizes_names_its_envs():
+    """One scale name with two sizes (arm7's quick is its own): each bullet says whose it is."""
+    from harness.report.readme import _scale_rows, scale_bullet
+
+    small, big = (10, 60, 10, 5, 10, 5), (100, 40, 100, 2, 10, 20)
+    rows = _scale_rows({("quick", small, True): {"arm7"}, ("quick", big, True): {"rigid", "s2d"}})
+    assert [r[3] for r in rows] == ["arm7", "s2d, rigid"]
+    assert scale_bullet(*rows[0]).startswith("Our `quick` scale for arm7 trains smaller networks on 10 workspaces")
+    assert _scale_rows({("quick", big, True): {"s2d", "c2d"}})[0][3] == ""  # one size: no envs named
+    assert scale_bullet(*_scale_rows({("quick", big, True): {"s2d"}})[0]).startswith("Our `quick` scale trains")

@@ -41,9 +41,10 @@ def _smaller_net(scale) -> bool:
         return False
 
 
-def scale_bullet(name: str, sizes: tuple[int, ...] | None, smaller_net: bool = False) -> str:
+def scale_bullet(name: str, sizes: tuple[int, ...] | None, smaller_net: bool = False, envs: str = "") -> str:
     """How a scale found in the logs compares with the paper's sizes, from the sizes its runs
-    logged; from its name alone when they did not log them."""
+    logged; from its name alone when they did not log them. `envs` (e.g. "arm7") names the
+    envs whose runs had these sizes, where one scale name has several (env-specific sizes)."""
     if sizes is None:
         if name == "unknown":
             return f"The logs do not say at which scale they ran; the paper: {PAPER_SCALE_TEXT}."
@@ -51,13 +52,14 @@ def scale_bullet(name: str, sizes: tuple[int, ...] | None, smaller_net: bool = F
             f"Scale `{name}`: the paper's sizes." if name == "paper" else f"Scale `{name}`: smaller than the paper's."
         )
     nets = "smaller networks " if smaller_net else ""
+    ours = f"Our `{name}` scale" + (f" for {envs}" if envs else "")
     if tuple(sizes) == PAPER_SCALE:
-        return f"Our `{name}` scale has the paper's sizes ({PAPER_SCALE_TEXT})" + (
+        return f"{ours} has the paper's sizes ({PAPER_SCALE_TEXT})" + (
             ", with smaller networks." if smaller_net else "."
         )
     tw, tp, sw, sq, uw, uq = sizes
     return (
-        f"Our `{name}` scale trains {nets}on {tw} workspaces × {tp} expert paths and tests on "
+        f"{ours} trains {nets}on {tw} workspaces × {tp} expert paths and tests on "
         f"{sw * sq} seen + {uw * uq} unseen queries per seed; the paper: {PAPER_SCALE_TEXT}."
     )
 
@@ -67,7 +69,7 @@ def provenance(files: list[TrialFile]) -> dict:
     dates, scales (with their sizes where logged), budgets and versions."""
     import yaml
 
-    revs, hosts, scales, budgets, starts, scale_rows = set(), set(), set(), set(), [], set()
+    revs, hosts, scales, budgets, starts, scale_rows = set(), set(), set(), set(), [], {}
     versions: dict[str, set] = {}
     for f in files:
         r = f.run
@@ -85,7 +87,7 @@ def provenance(files: list[TrialFile]) -> dict:
         scale = cfg.get("scale") if isinstance(cfg, dict) else None
         name = str(scale.get("name")) if isinstance(scale, dict) else "unknown"
         scales.add(name)
-        scale_rows.add((name, scale_sizes(scale), _smaller_net(scale)))
+        scale_rows.setdefault((name, scale_sizes(scale), _smaller_net(scale)), set()).add(str(r.get("env")))
         if isinstance(cfg, dict) and cfg.get("budget_s") is not None:
             budgets.add(str(cfg["budget_s"]))
     return {
@@ -93,11 +95,22 @@ def provenance(files: list[TrialFile]) -> dict:
         "host": sorted(hosts),
         "scale": sorted(scales),
         "budget_s": sorted(budgets),
-        "scales": sorted(scale_rows, key=lambda t: (t[0], t[1] or (), t[2])),
+        "scales": _scale_rows(scale_rows),
         "from": min(starts) if starts else "unknown",
         "to": max(starts) if starts else "unknown",
         "versions": {k: sorted(v) for k, v in sorted(versions.items())},
     }
+
+
+def _scale_rows(rows: dict) -> list[tuple]:
+    """(name, sizes, smaller_net, envs) per scale found; envs named only where one scale name
+    comes with several sizes (an env's own sizes, e.g. arm7's quick)."""
+    names = [k[0] for k in rows]
+    out = []
+    for key in sorted(rows, key=lambda t: (t[0], t[1] or (), t[2])):
+        envs = ", ".join(sorted(rows[key], key=env_rank)) if names.count(key[0]) > 1 else ""
+        out.append((*key, envs))
+    return out
 
 
 def _painter(ws):
