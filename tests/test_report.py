@@ -144,6 +144,7 @@ def known(tmp_path):
             Q("seen", "0", 1, False, 1.0, failure="no_solution", stats=nr),
         ],
     )
+    ref = {"reference_cost": 10.0}  # BIT* logs its best cost over time; with a reference, quality too
     for k in ("a", "b"):
         write_log(
             logs / k / "bit0",
@@ -151,8 +152,8 @@ def known(tmp_path):
             "bit_star",
             0,
             [
-                Q("seen", "0", 0, True, 2.0, cost=12.0, stats={"progress": [[0.5, 20.0], [1.5, 12.0]]}),
-                Q("seen", "0", 1, True, 3.0, cost=14.0, stats={"progress": [[1.0, 14.0]]}),
+                Q("seen", "0", 0, True, 2.0, cost=12.0, stats={"progress": [[0.5, 20.0], [1.5, 12.0]], **ref}),
+                Q("seen", "0", 1, True, 3.0, cost=14.0, stats={"progress": [[1.0, 14.0]], **ref}),
             ],
         )
     return logs
@@ -367,8 +368,8 @@ def test_benchmark_db(tmp_path, known):
     names = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"experiments", "plannerConfigs", "runs", "progress", "enums"} <= names
     assert con.execute("SELECT count(*) FROM runs").fetchone()[0] == 11
-    experiments = con.execute("SELECT name, env, split FROM experiments ORDER BY id").fetchall()
-    assert experiments == [("s2d", "s2d", "seen"), ("s2d", "s2d", "unseen")]
+    experiments = con.execute("SELECT name, split FROM experiments ORDER BY id").fetchall()
+    assert experiments == [("s2d", "seen"), ("s2d", "unseen")]
     planners = {r[0] for r in con.execute("SELECT name FROM plannerConfigs")}
     assert planners == {"geometric_mpnet_nr", "geometric_bit_star"}
     enums = dict(con.execute("SELECT description, value FROM enums WHERE name='status'"))
@@ -413,18 +414,19 @@ def test_benchmark_db(tmp_path, known):
 
 
 def test_progress_rows_sample_the_best_cost_like_ompl():
-    rows = arena.progress_rows(7, [[0.25, 9.0], [0.5, 8.0]], 1.1, 0.2)
+    rows = arena.progress_rows(7, [[0.25, 9.0], [0.5, 8.0]], 1.1, 0.2, reference=4.0)
     assert rows == [
-        (7, 0.0, None),
-        (7, 0.2, None),
-        (7, 0.4, 9.0),
-        (7, pytest.approx(0.6), 8.0),
-        (7, 0.8, 8.0),
-        (7, 1.0, 8.0),
-        (7, 1.1, 8.0),
+        (7, 0.0, None, None),
+        (7, 0.2, None, None),
+        (7, 0.4, 9.0, 2.25),
+        (7, pytest.approx(0.6), 8.0, 2.0),
+        (7, 0.8, 8.0, 2.0),
+        (7, 1.0, 8.0, 2.0),
+        (7, 1.1, 8.0, 2.0),
     ]
     assert arena.progress_rows(7, [], 1.0, 0.1) == []
-    assert arena.progress_rows(7, [[0.3, 5.0]], 0.2, 0.1)[-1] == (7, 0.3, 5.0)  # an event after the clock's end
+    assert arena.progress_rows(7, [[0.3, 5.0]], 0.2, 0.1)[-1] == (7, 0.3, 5.0, None)  # after the clock's end
+    assert arena.progress_rows(7, [[0.3, 5.0]], 0.2, 0.1, float("nan"))[-1] == (7, 0.3, 5.0, None)
     assert arena.progress_period([0.5, 2.0]) == 2.0 / arena.PROGRESS_SAMPLES
 
 
@@ -516,7 +518,7 @@ def test_benchmark_db_opens_in_planner_arena(tmp_path, known):
     rc, out = report(tmp_path, known)
     assert rc == 0
     db = load_database(out / "benchmark.db")
-    assert db["problem_names"] == ["s2d"] and db["parameters"] == ["env", "split"]
+    assert db["problem_names"] == ["s2d"] and db["parameters"] == ["split"]
     assert problem_parameter_widgets(db["experiments"], db["parameters"]) is not None
     assert db["attributes"][:4] == ["time", "solved", "status", "approximate solution"]
     runs = db["runs"].filter(pl.col("experiment") == "s2d")
@@ -524,7 +526,7 @@ def test_benchmark_db_opens_in_planner_arena(tmp_path, known):
     statuses = runs.join(db["enums"], left_on="status", right_on="value")["description"]
     assert statuses.len() == 11 and "Unknown status" not in statuses.to_list()
     for split in (PROBLEM_PARAMETERS_AGGREGATE_TEXT, PROBLEM_PARAMETERS_SEPARATE_TEXT, "seen"):
-        params = {"env": "s2d", "split": split}
+        params = {"split": split}
         grouping = problem_parameter_groups(params)
         df = problem_parameter_filter(runs, params)
         if grouping:  # as the page does: the parameter as an ordered category
@@ -546,20 +548,32 @@ def test_benchmark_db_opens_in_planner_arena(tmp_path, known):
                 .agg(pl.col("missing").sum(), pl.len().alias("total"))
             )
             assert missing["total"].sum() == df.height
-    # the progress page: its attribute list and its plot, built as progress_server builds them
+    # the progress page: its attribute list, its data and its plot, built as progress_server
+    # builds them (the split aggregated and separate; one chosen split errors in 1.0.1's page)
     import plotnine as p9
 
-    assert db["progress"].columns[2:] == ["best cost"]  # its name for best_cost
-    df = db["progress"].join(runs.select(["id", "planner"]), left_on="runid", right_on="id")
-    assert set(df["planner"].cast(pl.String)) == {"bit_star"} and df["best cost"].null_count() < df.height
-    plot = (
-        p9.ggplot(df, p9.aes(x="time", y="best cost", color="planner", fill="planner"))
-        + p9.geom_smooth(na_rm=True, method="loess", span=0.1, se=False)
-        + p9.geom_point()
-    )
-    fig = plot.draw()
-    assert all(np.isfinite(ax.get_ylim()).all() for ax in fig.axes)
-    matplotlib.pyplot.close(fig)
+    assert db["progress"].columns[2:] == ["best cost", "best quality"]  # its names for best_cost, ...
+    for split in (PROBLEM_PARAMETERS_AGGREGATE_TEXT, PROBLEM_PARAMETERS_SEPARATE_TEXT):
+        params = {"split": split}
+        grouping = problem_parameter_groups(params)
+        df = problem_parameter_filter(
+            db["progress"].join(runs.select(["id", "planner", grouping]), left_on="runid", right_on="id"), params
+        )
+        if grouping:
+            df = df.with_columns(pl.col(grouping).cast(pl.String).cast(pl.Enum(sorted(df[grouping].unique()))))
+        assert set(df["planner"].cast(pl.String)) == {"bit_star"}
+        for attr in db["progress"].columns[2:]:
+            assert df[attr].null_count() < df.height, attr
+            plot = p9.ggplot(df, p9.aes(x="time", y=attr, color="planner", fill="planner")) + p9.geom_smooth(
+                na_rm=True, method="loess", span=0.1, se=False
+            )
+            if grouping:
+                plot = plot + p9.scale_linetype(name=grouping)
+            count = p9.ggplot(df, p9.aes(x="time", color="planner")) + p9.geom_freqpoly(binwidth=1)
+            for p in (plot + p9.geom_point(), count):
+                fig = p.draw()
+                assert all(np.isfinite(ax.get_ylim()).all() for ax in fig.axes), attr
+                matplotlib.pyplot.close(fig)
 
 
 @pytest.mark.slow  # the whole report, end to end

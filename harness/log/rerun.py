@@ -47,7 +47,7 @@ class RerunSink:
             rrb.TextDocumentView(name="legend", origin="/legend"),
             rrb.TimeSeriesView(name="planning time [s]", origin="/stats/time_s"),
             rrb.TimeSeriesView(name="collision checks", origin="/stats/collision_checks"),
-            row_shares=[1, 2, 2],
+            row_shares=[2, 1.5, 1.5],  # the legend (8 colours) shown whole
         )
         return rrb.Blueprint(
             rrb.Horizontal(scene, plots, column_shares=[2, 1]), rrb.TimePanel(timeline="query"), collapse_panels=True

@@ -4,8 +4,10 @@ statistics script), so that Planner Arena (plannerarena.org) opens them.
 Planner Arena plots every column of `runs` after the first three as an attribute, so `runs`
 holds only numbers that exist for every run (no `memory`: not measured; a text column such as
 the query id stalls its page); the query's ids, failure reason and seed are in the side table
-`run_queries`. Each env is one experiment (name) with one row per split, and `env` and `split`
-are columns after OMPL's twelve, which Planner Arena offers as problem parameters. `progress`
+`run_queries`. Each env is one experiment (name) with one row per split, and `split` is a
+column after OMPL's twelve, which Planner Arena offers as a problem parameter (not `env`: the
+experiment is the env, and Planner Arena 1.0.1's progress page fails on a parameter set to one
+value, as a single-valued one always is). `progress`
 holds the best cost over time of the queries whose planner logged it (OMPL's optimizing
 planners: BIT*, Informed-RRT*, RRT*), sampled like OMPL's Benchmark samples it (see
 progress_rows)."""
@@ -38,7 +40,7 @@ OMPL_STATUS = (
 )
 ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH, ST_ABORT, ST_RECHECK = 0, 1, 4, 6, 7, 8, 10
 # Planner Arena takes the columns of `experiments` past OMPL's twelve as problem parameters.
-PARAMETERS = (("env", "VARCHAR(64)"), ("split", "VARCHAR(64)"))
+PARAMETERS = (("split", "VARCHAR(64)"),)
 
 
 _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
@@ -76,7 +78,7 @@ CREATE TABLE runs
     FOREIGN KEY (experimentid) REFERENCES experiments(id) ON DELETE CASCADE,
     FOREIGN KEY (plannerid) REFERENCES plannerConfigs(id) ON DELETE CASCADE);
 CREATE TABLE progress
-    (runid INTEGER, time REAL, best_cost REAL, PRIMARY KEY (runid, time),
+    (runid INTEGER, time REAL, best_cost REAL, best_quality REAL, PRIMARY KEY (runid, time),
     FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
 CREATE TABLE run_queries
     (runid INTEGER PRIMARY KEY, seed INTEGER, split VARCHAR(64), workspace_id VARCHAR(256),
@@ -169,11 +171,13 @@ def progress_period(ends: list[float]) -> float:
     return max(max(ends, default=0.0) / PROGRESS_SAMPLES, 1e-6)
 
 
-def progress_rows(runid: int, events, end_s: float, period: float) -> list[tuple]:
-    """(runid, time, best_cost) every `period` seconds from 0 to the run's end, and at its end:
-    the best cost of the last improvement logged by then (`events`: [time, cost] pairs in time
-    order), NULL before the first solution. The rows OMPL's Benchmark writes for the planner
-    property "best cost"."""
+def progress_rows(runid: int, events, end_s: float, period: float, reference: float | None = None) -> list[tuple]:
+    """(runid, time, best_cost, best_quality) every `period` seconds from 0 to the run's end,
+    and at its end: the best cost of the last improvement logged by then (`events`: [time,
+    cost] pairs in time order), NULL before the first solution; the rows OMPL's Benchmark
+    writes for the planner property "best cost". best_quality is best_cost / the query's
+    `reference` cost (NULL without one): an experiment holds many queries of different lengths,
+    where OMPL's holds one problem, so only this ratio averages meaningfully across its runs."""
     if not events:
         return []
     t_ev = np.array([e[0] for e in events], float)
@@ -183,7 +187,11 @@ def progress_rows(runid: int, events, end_s: float, period: float) -> list[tuple
     if times[-1] < end:
         times = np.append(times, end)
     k = np.searchsorted(t_ev, times, side="right") - 1
-    return [(runid, float(t), None if i < 0 else float(c_ev[i])) for t, i in zip(times, k)]
+    ref = float(reference) if reference is not None and math.isfinite(reference) and reference > 0 else None
+    return [
+        (runid, float(t), None if i < 0 else float(c_ev[i]), None if i < 0 or ref is None else float(c_ev[i]) / ref)
+        for t, i in zip(times, k)
+    ]
 
 
 def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, facts: Facts) -> int:
@@ -231,7 +239,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
             git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})
             c.execute(
                 "INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
-                " cpuinfo, date, seed, setup, env, split) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                " cpuinfo, date, seed, setup, split) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",
                 (
                     str(env),
                     float(np.nansum(d["time_s"])),
@@ -244,7 +252,6 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                     started[0] if started else None,
                     ",".join(str(s) for s in sorted(d.loc[logged_seed, "seed"].unique())),
                     f"mpnet-bench trial logs: env {env}, split {split}, git {', '.join(git) or 'unknown'}",
-                    str(env),
                     str(split),
                 ),
             )
@@ -297,10 +304,11 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 list(zip(ids, *data)),
             )
             events = [files[f].queries[i].get("progress") for f, i in zip(d["file"], d["qidx"])]
-            logged = [(r, e, t) for r, e, t in zip(ids, events, d["time_s"]) if e and math.isfinite(t)]
-            period = progress_period([t for _, _, t in logged])
-            for runid, e, t in logged:
-                c.executemany("INSERT INTO progress VALUES (?,?,?)", progress_rows(runid, e, t, period))
+            refs = d["reference_cost"] if "reference_cost" in d else pd.Series(np.nan, index=d.index)
+            logged = [(*x,) for x in zip(ids, events, d["time_s"], refs) if x[1] and math.isfinite(x[2])]
+            period = progress_period([t for _, _, t, _ in logged])
+            for runid, e, t, ref in logged:
+                c.executemany("INSERT INTO progress VALUES (?,?,?,?)", progress_rows(runid, e, t, period, ref))
             seeds = [None if not ok_seed else _sql_int(s) for s, ok_seed in zip(d["seed"], logged_seed)]
             c.executemany(
                 "INSERT INTO run_queries VALUES (?,?,?,?,?,?)",

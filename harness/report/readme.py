@@ -274,8 +274,8 @@ logged in more than one file, figures left out):
   5th-95th percentile, solved / queries in the labels); `example_<env>` (one query: a
   workspace with an MPNet and a BIT* path; a 3D workspace in 3D, a rigid body whole at each
   vertex of its path, the state bounds dashed).
-- `benchmark.db`: an OMPL benchmark database (one experiment per env, with env and split as
-  problem parameters; one run per query); open it in Planner Arena (plannerarena.org).
+- `benchmark.db`: an OMPL benchmark database (one experiment per env, with the split as a
+  problem parameter; one run per query); open it in Planner Arena (plannerarena.org).
 
 How the numbers are computed:
 
@@ -346,7 +346,8 @@ How the numbers are computed:
   seed, split, workspace and query ids and failure reason in `run_queries` (by run id);
   `progress`: `best_cost` of OMPL's optimizing planners, sampled from each query's logged
   improvements every (longest such query in the experiment / 100) s and at its end, NULL
-  before the first solution. One planner config per planner name and
+  before the first solution, and `best_quality` (best cost / the query's reference cost, the
+  attribute comparable across an experiment's queries). One planner config per planner name and
   settings (the run config's `planner:` section); each experiment's `version` is the OMPL
   version its own runs logged.
 
