@@ -29,7 +29,7 @@ _BENCH_KEYS = ("seed", "budget_s", "splits", "problems", "rerun", "resume", "pro
 ENTRIES = {
     "harness": Entry(
         "python -m harness +env=ENV +planner=PLANNER [scale=S] [KEY=VALUE ...] [-m]",
-        "Run one planner on one env's test queries; writes trials.mcap, trials.csv and trials.rrd to the run dir.",
+        "Run one planner on one env's test queries; writes trials.mcap, queries.csv and trials.rrd to the run dir.",
         "config",
         ("env", "planner", "scale", "experiment", "hydra/launcher"),
         _BENCH_KEYS,

@@ -156,6 +156,10 @@ def test_help_has_usage_choices_keys_and_examples(prog, run_cli):
     assert "examples:" in out and out.count(f"  python -m {prog} ") >= 3 and "--hydra-help" in out
     assert ("+env=" in out and "s2d" in out and "scale=" in out) or "perf=" in out
     assert "Compose your configuration" in run_cli(prog, "--hydra-help").stdout
+    if prog == "harness":  # the files a run writes, by the names the log gives them (it said trials.csv)
+        from harness.log.csv import CSV_NAME
+
+        assert all(f"{name}" in out.split("\n\n")[1] for name in ("trials.mcap", CSV_NAME, "trials.rrd"))
 
 
 @pytest.mark.slow  # the CLI in subprocesses
