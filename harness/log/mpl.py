@@ -80,7 +80,9 @@ def rectangles_2d(ax, centers, sizes) -> None:
     from matplotlib.patches import Rectangle
 
     for c, s in zip(np.asarray(centers, float).reshape(-1, 2), np.asarray(sizes, float).reshape(-1, 2)):
-        ax.add_patch(Rectangle(tuple(c - s / 2), s[0], s[1], facecolor=OBSTACLE, alpha=0.85, edgecolor="0.3", lw=0.5))
+        ax.add_patch(
+            Rectangle(tuple(c - s / 2), s[0], s[1], facecolor=OBSTACLE, alpha=0.85, edgecolor=OBSTACLE_EDGE, lw=0.5)
+        )
 
 
 def bounds_2d(ax, lo, hi) -> None:

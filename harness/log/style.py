@@ -11,7 +11,8 @@ C_START = (0.15, 0.35, 0.95, 1.0)
 C_GOAL = (1.0, 0.6, 0.0, 1.0)
 C_ROBOT = (0.35, 0.35, 0.35, 0.35)
 C_ARM = (0.45, 0.6, 0.85, 0.3)  # the arm's links along a path: translucent, apart from the grey obstacles
-# A failed query's partial paths (/query `partial`, mpnet.planners.base.PARTIAL_KINDS): kind ->
+# A failed query's partial paths (/query `partial`, mpnet.planners.base.PARTIAL_KINDS, spelled out:
+# the report reads harness.log and may not import mpnet.planners; a test keeps them equal): kind ->
 # (colour, dashed, what it is). Orange is the goal's, so the forward tree is cyan.
 PARTIAL_STYLE = {
     "forward": ((0.0, 0.8, 0.9, 1.0), False, "forward tree: MPNet's path grown from the start"),

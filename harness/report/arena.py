@@ -305,7 +305,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
             )
             events = [files[f].queries[i].get("progress") for f, i in zip(d["file"], d["qidx"])]
             refs = d["reference_cost"] if "reference_cost" in d else pd.Series(np.nan, index=d.index)
-            logged = [(*x,) for x in zip(ids, events, d["time_s"], refs) if x[1] and math.isfinite(x[2])]
+            logged = [x for x in zip(ids, events, d["time_s"], refs) if x[1] and math.isfinite(x[2])]
             period = progress_period([t for _, _, t, _ in logged])
             for runid, e, t, ref in logged:
                 c.executemany("INSERT INTO progress VALUES (?,?,?,?)", progress_rows(runid, e, t, period, ref))

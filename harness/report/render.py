@@ -10,8 +10,9 @@ import numpy as np
 import pandas as pd
 
 from harness.report.facts import Facts
-from harness.report.names import APPROX, CITATION, PAPER, RATIO_COL, RATIO_LABEL, env_label, labelled
+from harness.report.names import APPROX, CITATION, PAPER, RATIO_LABEL, env_label, labelled
 from harness.report.stats import BOOT_N
+from harness.report.tables import ratio_col
 
 
 def _decimals(x: float, digits: int = 3) -> int:
@@ -130,7 +131,7 @@ def render_table1(
         return text
 
     def ratio_cell(r: dict, label: str | None, tex: bool) -> str:
-        text = fmt_g(r[labelled(RATIO_COL, label)])
+        text = fmt_g(r[ratio_col(label)])
         if text and r["source"] == "ours" and (r["env"], r["split"], labelled("bit_star", label)) in same_time:
             return (r"$\approx$ " if tex else APPROX + " ") + text
         return text

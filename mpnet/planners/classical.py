@@ -113,7 +113,7 @@ class OmplPlanner:
         elif self.keep_partial and pdef.hasApproximateSolution():  # a failure: copied only now
             partial = {APPROXIMATE: [list(to_tuple(s)) for s in pdef.getSolutionPath().getStates()]}
         stats = {"planner_status": status.asString() if hasattr(status, "asString") else str(status)}
-        if self.algorithm in OPTIMIZING:
+        if watch is not None:  # an optimizing planner
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
             stats["progress"] = watch.seen(cost, time.perf_counter() - t0)

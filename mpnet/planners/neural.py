@@ -192,7 +192,7 @@ class MPNetPlanner:
                 path = handed
         if not ok:
             return self.failed(deadline, stats, path)
-        path = [problem.start.tolist(), *[np.asarray(q, float).tolist() for q in path[1:-1]], problem.goal.tolist()]
+        path = [problem.start.tolist(), *_states(path[1:-1]), problem.goal.tolist()]
         return Result(path, EXACT, stats)
 
     def failed(self, deadline: float, stats: dict, path=None) -> Result:
