@@ -33,7 +33,7 @@ def geometry_params(env_cfg) -> dict:
     """The config's geometry knobs, for cache keys. The validation step decides which
     expert paths are kept and the reference costs, so it is in the key too, but only when
     it differs from the env's registry value (existing caches keep their keys)."""
-    out = _geometry(env_cfg)
+    out = _geometry(env_cfg) | get_spec(env_cfg.name).robot.cache_identity()
     step = env_cfg.get("validation_step")
     if step is not None and float(step) != get_spec(env_cfg.name).validation_step:
         out["validation_step"] = float(step)

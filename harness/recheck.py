@@ -4,7 +4,9 @@ its trials.mcap alone, in a fresh process with a fresh collision world.
 The workspace of each query is rebuilt from the logged `/workspace` obstacles (posed
 primitives included), and the logged joint path is sampled at `--step` (default: half the
 env's validation step, so finer than the bench's own judge) against a checker of the env
-with no margin. This is the arm's re-check (pybullet, a new DIRECT client);
+with no margin, the robot model the log names. This is the arm's re-check (pybullet, a new
+DIRECT client, the arm model of the log: logs from before arm models were data re-check with
+pybullet_data's Panda as it was then);
 `../shared/tools/check_trials.py` does the same with its own geometry for the 2D/3D and
 rigid envs. Exit 1 on any false success or unreadable file.
 """
@@ -42,8 +44,12 @@ def recheck_file(path: Path, step: float | None = None) -> tuple[int, list[tuple
             if w is None:
                 false.append((q["query_id"], "no /workspace message for it"))
                 continue
-            built[key] = Workspace.from_json(w["workspace_id"], w["split"], w["obstacles"], spec.workspace_dim)
-        why = verify_path(spec, built[key], q["path"], q["start"], q["goal"], step)
+            built[key] = (
+                Workspace.from_json(w["workspace_id"], w["split"], w["obstacles"], spec.workspace_dim),
+                spec.for_logged_robot(w.get("robot")),
+            )
+        ws, logged = built[key]
+        why = verify_path(logged, ws, q["path"], q["start"], q["goal"], step)
         n += 1
         if why is not None:
             false.append((q["query_id"], why))

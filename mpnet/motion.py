@@ -119,7 +119,7 @@ def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | N
     if not ends.max() <= 1e-6:
         return "wrong_endpoints"
     samples = interpolate_path(spec, p, step)
-    ok = spec.make_checker(ws, margin=0.0).states_valid(samples)
+    ok = spec.judge_checker(ws).states_valid(samples)
     if ok.all():
         return None
     bad = samples[~ok][0]

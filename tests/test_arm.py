@@ -1,5 +1,5 @@
-"""arm7: the Panda's pybullet checker, posed primitives, the scene generator, problems@2
-and MotionBenchMaker's problems."""
+"""arm7: the arm model as data, both checkers (spheres and pybullet) on posed primitives, the
+scene generator, problems@2 and MotionBenchMaker's problems."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.panda import LIMITS, coarse_to_fine, panda_world
+from mpnet.envs.arm_model import load_arm_model
+from mpnet.envs.pybullet_arm import arm_world, coarse_to_fine
 from mpnet.envs.shapes import Primitive, quat_matrix, surface_cloud, yaw_quat
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import Workspace
@@ -21,6 +22,7 @@ from mpnet.problems import FORMAT_2, ProblemFileError, dump_problems, load_probl
 
 ARM = get_spec("arm7")
 HOME = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]  # MotionBenchMaker's start
+BACKENDS = ("spheres", "pybullet")
 
 
 def ws_of(*prims: Primitive, wid: str = "t") -> Workspace:
@@ -30,63 +32,90 @@ def ws_of(*prims: Primitive, wid: str = "t") -> Workspace:
 EMPTY = ws_of()
 
 
-def test_limits_are_the_urdfs():
-    assert np.allclose(panda_world().limits(), LIMITS)
-    assert ARM.bounds == tuple(LIMITS) and ARM.state_dim == 7 and ARM.workspace_dim == 3
+def hand_position(q=HOME) -> np.ndarray:
+    return np.array(arm_world("panda").hand_position(q))
 
 
-def test_only_the_always_touching_pair_is_allowed():
-    # link 6 and the hand touch in every configuration of this model; nothing else may be ignored
-    assert panda_world().allowed == frozenset({(6, 8)})
+@pytest.fixture(params=BACKENDS)
+def checker(request):
+    """make_checker(ws, margin=None) of one backend."""
+    return lambda ws, margin=None: ARM.make_checker(ws, margin=margin, backend=request.param)
 
 
-def test_self_collision_is_checked():
-    ch = ARM.make_checker(EMPTY)
+def test_limits_are_motionbenchmakers():
+    """MoveIt's limits (the URDF's soft limits), not the URDF's hard limits."""
+    model = load_arm_model("panda")
+    assert ARM.bounds == model.limits and ARM.state_dim == 7 and ARM.workspace_dim == 3
+    assert model.limits[1] == (-1.7628, 1.7628) and model.kinematics.urdf_limits[1] == (-1.8326, 1.8326)
+    assert model.fingers == {"panda_finger_joint1": 0.065, "panda_finger_joint2": 0.065}
+    assert load_arm_model("panda_pybullet_data").limits == model.kinematics.urdf_limits
+
+
+def test_pybullet_allows_the_models_pairs_only():
+    """The pairs pybullet ignores are the model's (MotionBenchMaker's allowed collision matrix)."""
+    world = arm_world("panda")
+    names = {tuple(sorted((world.link_names[a], world.link_names[b]))) for a, b in world.allowed}
+    assert names == set(load_arm_model("panda").allowed)
+    assert len(names) == 34
+
+
+def test_forward_kinematics_match_pybullet():
+    world, model = arm_world("panda"), load_arm_model("panda")
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        q = ARM.space.sample(rng)
+        poses = world.link_poses(q)  # inertial frames; the hand's link frame via hand_position
+        assert np.allclose(model.end_effector_position(q), world.hand_position(q), atol=1e-6)
+        assert len(poses) == len(world.links)
+
+
+def test_self_collision_is_checked(checker):
+    ch = checker(EMPTY)
     rng = np.random.default_rng(0)
     ok = ch.states_valid([ARM.space.sample(rng) for _ in range(300)])
     assert ch.is_valid(HOME)
     assert 0.5 < ok.mean() < 1.0  # some random configurations fold the arm into itself
 
 
-def test_obstacles_of_every_type_collide_with_the_hand():
-    hand = panda_world().hand_position(HOME)
-    far = [c + 2.0 for c in hand]
+def test_obstacles_of_every_type_collide_with_the_hand(checker):
+    hand = hand_position()
+    far = hand + 2.0
     for prim in (
         Primitive("box", hand, (0.1, 0.1, 0.1), yaw_quat(0.3)),
         Primitive.cylinder(hand, 0.05, 0.1, orientation=(0.3, 0.0, 0.0, 0.95)),
         Primitive.sphere(hand, 0.05),
     ):
-        assert not ARM.make_checker(ws_of(prim)).is_valid(HOME), prim.type
+        assert not checker(ws_of(prim)).is_valid(HOME), prim.type
         moved = Primitive(prim.type, far, prim.size, prim.orientation)
-        assert ARM.make_checker(ws_of(moved)).is_valid(HOME), prim.type
+        assert checker(ws_of(moved)).is_valid(HOME), prim.type
 
 
-def test_orientation_matters():
+def test_orientation_matters(checker):
     """A thin plate beside the hand: turned by 90 degrees about z it reaches the hand."""
-    hand = np.array(panda_world().hand_position(HOME))
     plate = (0.02, 0.6, 0.3)
-    beside = hand + [0.15, 0.0, 0.0]
-    assert ARM.make_checker(ws_of(Primitive("box", beside, plate))).is_valid(HOME)
-    assert not ARM.make_checker(ws_of(Primitive("box", beside, plate, yaw_quat(math.pi / 2)))).is_valid(HOME)
+    beside = hand_position() + [0.15, 0.0, 0.0]
+    assert checker(ws_of(Primitive("box", beside, plate))).is_valid(HOME)
+    assert not checker(ws_of(Primitive("box", beside, plate, yaw_quat(math.pi / 2)))).is_valid(HOME)
 
 
-def test_an_obstacle_on_the_base_blocks_every_configuration():
-    """The fixed base and a static obstacle are never paired by Bullet's broadphase."""
-    ch = ARM.make_checker(ws_of(Primitive("box", (0.0, 0.0, 0.05), (0.1, 0.1, 0.1))))
-    assert not ch.is_valid(HOME)
+def test_an_obstacle_on_the_base_blocks_every_configuration(checker):
+    """The fixed base and a static obstacle are never paired by Bullet's broadphase; the
+    sphere checker tests the base once per workspace."""
+    ch = checker(ws_of(Primitive("box", (0.0, 0.0, 0.05), (0.1, 0.1, 0.1))))
+    assert not ch.is_valid(HOME) and not ch.states_valid([HOME]).any()
+    assert not ch.motion_valid(HOME, HOME) and not ch.motions_valid([HOME], [HOME]).any()
 
 
-def test_planning_margin_inflates_obstacles():
-    hand = np.array(panda_world().hand_position(HOME))
-    near = ws_of(Primitive.sphere(hand + [0.2, 0.0, 0.1], 0.05))  # 10.5 cm from the hand
-    assert ARM.make_checker(near, margin=0.0).is_valid(HOME)
-    assert not ARM.make_checker(near, margin=0.15).is_valid(HOME)
+def test_planning_margin_inflates_obstacles(checker):
+    near = ws_of(Primitive.sphere(hand_position() + [0.2, 0.0, 0.1], 0.05))  # 10.5 cm from the hand
+    assert checker(near, margin=0.0).is_valid(HOME)
+    assert not checker(near, margin=0.15).is_valid(HOME)
 
 
 def test_obstacle_swaps_do_not_leak_bodies():
-    world = panda_world()
-    a = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)))
-    b = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)))
+    world = arm_world("panda")
+    a = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)), backend="pybullet")
+    b = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)), backend="pybullet")
     a.is_valid(HOME)
     n = world.pb.getNumBodies(physicsClientId=world.client)
     for _ in range(5):
@@ -97,31 +126,32 @@ def test_obstacle_swaps_do_not_leak_bodies():
     assert world.pb.getNumBodies(physicsClientId=world.client) == n and len(world.shapes) == shapes
 
 
-def test_checkers_of_two_workspaces_take_turns_with_one_world():
-    hand = panda_world().hand_position(HOME)
-    blocked, free = ARM.make_checker(ws_of(Primitive.sphere(hand, 0.05))), ARM.make_checker(EMPTY)
+def test_checkers_of_two_workspaces_take_turns_with_one_world(checker):
+    blocked, free = checker(ws_of(Primitive.sphere(hand_position(), 0.05))), checker(EMPTY)
     for _ in range(3):
         assert not blocked.is_valid(HOME) and free.is_valid(HOME)
 
 
-def test_motion_through_a_wall_is_blocked_and_counted():
+def test_motion_through_a_wall_is_blocked_and_counted(checker):
     a, b = list(HOME), list(HOME)
     a[0], b[0] = -1.2, 1.2  # swing the arm about its base
     wall = Primitive("box", (0.6, 0.0, 0.5), (0.6, 0.02, 1.0))
-    ch = ARM.make_checker(ws_of(wall))
+    ch = checker(ws_of(wall))
     assert ch.is_valid(a) and ch.is_valid(b) and not ch.motion_valid(a, b)
-    assert ARM.make_checker(EMPTY).motion_valid(a, b)
+    assert checker(EMPTY).motion_valid(a, b)
+    assert list(ch.motions_valid([a, a], [b, a])) == [False, True]
     counts = ch.counts()
-    assert counts["motion_checks"] == 1 and counts["configurations_checked"] >= 3
+    assert counts["motion_checks"] == 3 and counts["configurations_checked"] >= 3
     assert verify_path(ARM, ws_of(wall), [a, b], a, b) == "collision"
     assert verify_path(ARM, EMPTY, [a, b], a, b) is None
 
 
-def test_out_of_bounds_states_are_invalid():
+def test_out_of_bounds_states_are_invalid(checker):
     q = list(HOME)
-    q[3] = 0.1  # joint 4's upper limit is 0
-    ch = ARM.make_checker(EMPTY)
+    q[3] = 0.1  # joint 4's upper limit is -0.0698
+    ch = checker(EMPTY)
     assert not ch.is_valid(q) and not ch.motion_valid(HOME, q)
+    assert not ch.states_valid([q]).any() and not ch.motions_valid([HOME], [q]).any()
 
 
 @given(st.integers(1, 300))

@@ -989,10 +989,10 @@ def test_arm_link_boxes_cover_the_links_where_pybullet_has_them():
     """Each drawn link box matches the world AABB of that link's collision mesh (the
     boxes were once placed in the link frame, 2-13 cm off)."""
     from harness.log.arm_painter import arm_boxes, link_boxes
-    from mpnet.envs.panda import panda_world
+    from mpnet.envs.pybullet_arm import arm_world
     from mpnet.envs.shapes import quat_matrix
 
-    w = panda_world()
+    w = arm_world("panda")
     q = [0.3, -0.5, 0.2, -2.0, 0.4, 1.8, 0.5]
     corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
     for (k, _, _), (centre, quat, size) in zip(link_boxes(), arm_boxes(q), strict=True):

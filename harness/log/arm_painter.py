@@ -3,7 +3,7 @@ frame, the end-effector trace of each path, and the arm's links as boxes at stat
 the path (from pybullet's collision meshes), in Foxglove and Rerun.
 
 The joint-space path is what the log holds; everything spatial here comes from the
-Panda's forward kinematics (mpnet.envs.panda)."""
+logged arm model's forward kinematics in pybullet (mpnet.envs.pybullet_arm)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,8 @@ from harness.log import mpl
 from harness.log.foxglove import LINE_LIST, cube, line, p3, rgba
 from harness.log.painters import Painter, register
 from harness.log.style import C_ARM, C_BOUNDS, C_OBSTACLE, rgba8
-from mpnet.envs.panda import panda_world
+from mpnet.envs.pybullet_arm import arm_world
+from mpnet.envs.robots import logged_model_name
 from mpnet.envs.shapes import IDENTITY, quat_matrix
 
 TRACE_STEP = 0.05  # joint-space step of the end-effector trace (rad)
@@ -25,10 +26,10 @@ GHOSTS = 6  # arm poses drawn along each path (start and goal included)
 
 
 @cache
-def link_boxes() -> list[tuple[int, np.ndarray, np.ndarray]]:
+def link_boxes(model: str = "panda") -> list[tuple[int, np.ndarray, np.ndarray]]:
     """(link index in the pose list, centre, size) of each link's collision mesh, as a box
     in the link's inertial frame (where getMeshData's vertices are)."""
-    w = panda_world()
+    w = arm_world(model)
     out = []
     for k, link in enumerate(w.links):
         n, verts = w.pb.getMeshData(w.robot, link, physicsClientId=w.client)
@@ -38,11 +39,11 @@ def link_boxes() -> list[tuple[int, np.ndarray, np.ndarray]]:
     return out
 
 
-def arm_boxes(q) -> list[tuple[np.ndarray, list[float], np.ndarray]]:
+def arm_boxes(q, model: str = "panda") -> list[tuple[np.ndarray, list[float], np.ndarray]]:
     """(centre, quaternion, size) of every link box at configuration q."""
-    poses = panda_world().link_poses(q)
+    poses = arm_world(model).link_poses(q)
     out = []
-    for k, c, s in link_boxes():
+    for k, c, s in link_boxes(model):
         pos, quat = poses[k]
         out.append((np.asarray(pos) + quat_matrix(quat) @ c, quat, s))
     return out
@@ -82,8 +83,12 @@ class ArmPainter(Painter):
     marker_size = 0.04  # start and goal spheres (metres)
     line_width = 0.008
 
+    @property
+    def model(self) -> str:
+        return logged_model_name(self.robot) if isinstance(self.robot, dict) else "panda"
+
     def trace(self, msg):
-        w = panda_world()
+        w = arm_world(self.model)
         path = msg.get("path") or []
         pts = [w.hand_position(q) for q in _dense(np.asarray(path, float), TRACE_STEP)] if len(path) else []
         return pts, w.hand_position(msg["start"]), w.hand_position(msg["goal"])
@@ -94,7 +99,7 @@ class ArmPainter(Painter):
         q = q[np.isfinite(q).all(axis=1)]
         if not len(q):
             return np.zeros((0, 3))
-        w = panda_world()
+        w = arm_world(self.model)
         return np.array([w.hand_position(x) for x in _dense(q, TRACE_STEP)], float).reshape(-1, 3)
 
     def legend_layout(self, msg):
@@ -125,7 +130,7 @@ class ArmPainter(Painter):
         pts = np.asarray(self.trace(msg)[0], float).reshape(-1, 3)
         if len(pts) < 2:
             return []
-        w = panda_world()
+        w = arm_world(self.model)
         mpl.path(ax, pts, color, label, marks=[w.hand_position(q) for q in _states(msg)])
         return [pts]
 
@@ -151,7 +156,7 @@ class ArmPainter(Painter):
         return ",".join(
             json.dumps(cube(p3(c), p3(s), C_ARM, _fquat(q)), separators=(",", ":"))
             for state in ghost_states(msg)
-            for c, q, s in arm_boxes(state)
+            for c, q, s in arm_boxes(state, self.model)
         )
 
     # ----------------------------------------------------------------- Rerun
@@ -210,7 +215,7 @@ class ArmPainter(Painter):
 
     def rerun_queries(self, rr, msgs, planner=""):
         out = super().rerun_queries(rr, msgs, planner)  # end-effector traces (via trace) and end points
-        boxes = [[b for st in ghost_states(m) for b in arm_boxes(st)] for m in msgs]
+        boxes = [[b for st in ghost_states(m) for b in arm_boxes(st, self.model)] for m in msgs]
         lens = [len(b) for b in boxes]
         flat = [b for bs in boxes for b in bs]
         out.append(

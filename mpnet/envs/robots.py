@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import math
 
+from mpnet.envs.arm_model import ArmModel, load_arm_model
 from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
-from mpnet.envs.panda import PandaChecker
+from mpnet.envs.pybullet_arm import PybulletArmChecker
 from mpnet.envs.rigid import FclRigidChecker, RigidChecker
+from mpnet.envs.spaces import EuclideanSpace
+from mpnet.envs.spheres import SphereChecker
 from mpnet.envs.workspace import Workspace
 
 
@@ -17,10 +20,20 @@ class Robot:
     kind: str = ""
     checkers: dict[str, type[CollisionChecker]] = {}
     default_backend: str = "native"
+    judge_backend: str | None = None  # the checker of the fine re-check (None: the default)
     posed_obstacles: bool = False  # whether its checkers handle posed primitives (problems@2)
 
     def to_json(self) -> dict:
         return {"kind": self.kind}
+
+    def as_logged(self, robot: dict | str | None) -> Robot:
+        """This robot as a log describes it (a log written with another model of it)."""
+        return self
+
+    def cache_identity(self) -> dict:
+        """What of the robot decides generated data beyond the env's name (cache keys):
+        nothing for the fixed planar and point robots."""
+        return {}
 
     def make_checker(
         self, spec, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str | None = None
@@ -61,19 +74,49 @@ class RectangleRobot(Robot):
 
 
 class ArmRobot(Robot):
-    """A serial arm by name (arm7: the Franka Panda of pybullet_data). Its state is the
-    joint vector; pybullet is the reference checker."""
+    """A serial arm built from its data description (mpnet.envs.arm_model): the state is the
+    planned joint vector. spheres: the compiled sphere covering, certified motions (the
+    default); pybullet: the collision meshes, sampled motions (the judge of every success)."""
 
     kind = "arm"
-    checkers = {"pybullet": PandaChecker}
-    default_backend = "pybullet"
+    checkers = {"spheres": SphereChecker, "pybullet": PybulletArmChecker}
+    default_backend = "spheres"
+    judge_backend = "pybullet"
     posed_obstacles = True
 
-    def __init__(self, name: str, urdf: str, fingers: float):
-        self.name = name
-        self.urdf = urdf
-        self.fingers = fingers
+    def __init__(self, model: str):
+        self.model_name = model
+
+    @property
+    def model(self) -> ArmModel:
+        """Loaded on first use (the URDF is read then)."""
+        return load_arm_model(self.model_name)
+
+    @property
+    def name(self) -> str:
+        return self.model.name
 
     def to_json(self) -> dict:
-        """Name, the pybullet_data URDF, and the fixed finger joints (what a re-check needs)."""
-        return {"kind": self.kind, "name": self.name, "urdf": self.urdf, "fingers": self.fingers}
+        """The model (name, URDF, joints, limits, held fingers, sphere set, digest): what a
+        re-check needs to rebuild it."""
+        return {"kind": self.kind, **self.model.to_json()}
+
+    def as_logged(self, robot: dict | str | None) -> Robot:
+        name = logged_model_name(robot) if isinstance(robot, dict) else self.model_name
+        return self if name == self.model_name else ArmRobot(name)
+
+    def cache_identity(self) -> dict:
+        """The model (its description and sphere files' digest) and the checker that builds
+        data: a changed model or checker is another dataset, never a stale one."""
+        return {"robot": f"{self.model.name}:{self.model.digest()}", "checker": self.default_backend}
+
+    def joint_space(self):
+        return EuclideanSpace(self.model.limits)
+
+
+def logged_model_name(robot: dict) -> str:
+    """The arm model a log's robot description names. Logs written before arm models were
+    data ({"name": "panda", "fingers": 0.04}) used pybullet_data's Panda as shipped."""
+    if isinstance(robot.get("fingers"), (int, float)):
+        return "panda_pybullet_data"
+    return str(robot.get("name", "panda"))

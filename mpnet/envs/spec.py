@@ -4,7 +4,7 @@ cloud sampler, plus the fixed facts the stages share (DESIGN §4)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -82,6 +82,17 @@ class EnvSpec:
         """The robot's checker for `ws` (margin None: the planning margin; backend None:
         the robot's default)."""
         return self.robot.make_checker(self, ws, self.planning_margin if margin is None else margin, backend)
+
+    def judge_checker(self, ws: Workspace) -> CollisionChecker:
+        """The checker of the independent fine re-check: no margin, the robot's judge."""
+        return self.robot.make_checker(self, ws, 0.0, self.robot.judge_backend)
+
+    def for_logged_robot(self, robot) -> EnvSpec:
+        """This env with the robot model a log was written with (the same env when it is)."""
+        logged = self.robot.as_logged(robot)
+        if logged is self.robot:
+            return self
+        return replace(self, robot=logged, space=logged.joint_space())
 
     def cloud_size(self, points_per_block: int) -> int:
         return points_per_block * self.blocks

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 from mpnet.envs.arm_scenes import ArmScenes, arm_cloud
 from mpnet.envs.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
-from mpnet.envs.panda import FINGERS_OPEN, URDF
-from mpnet.envs.panda import LIMITS as PANDA_LIMITS
+from mpnet.envs.arm_model import load_arm_model
 from mpnet.envs.robots import ArmRobot, PointRobot, RectangleRobot
 from mpnet.envs.spaces import EuclideanSpace, SE2Space
 from mpnet.envs.spec import EnvSpec
@@ -19,12 +18,12 @@ SPECS: dict[str, EnvSpec] = {
     "c2d": EnvSpec("c2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(C2D_SIZES), exact_reference=True),
     "c3d": EnvSpec("c3d", EuclideanSpace(_BOX * 3), PointRobot(), 3, C3DLayouts(), blocks=10),
     "rigid": EnvSpec("rigid", SE2Space(_BOX * 2, radius=_RIGID.radius), _RIGID, 2, OriginalLayouts()),
-    # The Franka Panda of pybullet_data (the paper's Baxter is not installable): joint vectors,
-    # motions sampled at motion_step rad, obstacles in metres in the base frame.
+    # MotionBenchMaker's Franka Panda (the paper's Baxter is not installable): joint vectors
+    # within the model's limits, obstacles in metres in the base frame.
     "arm7": EnvSpec(
         "arm7",
-        EuclideanSpace(PANDA_LIMITS),
-        ArmRobot("panda", URDF, FINGERS_OPEN),
+        EuclideanSpace(load_arm_model("panda").limits),
+        ArmRobot("panda"),
         3,
         ArmScenes(),
         blocks=10,

@@ -1,12 +1,12 @@
-"""The Franka Panda of `pybullet_data` (the paper's Baxter is not installable): the arm7
-robot's model, its reference collision checker, and forward kinematics for the logs.
+"""An arm model (mpnet.envs.arm_model) in pybullet: the mesh checker that judges every
+logged arm success (`env.collision=pybullet` plans with it too), and link poses for the logs.
 
-pybullet is the reference: one DIRECT client per process holds the arm (loading it costs
-~0.3 s, so checkers share it) and the obstacles of the checker that used it last; a
-checker whose workspace is not the loaded one swaps its obstacles in first. A
-configuration collides when any link of the arm (fingers fixed open) is closer than the
-margin to an obstacle, or two links that are not an allowed pair touch (self-collision:
-the pairs in contact in every configuration are allowed, see NOTES-dependencies).
+One DIRECT client per process and model holds the arm (loading it costs ~0.3 s, so checkers
+share it) and the obstacles of the checker that used it last; a checker whose workspace is
+not the loaded one swaps its obstacles in first. A configuration collides when any link of
+the arm (fingers held where the model holds them) is closer than the margin to an obstacle,
+or two links that are not an allowed pair of the model touch (parent and child links are
+never checked). pybullet tests each collision mesh as its convex hull.
 """
 
 from __future__ import annotations
@@ -16,82 +16,55 @@ from functools import cache
 
 import numpy as np
 
+from mpnet.envs.arm_model import ArmModel, load_arm_model
 from mpnet.envs.collision import CollisionChecker
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
 
-URDF = "franka_panda/panda.urdf"
-ARM_JOINTS = (0, 1, 2, 3, 4, 5, 6)
-FINGER_JOINTS = (9, 10)
-FINGERS_OPEN = 0.04
-HAND_LINK = 8
-# Joint limits of pybullet_data's panda.urdf (tests/test_arm.py checks them against the URDF).
-LIMITS = (
-    (-2.9671, 2.9671),
-    (-1.8326, 1.8326),
-    (-2.9671, 2.9671),
-    (-3.1416, 0.0),
-    (-2.9671, 2.9671),
-    (-0.0873, 3.8223),
-    (-2.9671, 2.9671),
-)
-ALLOWED_SAMPLES = 300  # configurations sampled to find the always-touching link pairs
 
 
-class PandaWorld:
-    """A pybullet DIRECT client with the Panda at the origin, fixed base, fingers open."""
+class ArmWorld:
+    """A pybullet DIRECT client with the model's arm at the origin, fixed base, fingers held."""
 
-    def __init__(self):
+    def __init__(self, model: ArmModel):
         import pybullet as pb
-        import pybullet_data
 
         self.pb = pb
+        self.model = model
         self.client = pb.connect(pb.DIRECT)
-        pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=self.client)
         flags = pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
-        self.robot = pb.loadURDF(URDF, [0, 0, 0], useFixedBase=True, flags=flags, physicsClientId=self.client)
-        self.joints = list(ARM_JOINTS + FINGER_JOINTS)
-        self.links = [j for j in range(-1, pb.getNumJoints(self.robot, physicsClientId=self.client))]
+        self.robot = pb.loadURDF(
+            str(model.urdf_path), [0, 0, 0], useFixedBase=True, flags=flags, physicsClientId=self.client
+        )
+        info = [pb.getJointInfo(self.robot, j, physicsClientId=self.client) for j in range(self._n_joints())]
+        by_joint = {i[1].decode(): i[0] for i in info}
+        self.link_names = {-1: model.kinematics.frames[0].link} | {i[0]: i[12].decode() for i in info}
+        self.links = sorted(self.link_names)
+        self.joints = [by_joint[j] for j in model.joints] + [by_joint[j] for j in model.fingers]
+        self._held = [[v] for v in model.fingers.values()]
+        self._ee = next(i for i, name in self.link_names.items() if name == model.end_effector)
         self.owner: object = None
         self.bodies: list[int] = []
         self.shapes: dict[tuple, int] = {}
         self.margin = 0.0
         self.base_blocked = False
-        self.allowed = self._always_touching()
+        self.allowed = frozenset(
+            (a, b)
+            for a in self.links
+            for b in self.links
+            if a < b and model.is_allowed(self.link_names[a], self.link_names[b])
+        )
 
-    def limits(self) -> list[tuple[float, float]]:
-        """The arm joints' limits as the URDF gives them."""
-        pb = self.pb
-        return [pb.getJointInfo(self.robot, j, physicsClientId=self.client)[8:10] for j in ARM_JOINTS]
+    def _n_joints(self) -> int:
+        return self.pb.getNumJoints(self.robot, physicsClientId=self.client)
 
     def set_q(self, q) -> None:
         self.pb.resetJointStatesMultiDof(
             self.robot,
             self.joints,
-            [[float(v)] for v in q[:7]] + [[FINGERS_OPEN], [FINGERS_OPEN]],
+            [[float(v)] for v in q] + self._held,
             physicsClientId=self.client,
         )
-
-    def _self_pairs(self) -> set[tuple[int, int]]:
-        pb, r = self.pb, self.robot
-        pb.performCollisionDetection(physicsClientId=self.client)
-        return {
-            (min(c[3], c[4]), max(c[3], c[4]))
-            for c in pb.getContactPoints(bodyA=r, bodyB=r, physicsClientId=self.client)
-            if c[8] < 0.0
-        }
-
-    def _always_touching(self) -> frozenset[tuple[int, int]]:
-        """Link pairs in contact in every one of a fixed set of random configurations (the
-        hand and link 6 touch everywhere in this model)."""
-        rng = np.random.default_rng(0)
-        lo, hi = np.array(LIMITS).T
-        common: set | None = None
-        for _ in range(ALLOWED_SAMPLES):
-            self.set_q(rng.uniform(lo, hi))
-            pairs = self._self_pairs()
-            common = pairs if common is None else common & pairs
-        return frozenset(common or ())
 
     def load(self, owner: object, primitives: list[Primitive], margin: float) -> None:
         """Make `primitives` the world's obstacles for collision tests at `margin` (no-op
@@ -164,23 +137,24 @@ class PandaWorld:
         """Where the hand's frame is: the end-effector trace of a path."""
         pb = self.pb
         self.set_q(q)
-        s = pb.getLinkState(self.robot, HAND_LINK, computeForwardKinematics=True, physicsClientId=self.client)
+        s = pb.getLinkState(self.robot, self._ee, computeForwardKinematics=True, physicsClientId=self.client)
         return list(s[4])
 
 
 @cache
-def panda_world() -> PandaWorld:
-    """This process's Panda world (created on first use; checkers take turns with it)."""
-    return PandaWorld()
+def arm_world(model: str) -> ArmWorld:
+    """This process's pybullet world of arm model `model` (created on first use; checkers
+    take turns with it)."""
+    return ArmWorld(load_arm_model(model))
 
 
-class PandaChecker(CollisionChecker):
+class PybulletArmChecker(CollisionChecker):
     """The reference checker: pybullet, one configuration at a time; a motion is free when
     every state along it, at most `spec.motion_step` apart (joint-space distance), is."""
 
     def __init__(self, spec, ws: Workspace, margin: float):
         super().__init__(spec, ws, margin)
-        self.world = panda_world()
+        self.world = arm_world(spec.robot.model.name)
         self._primitives = ws.all_primitives()
         self._step = float(spec.motion_step)
         self.configurations = 0  # pybullet evaluations, motions' states included

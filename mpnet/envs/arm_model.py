@@ -1,0 +1,298 @@
+"""A serial arm described by data (`mpnet/data_files/robots/<name>.yaml`): its URDF, which
+joints are planned and within which limits, where the fingers are held, the end-effector
+link, the collision sphere set and the link pairs allowed to touch.
+
+Every arm part of the project (the sphere checker, the pybullet checker, the painter, the
+MotionBenchMaker importer) is built from an `ArmModel`, so a second arm, or the same arm
+with other fingers or limits, is a new data file, not new code.
+
+The kinematics are read from the URDF itself: a tree of frames, each a fixed origin
+transform followed by its joint's motion. Joints that are not planned (the fingers) are
+held at their model position and folded into the fixed transform.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+FIXED, REVOLUTE, PRISMATIC = 0, 1, 2
+_JOINT_TYPES = {"fixed": FIXED, "revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
+
+
+class ArmModelError(ValueError):
+    """A robot description that cannot be used, named by its file."""
+
+
+def rpy_matrix(rpy) -> np.ndarray:
+    """URDF's fixed-axis roll, pitch, yaw: Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = (float(v) for v in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def transform(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
+    t = np.eye(4)
+    t[:3, :3] = rpy_matrix(rpy)
+    t[:3, 3] = [float(v) for v in xyz]
+    return t
+
+
+def _origin(el) -> np.ndarray:
+    o = el.find("origin") if el is not None else None
+    if o is None:
+        return np.eye(4)
+    return transform(o.get("xyz", "0 0 0").split(), o.get("rpy", "0 0 0").split())
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One link's frame: parent frame index (-1: the base), the fixed origin transform of
+    its joint, the joint's kind and axis, and which planned coordinate drives it (-1: none)."""
+
+    link: str
+    parent: int
+    origin: np.ndarray
+    kind: int
+    axis: np.ndarray
+    coordinate: int
+
+
+@dataclass(frozen=True)
+class CollisionMesh:
+    """A link's collision mesh file and its pose in the link frame."""
+
+    link: str
+    path: Path
+    origin: np.ndarray
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """The URDF's tree as frames in parent-before-child order, with the collision meshes."""
+
+    frames: tuple[Frame, ...]
+    meshes: tuple[CollisionMesh, ...]
+    urdf_limits: tuple[tuple[float, float], ...]
+
+    def index(self, link: str) -> int:
+        for i, f in enumerate(self.frames):
+            if f.link == link:
+                return i
+        raise KeyError(link)
+
+    def link_transforms(self, q) -> np.ndarray:
+        """(n_frames, 4, 4): every link frame in the base frame at configuration q."""
+        out = np.empty((len(self.frames), 4, 4))
+        for i, f in enumerate(self.frames):
+            t = f.origin.copy()
+            if f.coordinate >= 0:
+                t = t @ joint_motion(f.kind, f.axis, float(q[f.coordinate]))
+            out[i] = t if f.parent < 0 else out[f.parent] @ t
+        return out
+
+
+def joint_motion(kind: int, axis: np.ndarray, v: float) -> np.ndarray:
+    """The 4x4 motion of a revolute (angle v about axis) or prismatic (v along axis) joint."""
+    m = np.eye(4)
+    if kind == REVOLUTE:
+        x, y, z = axis
+        c, s = math.cos(v), math.sin(v)
+        C = 1 - c
+        m[:3, :3] = [
+            [c + x * x * C, x * y * C - z * s, x * z * C + y * s],
+            [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
+            [z * x * C - y * s, z * y * C + x * s, c + z * z * C],
+        ]
+    elif kind == PRISMATIC:
+        m[:3, 3] = axis * v
+    return m
+
+
+def read_urdf(path: Path, planned: tuple[str, ...], held: dict[str, float]) -> Kinematics:
+    """The kinematic tree of a URDF: planned joints are coordinates 0.. in `planned`'s order,
+    joints named in `held` are fixed at that value, any other moving joint is an error."""
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError) as e:
+        raise ArmModelError(f"{path}: cannot read the URDF ({e})") from None
+    links = {el.get("name"): el for el in root.findall("link")}
+    joints = root.findall("joint")
+    children = {j.find("child").get("link") for j in joints}
+    roots = [name for name in links if name not in children]
+    if len(roots) != 1:
+        raise ArmModelError(f"{path}: expected one root link, found {roots}")
+    by_parent: dict[str, list] = {}
+    for j in joints:
+        by_parent.setdefault(j.find("parent").get("link"), []).append(j)
+    frames: list[Frame] = [Frame(roots[0], -1, np.eye(4), FIXED, np.zeros(3), -1)]
+    limits: dict[str, tuple[float, float]] = {}
+    queue = [roots[0]]
+    while queue:
+        parent = queue.pop(0)
+        pi = next(i for i, f in enumerate(frames) if f.link == parent)
+        for j in by_parent.get(parent, []):
+            name, kind = j.get("name"), _JOINT_TYPES.get(j.get("type"))
+            if kind is None:
+                raise ArmModelError(f"{path}: joint {name!r} has unsupported type {j.get('type')!r}")
+            axis_el = j.find("axis")
+            axis = np.array([float(v) for v in (axis_el.get("xyz") if axis_el is not None else "1 0 0").split()])
+            if kind != FIXED:
+                axis = axis / np.linalg.norm(axis)
+            origin, coordinate = _origin(j), -1
+            if name in planned:
+                coordinate = planned.index(name)
+                lim = j.find("limit")
+                limits[name] = (float(lim.get("lower")), float(lim.get("upper")))
+            elif name in held:
+                origin = origin @ joint_motion(kind, axis, held[name])
+                kind = FIXED
+            elif kind != FIXED:
+                raise ArmModelError(f"{path}: joint {name!r} moves but is neither planned nor held")
+            child = j.find("child").get("link")
+            frames.append(Frame(child, pi, origin, kind, axis, coordinate))
+            queue.append(child)
+    missing = [j for j in planned if j not in limits]
+    if missing:
+        raise ArmModelError(f"{path}: no joints named {missing}")
+    meshes = []
+    for f in frames:
+        col = links[f.link].find("collision")
+        if col is None:
+            continue
+        mesh = col.find("geometry/mesh")
+        if mesh is None:
+            raise ArmModelError(f"{path}: link {f.link!r}'s collision geometry is not a mesh")
+        rel = mesh.get("filename").removeprefix("package://")
+        meshes.append(CollisionMesh(f.link, path.parent / rel, _origin(col)))
+    return Kinematics(tuple(frames), tuple(meshes), tuple(limits[j] for j in planned))
+
+
+def _data_dir():
+    return resources.files("mpnet") / "data_files" / "robots"
+
+
+def _urdf_path(urdf: str) -> Path:
+    """A URDF named relative to pybullet_data (the package ships the meshes), or a path."""
+    p = Path(urdf)
+    if p.is_absolute():
+        return p
+    import pybullet_data
+
+    return Path(pybullet_data.getDataPath()) / urdf
+
+
+@dataclass(frozen=True)
+class ArmModel:
+    """An arm as data (see the module docstring). `limits` are the planned joints' bounds
+    (MoveIt's, where a benchmark uses them, not necessarily the URDF's); `fingers` maps
+    each held joint to its position; `allowed` holds the link pairs never checked against
+    each other (adjacent links, and pairs that cannot meet within the limits)."""
+
+    name: str
+    urdf: str
+    joints: tuple[str, ...]
+    limits: tuple[tuple[float, float], ...]
+    fingers: dict[str, float]
+    end_effector: str
+    allowed: frozenset[tuple[str, str]]
+    spheres: str
+    source: str = ""
+    kinematics: Kinematics = field(repr=False, compare=False, default=None)
+
+    @property
+    def dof(self) -> int:
+        return len(self.joints)
+
+    @property
+    def urdf_path(self) -> Path:
+        return _urdf_path(self.urdf)
+
+    def is_allowed(self, a: str, b: str) -> bool:
+        return a == b or (min(a, b), max(a, b)) in self.allowed
+
+    def to_json(self) -> dict:
+        """What a log records of the model: enough to rebuild it and to tell two apart."""
+        return {
+            "name": self.name,
+            "urdf": self.urdf,
+            "joints": list(self.joints),
+            "limits": [list(b) for b in self.limits],
+            "fingers": dict(self.fingers),
+            "end_effector": self.end_effector,
+            "spheres": self.spheres,
+            "sha256": self.digest(),
+        }
+
+    def digest(self) -> str:
+        """sha256 of the description file and the sphere file: a model's identity in
+        cache keys and logs."""
+        h = hashlib.sha256()
+        for name in (f"{self.name}.yaml", self.spheres):
+            h.update((_data_dir() / name).read_bytes())
+        return h.hexdigest()[:16]
+
+    def link_transforms(self, q) -> np.ndarray:
+        return self.kinematics.link_transforms(q)
+
+    def end_effector_position(self, q) -> np.ndarray:
+        return self.link_transforms(q)[self.kinematics.index(self.end_effector), :3, 3]
+
+
+def _pairs(items, where: str) -> frozenset[tuple[str, str]]:
+    try:
+        return frozenset((min(a, b), max(a, b)) for a, b in items)
+    except (TypeError, ValueError):
+        raise ArmModelError(f"{where}: allowed must be a list of [link, link] pairs") from None
+
+
+@cache
+def load_arm_model(name: str) -> ArmModel:
+    """The arm model `name` from the package's robot descriptions."""
+    import yaml
+
+    path = _data_dir() / f"{name}.yaml"
+    if not path.is_file():
+        known = sorted(p.name.removesuffix(".yaml") for p in _data_dir().iterdir() if p.name.endswith(".yaml"))
+        raise ArmModelError(f"unknown arm model {name!r}; choices: {', '.join(known)}")
+    doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    try:
+        joints = tuple(doc["joints"])
+        fingers = {str(k): float(v) for k, v in (doc.get("fingers") or {}).items()}
+        kin = read_urdf(_urdf_path(doc["urdf"]), joints, fingers)
+        limits = tuple((float(lo), float(hi)) for lo, hi in doc.get("limits") or kin.urdf_limits)
+        model = ArmModel(
+            name=str(doc["name"]),
+            urdf=str(doc["urdf"]),
+            joints=joints,
+            limits=limits,
+            fingers=fingers,
+            end_effector=str(doc["end_effector"]),
+            allowed=_pairs(doc.get("allowed") or [], str(path)),
+            spheres=str(doc["spheres"]),
+            source=str(doc.get("source", "")),
+            kinematics=kin,
+        )
+    except (KeyError, TypeError) as e:
+        raise ArmModelError(f"{path}: missing or malformed key {e}") from None
+    if len(model.limits) != len(joints) or any(lo >= hi for lo, hi in model.limits):
+        raise ArmModelError(f"{path}: limits must be one [lower, upper] pair per joint, lower < upper")
+    names = {f.link for f in kin.frames}
+    for a, b in model.allowed:
+        if a not in names or b not in names:
+            raise ArmModelError(f"{path}: allowed pair ({a}, {b}) names a link the URDF lacks")
+    kin.index(model.end_effector)
+    return model
