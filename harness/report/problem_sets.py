@@ -78,6 +78,6 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
         "`box_panda`). Valid: start and goal are valid for our robot model (the others are logged "
         "`invalid_query`, as VAMP counts them); solved: the path passed the fine re-check. Times are over the "
         "solved queries, all seeds together; the success interval is Wilson's 95%. arm7's robot is the Franka "
-        "Panda of pybullet_data (fingers fixed open), not the paper's Baxter."
+        "Panda as MotionBenchMaker models it (fingers held at 0.065 m, MoveIt's limits), not the paper's Baxter."
     )
     return f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"

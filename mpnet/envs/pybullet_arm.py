@@ -22,7 +22,6 @@ from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
 
 
-
 class ArmWorld:
     """A pybullet DIRECT client with the model's arm at the origin, fixed base, fingers held."""
 

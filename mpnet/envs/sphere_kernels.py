@@ -6,10 +6,12 @@ configuration is ~13 frame transforms and a few hundred sphere tests with early 
 numpy cannot batch without paying ~30 us of call overhead; compiled, one costs ~1-2 us.
 
 Data layout (built by mpnet.envs.spheres.SphereModel): frames in parent-before-child order
-(`parent`, `origin` (F, 3, 4), `kind`, `axis`, `coord`), spheres grouped by link
-(`link_frame`, `link_start`, `link_end`, `local` (S, 3), `radius`), each link's bounding
-sphere (`blocal`, `bradius`), the self-collision link pairs, and per sphere and per link a
-lever (S, dof): a bound on how far the sphere's centre moves per radian of each joint.
+(`parent`, `origin` (F, 3, 4), `kind`, `axis`, `coord`); a three-level sphere tree: links
+(each a bounding sphere and a range of groups), groups (each a bounding sphere and a range
+of spheres) and the spheres (`local` (S, 3) in their frame, `radius`); the self-collision
+link pairs; and, for every sphere, group and link, a lever per joint: a bound on how far its
+centre moves per radian of that joint. A test descends the tree only where a bounding sphere
+touches, so a configuration far from everything costs a few dozen tests, not thousands.
 
 A state's verdict is one of FREE (free even with every sphere grown by its `extra`),
 NEAR (free, but not with the growth) or HIT (a sphere touches an obstacle or another link).
@@ -26,25 +28,27 @@ FREE, NEAR, HIT = 0, 1, 2
 QUEUE = 1 << 14  # motion intervals pending at once; a motion that needs more is called blocked
 
 
-HEAD = 6  # mi starts with F, L, S, P, D, first
+HEAD = 7  # mi starts with F, L, G, S, P, D, first
+# The model tuple's fields, in unpack's order.
+PARENT, ORIGIN, KIND, AXIS, COORD = 0, 1, 2, 3, 4
+LINK_FRAME, LINK_G0, LINK_G1, GROUP_FRAME, GROUP_S0, GROUP_S1 = 5, 6, 7, 8, 9, 10
+LOCAL, RADIUS, BLOCAL, BRADIUS, GLOCAL, GRADIUS = 11, 12, 13, 14, 15, 16
+PAIR_A, PAIR_B, FIRST, LEVER, LLEVER, GLEVER, PAIR_J0 = 17, 18, 19, 20, 21, 22, 23
 
 
 @njit(cache=True)
 def unpack(mi, mf):
     """The model's arrays as views of its two packed arrays (one int64, one float64: two
-    arguments dispatch from Python in well under a microsecond, a tuple of 15 does not)."""
-    F, L, S, P, D, first = mi[0], mi[1], mi[2], mi[3], mi[4], mi[5]
+    arguments dispatch from Python in well under a microsecond, a tuple of 24 does not)."""
+    F, L, G, S, P, D, first = mi[0], mi[1], mi[2], mi[3], mi[4], mi[5], mi[6]
     o = HEAD
-    parent = mi[o : o + F]
-    kind = mi[o + F : o + 2 * F]
-    coord = mi[o + 2 * F : o + 3 * F]
+    parent, kind, coord = mi[o : o + F], mi[o + F : o + 2 * F], mi[o + 2 * F : o + 3 * F]
     o += 3 * F
-    link_frame = mi[o : o + L]
-    link_start = mi[o + L : o + 2 * L]
-    link_end = mi[o + 2 * L : o + 3 * L]
+    link_frame, link_g0, link_g1 = mi[o : o + L], mi[o + L : o + 2 * L], mi[o + 2 * L : o + 3 * L]
     o += 3 * L
-    pair_a = mi[o : o + P]
-    pair_b = mi[o + P : o + 2 * P]
+    group_frame, group_s0, group_s1 = mi[o : o + G], mi[o + G : o + 2 * G], mi[o + 2 * G : o + 3 * G]
+    o += 3 * G
+    pair_a, pair_b, pair_j0 = mi[o : o + P], mi[o + P : o + 2 * P], mi[o + 2 * P : o + 3 * P]
     o = 0
     origin = mf[o : o + 12 * F].reshape((F, 3, 4))
     o += 12 * F
@@ -58,11 +62,41 @@ def unpack(mi, mf):
     o += 3 * L
     bradius = mf[o : o + L]
     o += L
+    glocal = mf[o : o + 3 * G].reshape((G, 3))
+    o += 3 * G
+    gradius = mf[o : o + G]
+    o += G
     lever = mf[o : o + S * D].reshape((S, D))
     o += S * D
     llever = mf[o : o + L * D].reshape((L, D))
-    return (parent, origin, kind, axis, coord, link_frame, link_start, link_end, local, radius, blocal, bradius,
-            pair_a, pair_b, first, lever, llever)
+    o += L * D
+    glever = mf[o : o + G * D].reshape((G, D))
+    return (
+        parent,
+        origin,
+        kind,
+        axis,
+        coord,
+        link_frame,
+        link_g0,
+        link_g1,
+        group_frame,
+        group_s0,
+        group_s1,
+        local,
+        radius,
+        blocal,
+        bradius,
+        glocal,
+        gradius,
+        pair_a,
+        pair_b,
+        first,
+        lever,
+        llever,
+        glever,
+        pair_j0,
+    )
 
 
 @njit(cache=True)
@@ -78,31 +112,68 @@ def unpack_obstacles(ob):
     return boxes, cyls, balls, ob[3]
 
 
+# The scratch tuple's fields, in unpack_buffers' order.
+POSE, CENTRES, LCENTRES, GCENTRES, LPLACED, GPLACED, LEXTRA, GEXTRA, LB, GB = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
+QVEC, DQ, AXPOINT, AXDIR, PRIS, TOP, T0S, T1S, PG = 10, 11, 12, 13, 14, 15, 16, 17, 18
+
+
 @njit(cache=True)
 def unpack_buffers(mi, buf):
-    """Scratch views: poses (F + 1, 3, 4), sphere centres (S, 3), link centres (L, 3),
-    placed flags (L), sphere growth (S), link growth (L), a joint vector (D)."""
-    F, L, S, D = mi[0], mi[1], mi[2], mi[4]
-    o = 0
-    pose = buf[o : o + 12 * (F + 1)].reshape((F + 1, 3, 4))
-    o += 12 * (F + 1)
+    """Scratch views: poses (F + 1, 3, 4); sphere, link and group centres; link and group
+    placed flags; link and group growth and second-order terms; a joint vector and the
+    motion's joint steps; the joints' axes (points, directions, prismatic flags); the
+    largest growth; the motion queue's interval ends."""
+    F, L, G, S, D = mi[0], mi[1], mi[2], mi[3], mi[5]
+    o = 12 * (F + 1)
+    pose = buf[:o].reshape((F + 1, 3, 4))
     centres = buf[o : o + 3 * S].reshape((S, 3))
     o += 3 * S
-    bcentres = buf[o : o + 3 * L].reshape((L, 3))
+    lcentres = buf[o : o + 3 * L].reshape((L, 3))
     o += 3 * L
-    placed = buf[o : o + L]
-    o += L
-    extra = buf[o : o + S]
-    o += S
-    lextra = buf[o : o + L]
-    o += L
-    q = buf[o : o + D]
-    return pose, centres, bcentres, placed, extra, lextra, q
+    gcentres = buf[o : o + 3 * G].reshape((G, 3))
+    o += 3 * G
+    lplaced, gplaced = buf[o : o + L], buf[o + L : o + L + G]
+    o += L + G
+    lextra, gextra = buf[o : o + L], buf[o + L : o + L + G]
+    o += L + G
+    lb, gb = buf[o : o + L], buf[o + L : o + L + G]
+    o += L + G
+    q, dq = buf[o : o + D], buf[o + D : o + 2 * D]
+    o += 2 * D
+    ap = buf[o : o + 3 * D].reshape((D, 3))
+    o += 3 * D
+    au = buf[o : o + 3 * D].reshape((D, 3))
+    o += 3 * D
+    pris, top = buf[o : o + D], buf[o + D : o + D + 1]
+    o += D + 1
+    t0s, t1s = buf[o : o + QUEUE], buf[o + QUEUE : o + 2 * QUEUE]
+    o += 2 * QUEUE
+    pg = buf[o : o + G]
+    return (
+        pose,
+        centres,
+        lcentres,
+        gcentres,
+        lplaced,
+        gplaced,
+        lextra,
+        gextra,
+        lb,
+        gb,
+        q,
+        dq,
+        ap,
+        au,
+        pris,
+        top,
+        t0s,
+        t1s,
+        pg,
+    )
 
 
-def buffer_size(F: int, L: int, S: int, D: int) -> int:
-    return 12 * (F + 1) + 3 * S + 3 * L + L + S + L + D
-
+def buffer_size(F: int, L: int, G: int, S: int, D: int) -> int:
+    return 12 * (F + 1) + 3 * (S + L + G) + 3 * (L + G) + 9 * D + 1 + 2 * QUEUE + G
 
 
 @njit(cache=True)
@@ -132,7 +203,9 @@ def forward(q, parent, origin, kind, axis, coord, out):
                     m[i, 2] = a0 * r02 + a1 * r12 + a2 * r22
             else:
                 for i in range(3):
-                    m[i, 3] += v * (origin[f, i, 0] * axis[f, 0] + origin[f, i, 1] * axis[f, 1] + origin[f, i, 2] * axis[f, 2])
+                    m[i, 3] += v * (
+                        origin[f, i, 0] * axis[f, 0] + origin[f, i, 1] * axis[f, 1] + origin[f, i, 2] * axis[f, 2]
+                    )
         p = parent[f]
         if p < 0:
             for i in range(3):
@@ -149,7 +222,9 @@ def forward(q, parent, origin, kind, axis, coord, out):
 @njit(cache=True)
 def _place(pose, f, local, k, out, o):
     for i in range(3):
-        out[o, i] = pose[f, i, 0] * local[k, 0] + pose[f, i, 1] * local[k, 1] + pose[f, i, 2] * local[k, 2] + pose[f, i, 3]
+        out[o, i] = (
+            pose[f, i, 0] * local[k, 0] + pose[f, i, 1] * local[k, 1] + pose[f, i, 2] * local[k, 2] + pose[f, i, 3]
+        )
 
 
 @njit(cache=True)
@@ -185,68 +260,174 @@ def _dist2(p, o, boxes, cyls, balls, kind, j):
 
 
 @njit(cache=True)
-def verdict(q, m, obs, bufs):
-    """FREE, NEAR or HIT for configuration q (see the module docstring); `extra` (S,) and
-    `lextra` (L,) grow the spheres and the links' bounding spheres (zeros: a plain check)."""
-    parent, origin, kind, axis, coord, link_frame, link_start, link_end, local, radius, blocal, bradius = m[:12]
-    pair_a, pair_b, first = m[12], m[13], m[14]
+def _growth(c, i, rad, Bv, g, grow):
+    """How far any point within rad of point c[i] can move in the current half interval:
+    h sum_j |dq_j| (rho_j + rad) + h^2 / 2 B, where rho_j is c[i]'s distance from joint j's
+    axis now (see _motion_free). grow = (h, |dq| (D,), axis points (D, 3), axis
+    directions (D, 3), prismatic flags (D,))."""
+    h, dq, ap, au, pris = grow
+    a = 0.0
+    for j in range(dq.shape[0]):
+        if dq[j] == 0.0:
+            continue
+        if pris[j] != 0.0:
+            a += dq[j]
+            continue
+        vx, vy, vz = c[i, 0] - ap[j, 0], c[i, 1] - ap[j, 1], c[i, 2] - ap[j, 2]
+        t = vx * au[j, 0] + vy * au[j, 1] + vz * au[j, 2]
+        rho2 = vx * vx + vy * vy + vz * vz - t * t
+        a += dq[j] * (math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i])
+    return h * a + 0.5 * h * h * Bv[g]
+
+
+@njit(cache=True)
+def _growth_from(c, i, rad, lever, j0, grow):
+    """_growth counting only joints j0.. (those between a link and a link below it: how far
+    a point of the lower link moves relative to the upper one), its second-order term
+    computed here from the static levers."""
+    h, dq, ap, au, pris = grow
+    first, later, second = 0.0, 0.0, 0.0
+    for j in range(dq.shape[0] - 1, j0 - 1, -1):
+        second += dq[j] * later
+        later += dq[j] * (lever[i, j] + rad[i])
+        if dq[j] == 0.0:
+            continue
+        if pris[j] != 0.0:
+            first += dq[j]
+            continue
+        vx, vy, vz = c[i, 0] - ap[j, 0], c[i, 1] - ap[j, 1], c[i, 2] - ap[j, 2]
+        t = vx * au[j, 0] + vy * au[j, 1] + vz * au[j, 2]
+        rho2 = vx * vx + vy * vy + vz * vz - t * t
+        first += dq[j] * (math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i])
+    return h * first + 0.5 * h * h * second
+
+
+@njit(cache=True)
+def _place_groups(li, m, bufs, grow, growing):
+    """The centres (and, in a motion, the growth) of link li's groups, once per configuration."""
+    if bufs[LPLACED][li] == 0.0:
+        pose, gcentres, gextra = bufs[POSE], bufs[GCENTRES], bufs[GEXTRA]
+        for g in range(m[LINK_G0][li], m[LINK_G1][li]):
+            _place(pose, m[GROUP_FRAME][g], m[GLOCAL], g, gcentres, g)
+            gextra[g] = _growth(gcentres, g, m[GRADIUS], bufs[GB], g, grow) if growing else 0.0
+        bufs[LPLACED][li] = 1.0
+
+
+@njit(cache=True)
+def _place_spheres(g, m, bufs):
+    """The centres of group g's spheres, once per configuration."""
+    if bufs[GPLACED][g] == 0.0:
+        pose, centres = bufs[POSE], bufs[CENTRES]
+        f = m[GROUP_FRAME][g]
+        for k in range(m[GROUP_S0][g], m[GROUP_S1][g]):
+            _place(pose, f, m[LOCAL], k, centres, k)
+        bufs[GPLACED][g] = 1.0
+
+
+@njit(cache=True)
+def _apart(p, i, rp, c, j, rc, reach):
+    """Are point p[i] and point c[j] farther apart than rp[i] + rc[j] + reach?"""
+    d2 = 0.0
+    for x in range(3):
+        d2 += (p[i, x] - c[j, x]) ** 2
+    r = rp[i] + rc[j] + reach
+    return d2 > r * r
+
+
+@njit(cache=True)
+def _axes(m, pose, ap, au, pris):
+    """Each joint's axis in the base frame now: a point on it, its direction, prismatic flag."""
+    coord, kind, axis = m[COORD], m[KIND], m[AXIS]
+    for f in range(coord.shape[0]):
+        j = coord[f]
+        if j < 0:
+            continue
+        pris[j] = 1.0 if kind[f] == 2 else 0.0
+        for x in range(3):
+            ap[j, x] = pose[f, x, 3]
+            au[j, x] = pose[f, x, 0] * axis[f, 0] + pose[f, x, 1] * axis[f, 1] + pose[f, x, 2] * axis[f, 2]
+
+
+@njit(cache=True)
+def verdict(q, m, obs, bufs, growing, h, dq):
+    """FREE, NEAR or HIT for configuration q (see the module docstring). `growing`: q is
+    the midpoint of a motion interval of half-width h (in the motion's parameter) along
+    joint steps dq; every sphere, group and link is grown by how far it can move in it."""
     boxes, cyls, balls, margin = obs
-    pose, centres, bcentres, placed, extra, lextra, _ = bufs
-    forward(q, parent, origin, kind, axis, coord, pose)
-    L = link_frame.shape[0]
+    pose, centres, lcentres, gcentres = bufs[POSE], bufs[CENTRES], bufs[LCENTRES], bufs[GCENTRES]
+    lextra, gextra = bufs[LEXTRA], bufs[GEXTRA]
+    link_g0, link_g1, group_s0, group_s1 = m[LINK_G0], m[LINK_G1], m[GROUP_S0], m[GROUP_S1]
+    radius, bradius, gradius = m[RADIUS], m[BRADIUS], m[GRADIUS]
+    forward(q, m[PARENT], m[ORIGIN], m[KIND], m[AXIS], m[COORD], pose)
+    ap, au, pris = bufs[AXPOINT], bufs[AXDIR], bufs[PRIS]
+    if growing:
+        _axes(m, pose, ap, au, pris)
+    grow = (h, dq, ap, au, pris)
+    L = link_g0.shape[0]
+    top = 0.0
     for li in range(L):
-        _place(pose, link_frame[li], blocal, li, bcentres, li)
-        placed[li] = 0.0
+        _place(pose, m[LINK_FRAME][li], m[BLOCAL], li, lcentres, li)
+        lextra[li] = _growth(lcentres, li, bradius, bufs[LB], li, grow) if growing else 0.0
+        top = max(top, lextra[li])
+        bufs[LPLACED][li] = 0.0
+    bufs[GPLACED][:] = 0.0
+    bufs[TOP][0] = top
     near = False
     counts = (boxes.shape[0], cyls.shape[0], balls.shape[0])
-    for li in range(first, L):
+    for li in range(m[FIRST], L):
         for ok in range(3):
             for j in range(counts[ok]):
                 reach = bradius[li] + lextra[li] + margin
-                if _dist2(bcentres, li, boxes, cyls, balls, ok, j) > reach * reach:
+                if _dist2(lcentres, li, boxes, cyls, balls, ok, j) > reach * reach:
                     continue
-                if placed[li] == 0.0:
-                    for k in range(link_start[li], link_end[li]):
-                        _place(pose, link_frame[li], local, k, centres, k)
-                    placed[li] = 1.0
-                for k in range(link_start[li], link_end[li]):
-                    d2 = _dist2(centres, k, boxes, cyls, balls, ok, j)
-                    r = radius[k] + margin
-                    if d2 <= r * r:
-                        return HIT
-                    r += extra[k]
-                    if d2 <= r * r:
-                        near = True
+                _place_groups(li, m, bufs, grow, growing)
+                for g in range(link_g0[li], link_g1[li]):
+                    reach = gradius[g] + gextra[g] + margin
+                    if _dist2(gcentres, g, boxes, cyls, balls, ok, j) > reach * reach:
+                        continue
+                    _place_spheres(g, m, bufs)
+                    for k in range(group_s0[g], group_s1[g]):
+                        d2 = _dist2(centres, k, boxes, cyls, balls, ok, j)
+                        r = radius[k] + margin
+                        if d2 <= r * r:
+                            return HIT
+                        r += gextra[g]
+                        if d2 <= r * r:
+                            near = True
+    pair_a, pair_b, pair_j0, pg = m[PAIR_A], m[PAIR_B], m[PAIR_J0], bufs[PG]
     for pi in range(pair_a.shape[0]):
-        a, b = pair_a[pi], pair_b[pi]
-        reach = bradius[a] + bradius[b] + lextra[a] + lextra[b]
-        d2 = 0.0
-        for i in range(3):
-            d2 += (bcentres[a, i] - bcentres[b, i]) ** 2
-        if d2 > reach * reach:
+        a, b, j0 = pair_a[pi], pair_b[pi], pair_j0[pi]
+        # In a motion, link b moves relative to link a (its ancestor) only through the joints
+        # between them: b grows by that, a not at all. Otherwise both grow by their own motion.
+        rel = growing and j0 >= 0
+        if rel:
+            ra, rb = 0.0, _growth_from(lcentres, b, bradius, m[LLEVER], j0, grow)
+        else:
+            ra, rb = lextra[a], lextra[b]
+        if _apart(lcentres, a, bradius, lcentres, b, bradius, ra + rb):
             continue
-        for li in (a, b):
-            if placed[li] == 0.0:
-                for k in range(link_start[li], link_end[li]):
-                    _place(pose, link_frame[li], local, k, centres, k)
-                placed[li] = 1.0
-        for k in range(link_start[a], link_end[a]):
-            d2 = 0.0
-            for i in range(3):
-                d2 += (centres[k, i] - bcentres[b, i]) ** 2
-            reach = radius[k] + extra[k] + bradius[b] + lextra[b]
-            if d2 > reach * reach:  # sphere k is clear of all of link b
+        _place_groups(a, m, bufs, grow, growing)
+        _place_groups(b, m, bufs, grow, growing)
+        for gb in range(link_g0[b], link_g1[b]):
+            pg[gb] = _growth_from(gcentres, gb, gradius, m[GLEVER], j0, grow) if rel else gextra[gb]
+        for ga in range(link_g0[a], link_g1[a]):
+            ga_grow = 0.0 if rel else gextra[ga]
+            if _apart(gcentres, ga, gradius, lcentres, b, bradius, ga_grow + rb):
                 continue
-            for n in range(link_start[b], link_end[b]):
-                d2 = 0.0
-                for i in range(3):
-                    d2 += (centres[k, i] - centres[n, i]) ** 2
-                r = radius[k] + radius[n]
-                if d2 <= r * r:
-                    return HIT
-                r += extra[k] + extra[n]
-                if d2 <= r * r:
-                    near = True
+            for gb in range(link_g0[b], link_g1[b]):
+                grown = ga_grow + pg[gb]
+                if _apart(gcentres, ga, gradius, gcentres, gb, gradius, grown):
+                    continue
+                _place_spheres(ga, m, bufs)
+                _place_spheres(gb, m, bufs)
+                for k in range(group_s0[ga], group_s1[ga]):
+                    if _apart(centres, k, radius, gcentres, gb, gradius, grown):
+                        continue
+                    for n in range(group_s0[gb], group_s1[gb]):
+                        if not _apart(centres, k, radius, centres, n, radius, 0.0):
+                            return HIT
+                        if not _apart(centres, k, radius, centres, n, radius, grown):
+                            near = True
     return NEAR if near else FREE
 
 
@@ -255,10 +436,7 @@ def _state_free(q, m, obs, lower, upper, bufs):
     for d in range(q.shape[0]):
         if not lower[d] <= q[d] <= upper[d]:
             return False
-    extra, lextra = bufs[4], bufs[5]
-    extra[:] = 0.0
-    lextra[:] = 0.0
-    return verdict(q, m, obs, bufs) != HIT
+    return verdict(q, m, obs, bufs, False, 0.0, q) != HIT
 
 
 @njit(cache=True)
@@ -278,43 +456,48 @@ def states_free(qs, mi, mf, ob, lower, upper, buf):
 
 
 @njit(cache=True)
+def _second_order(lever, rad, dq, out):
+    """B = sum_j |dq_j| sum_{k > j} |dq_k| (R_k + rad) per row: how much a point's distance
+    from joint j's axis can change per unit of the interval (joints after j move it)."""
+    D = dq.shape[0]
+    for i in range(lever.shape[0]):
+        later, s = 0.0, 0.0
+        for j in range(D - 1, -1, -1):
+            s += dq[j] * later
+            later += dq[j] * (lever[i, j] + rad[i])
+        out[i] = s
+
+
+@njit(cache=True)
 def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
     """Is the straight joint motion a -> b free everywhere along it? Returns (free,
     configurations evaluated).
 
-    Certified, not sampled: an interval [t0, t1] of the motion is free when its midpoint is
-    free with every sphere grown by how far that sphere can move in half the interval
-    (lever . |b - a| (t1 - t0) / 2), since no point of the sphere's sweep is farther than
-    that from where it is at the midpoint. Intervals that are only NEAR are halved; a HIT
-    at any midpoint, an interval whose growth is below `tol` metres and still NEAR, or more
-    than QUEUE pending intervals, and the motion is called blocked. Joint limits are a box:
-    the motion stays inside when its ends do."""
-    for d in range(a.shape[0]):
+    Certified, not sampled. Along the motion q(t) = a + t (b - a), a point of a link moves
+    at most sum_j |dq_j| rho_j(t) per unit of t, rho_j its distance from joint j's axis;
+    rho_j changes only through the joints after j, by at most sum_{k>j} |dq_k| R_k per unit
+    of t (R_k: the static lever, the lengths of the fixed offsets from joint k to the point).
+    So within [m - h, m + h] a point moves at most h sum_j |dq_j| rho_j(m) + h^2 / 2 B from
+    where it is at m. An interval is free when its midpoint is free with every sphere (and
+    group and link bounding sphere) grown by that much; intervals that are only NEAR are
+    halved; a HIT at any midpoint, a NEAR interval whose largest growth is below `tol`
+    metres, or more than QUEUE pending intervals, and the motion is called blocked. Joint
+    limits are a box: the motion stays inside when its ends do. (Joint coordinates must
+    run along the chain: SphereModel checks it.)"""
+    D = a.shape[0]
+    for d in range(D):
         if not (lower[d] <= a[d] <= upper[d] and lower[d] <= b[d] <= upper[d]):
             return False, 0
-    lever, llever = m[15], m[16]
-    extra, lextra, q = bufs[4], bufs[5], bufs[6]
-    S, L, D = lever.shape[0], llever.shape[0], a.shape[0]
-    speed = np.zeros(S)
-    lspeed = np.zeros(L)
+    q, dq, t0s, t1s = bufs[QVEC], bufs[DQ], bufs[T0S], bufs[T1S]
     for d in range(D):
-        step = abs(b[d] - a[d])
-        for k in range(S):
-            speed[k] += lever[k, d] * step
-        for li in range(L):
-            lspeed[li] += llever[li, d] * step
-    top = 0.0
-    for k in range(S):
-        top = max(top, speed[k])
+        dq[d] = abs(b[d] - a[d])
+    _second_order(m[LLEVER], m[BRADIUS], dq, bufs[LB])
+    _second_order(m[GLEVER], m[GRADIUS], dq, bufs[GB])
     evaluated = 0
-    extra[:] = 0.0
-    lextra[:] = 0.0
     for end in (b, a):  # the ends exactly first, where a blocked motion is most often found
         evaluated += 1
-        if verdict(end, m, obs, bufs) == HIT:
+        if verdict(end, m, obs, bufs, False, 0.0, dq) == HIT:
             return False, evaluated
-    t0s = np.empty(QUEUE)
-    t1s = np.empty(QUEUE)
     head, tail = 0, 1
     t0s[0], t1s[0] = 0.0, 1.0
     while head != tail:
@@ -324,15 +507,11 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
         mid = t0 + half
         for d in range(D):
             q[d] = a[d] + mid * (b[d] - a[d])
-        for k in range(S):
-            extra[k] = speed[k] * half
-        for li in range(L):
-            lextra[li] = lspeed[li] * half
         evaluated += 1
-        v = verdict(q, m, obs, bufs)
+        v = verdict(q, m, obs, bufs, True, half, dq)
         if v == FREE:
             continue
-        if v == HIT or top * half < tol or tail - head + 2 > QUEUE:
+        if v == HIT or bufs[TOP][0] < tol or tail - head + 2 > QUEUE:
             return False, evaluated
         t0s[tail % QUEUE], t1s[tail % QUEUE] = t0, mid
         tail += 1

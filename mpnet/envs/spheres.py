@@ -16,6 +16,8 @@ from functools import cache
 from importlib import resources
 
 import numpy as np
+from scipy.cluster.vq import kmeans2
+
 from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import PRISMATIC, ArmModel, load_arm_model
 from mpnet.envs.collision import CollisionChecker
@@ -46,19 +48,20 @@ class SphereModel:
         links = [f.link for f in frames if f.link in doc["links"]]
         self.links = links
         self.link_frame = np.array([kin.index(name) for name in links], np.int64)
-        spheres = [np.array(doc["links"][name], float).reshape(-1, 4) for name in links]
-        sizes = np.array([len(s) for s in spheres])
-        self.link_start = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-        self.link_end = np.cumsum(sizes).astype(np.int64)
-        allsph = np.concatenate(spheres)
+        spheres = [_grouped(np.array(doc["links"][name], float).reshape(-1, 4)) for name in links]
+        groups = [g for link in spheres for g in link]
+        gsizes = np.array([len(g) for g in groups])
+        per_link = np.array([len(link) for link in spheres])
+        self.link_g1 = np.cumsum(per_link).astype(np.int64)
+        self.link_g0 = self.link_g1 - per_link
+        self.group_s1 = np.cumsum(gsizes).astype(np.int64)
+        self.group_s0 = self.group_s1 - gsizes
+        self.group_frame = np.repeat(self.link_frame, per_link)
+        allsph = np.concatenate(groups)
         self.local = np.ascontiguousarray(allsph[:, :3])
         self.radius = np.ascontiguousarray(allsph[:, 3])
-        self.blocal = np.empty((len(links), 3))
-        self.bradius = np.empty(len(links))
-        for li, s in enumerate(spheres):
-            c = (s[:, :3].min(axis=0) + s[:, :3].max(axis=0)) / 2
-            self.blocal[li] = c
-            self.bradius[li] = float((np.linalg.norm(s[:, :3] - c, axis=1) + s[:, 3]).max())
+        self.blocal, self.bradius = _bounds([np.concatenate(link) for link in spheres])
+        self.glocal, self.gradius = _bounds(groups)
         pairs = [
             (a, b)
             for a in range(len(links))
@@ -67,25 +70,32 @@ class SphereModel:
         ]
         self.pair_a = np.array([p[0] for p in pairs], np.int64)
         self.pair_b = np.array([p[1] for p in pairs], np.int64)
+        self.pair_j0 = np.array([self._joints_between(a, b) for a, b in pairs], np.int64)
         # The root link never moves: it is tested against a workspace's obstacles once.
         self.first = 1 if self.link_frame[0] == 0 else 0
-        sphere_frame = np.repeat(self.link_frame, sizes)
-        self.lever = self._levers(sphere_frame, self.local, model.dof)
+        self.sphere_frame = np.repeat(self.group_frame, gsizes)
+        self.lever = self._levers(self.sphere_frame, self.local, model.dof)
         self.llever = self._levers(self.link_frame, self.blocal, model.dof)
+        self.glever = self._levers(self.group_frame, self.glocal, model.dof)
+        self._check_chain()
         self.lower = np.array([b[0] for b in model.limits])
         self.upper = np.array([b[1] for b in model.limits])
-        F, L, S, P, D = len(self.parent), len(links), len(self.radius), len(pairs), model.dof
+        F, L, G, S, P, D = len(self.parent), len(links), len(groups), len(self.radius), len(pairs), model.dof
         self.mi = np.concatenate(
             [
-                [F, L, S, P, D, self.first],
+                [F, L, G, S, P, D, self.first],
                 self.parent,
                 self.kind,
                 self.coord,
                 self.link_frame,
-                self.link_start,
-                self.link_end,
+                self.link_g0,
+                self.link_g1,
+                self.group_frame,
+                self.group_s0,
+                self.group_s1,
                 self.pair_a,
                 self.pair_b,
+                self.pair_j0,
             ]
         ).astype(np.int64)
         self.mf = np.concatenate(
@@ -98,12 +108,45 @@ class SphereModel:
                     self.radius,
                     self.blocal,
                     self.bradius,
+                    self.glocal,
+                    self.gradius,
                     self.lever,
                     self.llever,
+                    self.glever,
                 )
             ]
         )
-        self._buffer_size = K.buffer_size(F, L, S, D)
+        self._buffer_size = K.buffer_size(F, L, G, S, D)
+        self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
+
+    def _check_chain(self) -> None:
+        """The motion bound orders joints along the chain: coordinate k + 1's joint must
+        lie below coordinate k's."""
+        frames = self.model.kinematics.frames
+        at = {f.coordinate: i for i, f in enumerate(frames) if f.coordinate >= 0}
+        for k in range(1, len(at)):
+            i = at[k]
+            while i >= 0 and i != at[k - 1]:
+                i = frames[i].parent
+            if i < 0:
+                raise ValueError(
+                    f"{self.model.name}: joint {self.model.joints[k]} is not below {self.model.joints[k - 1]}"
+                )
+
+    def _joints_between(self, a: int, b: int) -> int:
+        """The first coordinate whose joint lies between links a and b when a is an ancestor
+        of b (the joints that move b relative to a are it and the ones after it); -1 when
+        neither is the other's ancestor."""
+        frames = self.model.kinematics.frames
+        fa, i = int(self.link_frame[a]), int(self.link_frame[b])
+        first = -1
+        while i >= 0 and i != fa:
+            if frames[i].coordinate >= 0:
+                first = frames[i].coordinate
+            i = frames[i].parent
+        if i < 0:
+            return -1
+        return first if first >= 0 else self.model.dof
 
     def _parent_child(self, a: str, b: str) -> bool:
         """Links joined by one joint (pybullet never checks them either)."""
@@ -137,9 +180,29 @@ class SphereModel:
         """(S, 4): every sphere's centre in the base frame and its radius at q."""
         pose = np.zeros((len(self.parent) + 1, 3, 4))
         K.forward(np.asarray(q, float), self.parent, self.origin, self.kind, self.axis, self.coord, pose)
-        frame = np.repeat(self.link_frame, self.link_end - self.link_start)
+        frame = self.sphere_frame
         centres = np.einsum("nij,nj->ni", pose[frame, :, :3], self.local) + pose[frame, :, 3]
         return np.column_stack([centres, self.radius])
+
+
+GROUP = 8  # spheres per group of the tree (about): a link's groups are tested before its spheres
+
+
+def _grouped(spheres: np.ndarray) -> list[np.ndarray]:
+    """A link's spheres split into groups of about GROUP neighbours (k-means on the centres,
+    seeded: the same model always gives the same tree)."""
+    k = max(1, round(len(spheres) / GROUP))
+    if k == 1:
+        return [spheres]
+    _, label = kmeans2(spheres[:, :3], k, minit="++", seed=np.random.default_rng(0), iter=30)
+    return [spheres[label == j] for j in range(k) if (label == j).any()]
+
+
+def _bounds(sets: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """A bounding sphere (centre, radius) of each set of spheres."""
+    centres = np.array([(s[:, :3].min(axis=0) + s[:, :3].max(axis=0)) / 2 for s in sets])
+    radii = np.array([float((np.linalg.norm(s[:, :3] - c, axis=1) + s[:, 3]).max()) for s, c in zip(sets, centres)])
+    return centres, radii
 
 
 @cache
@@ -179,7 +242,7 @@ class SphereChecker(CollisionChecker):
         m = self.model
         if not m.first:
             return False
-        base = m.world_spheres(np.zeros(m.model.dof))[m.link_start[0] : m.link_end[0]]
+        base = m.world_spheres(np.zeros(m.model.dof))[: m.link_sizes[0]]
         return bool(K.any_hit(np.ascontiguousarray(base[:, :3]), np.ascontiguousarray(base[:, 3]), self._args[2]))
 
     def counts(self) -> dict:

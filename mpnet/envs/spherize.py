@@ -5,9 +5,10 @@ pybullet tests every collision mesh as its convex hull, so the covering is of th
 volume and surface: each link's hull is filled with points (a grid inside, a fine
 triangulated grid on every face, every vertex) and covered greedily by balls centred
 inside the hull that reach at most `reach` beyond it (a set cover: few spheres, each
-hugging the hull, as a medial-axis sphere tree does). Every sphere is padded by `pad`, which must exceed the gap between the sample points (a point of the hull
-is never farther than `spacing` from a sample) plus Bullet's collision margin; the
-covering tests check every hull vertex and dense random points of the hulls.
+hugging the hull, as a medial-axis sphere tree does). Every sphere is padded by `pad`,
+which must exceed the gap between the sample points (a point of the hull is never farther
+than `spacing` from a sample) plus Bullet's collision margin; the covering tests check
+every hull vertex and dense random points of the hulls.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from mpnet.envs.arm_model import ArmModel
+
+CANDIDATE_SPACING = 0.005  # m between the interior grid's candidate centres
 
 
 def read_obj_vertices(path) -> np.ndarray:
@@ -71,9 +74,16 @@ def cover(points: np.ndarray, hull: ConvexHull, reach: float, seed: int, subsamp
     holding the most points not yet held), then every point assigned to the chosen ball it
     overshoots least and each radius set to its farthest assigned point."""
     rng = np.random.default_rng(seed)
-    centres, radii = candidates(hull, reach, reach / 2)
+    centres, radii = candidates(hull, reach, CANDIDATE_SPACING)
     sub = points[rng.choice(len(points), min(subsample, len(points)), replace=False)]
-    holds = ((centres[:, None, :] - sub[None]) ** 2).sum(-1) <= radii[:, None] ** 2
+    holds = np.concatenate(
+        [
+            ((c[:, None, :] - sub[None]) ** 2).sum(-1) <= r[:, None] ** 2
+            for c, r in zip(
+                np.array_split(centres, 1 + len(centres) // 1000), np.array_split(radii, 1 + len(radii) // 1000)
+            )
+        ]
+    )
     open_, chosen = np.ones(len(sub), bool), []
     while open_.any():
         j = int(np.argmax(holds[:, open_].sum(axis=1)))

@@ -1,0 +1,175 @@
+"""The arm's sphere model and compiled checker: the covering of the meshes, the kernels'
+geometry against python-fcl, agreement with pybullet's mesh model, certified motions."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import fcl
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpnet.envs import sphere_kernels as K
+from mpnet.envs.arm_model import ArmModelError, load_arm_model
+from mpnet.envs.shapes import Primitive
+from mpnet.envs.specs import get_spec
+from mpnet.envs.spheres import pack_obstacles, read_spheres, sphere_model
+from mpnet.envs.spherize import link_hull
+from mpnet.envs.workspace import Workspace
+from mpnet.mbm import load_mbm
+
+ARM = get_spec("arm7")
+MODEL = load_arm_model("panda")
+
+
+def ws_of(*prims: Primitive) -> Workspace:
+    return Workspace("t", "file", np.zeros((0, 3)), np.zeros((0, 3)), prims)
+
+
+def test_every_mesh_link_has_spheres_made_from_the_meshes_shipped():
+    doc = read_spheres(MODEL)
+    assert set(doc["links"]) == {m.link for m in MODEL.kinematics.meshes}
+    for mesh in MODEL.kinematics.meshes:
+        assert doc["meshes"][mesh.link]["sha256"] == hashlib.sha256(mesh.path.read_bytes()).hexdigest()
+    assert doc["pad"] > doc["spacing"]
+
+
+@pytest.mark.parametrize("link", [m.link for m in MODEL.kinematics.meshes])
+def test_spheres_cover_the_links_hull(link):
+    """Every hull vertex and 20,000 random points of the hull lie inside one of the link's
+    spheres, with at least a millimetre to spare (Bullet's margin)."""
+    spheres = np.array(read_spheres(MODEL)["links"][link])
+    hull = link_hull(MODEL, link)
+    rng = np.random.default_rng(0)
+    box = rng.uniform(hull.min_bound, hull.max_bound, (200_000, 3))
+    inside = box[(box @ hull.equations[:, :3].T + hull.equations[:, 3] <= 0).all(axis=1)][:20_000]
+    for pts in (hull.points[hull.vertices], inside):
+        d = np.linalg.norm(pts[:, None, :] - spheres[None, :, :3], axis=2) - spheres[None, :, 3]
+        assert d.min(axis=1).max() <= -0.001
+
+
+def test_kernel_kinematics_match_the_model():
+    m = sphere_model("panda")
+    pose = np.zeros((len(m.parent) + 1, 3, 4))
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        q = ARM.space.sample(rng)
+        K.forward(q, m.parent, m.origin, m.kind, m.axis, m.coord, pose)
+        assert np.allclose(pose[:-1], MODEL.link_transforms(q)[:, :3, :], atol=1e-12)
+
+
+@settings(deadline=None, max_examples=40)
+@given(st.integers(0, 10_000))
+def test_levers_bound_how_far_spheres_move(seed):
+    """No sphere moves farther than lever . |dq| between two configurations."""
+    m = sphere_model("panda")
+    rng = np.random.default_rng(seed)
+    a = ARM.space.sample(rng)
+    b = np.clip(a + rng.normal(0, 0.3, 7), ARM.lower, ARM.upper)
+    moved = np.linalg.norm(m.world_spheres(b)[:, :3] - m.world_spheres(a)[:, :3], axis=1)
+    assert (moved <= m.lever @ np.abs(b - a) + 1e-12).all()
+
+
+def _fcl_shape(p: Primitive):
+    if p.type == "box":
+        return fcl.Box(*p.size)
+    if p.type == "cylinder":
+        return fcl.Cylinder(p.radius, p.height)
+    return fcl.Sphere(p.radius)
+
+
+@settings(deadline=None, max_examples=150)
+@given(
+    st.sampled_from(["box", "cylinder", "sphere"]),
+    st.lists(st.floats(0.02, 0.5), min_size=3, max_size=3),
+    st.lists(st.floats(-1, 1), min_size=4, max_size=4).filter(lambda q: np.linalg.norm(q) > 0.1),
+    st.lists(st.floats(-0.6, 0.6), min_size=3, max_size=3),
+    st.floats(0.005, 0.1),
+)
+def test_sphere_against_a_primitive_agrees_with_fcl(kind, dims, quat, centre, radius):
+    size = {"box": dims, "cylinder": [dims[0], dims[0], dims[1]], "sphere": [dims[0]] * 3}[kind]
+    p = Primitive(kind, (0.0, 0.0, 0.0), size, quat)
+    tf = fcl.Transform(p.rotation(), np.array(p.center))
+    obj, ball = fcl.CollisionObject(_fcl_shape(p), tf), fcl.CollisionObject(fcl.Sphere(radius), fcl.Transform(centre))
+    gap = fcl.distance(obj, ball, fcl.DistanceRequest(), fcl.DistanceResult())
+    if abs(gap) < 1e-6:  # touching: either answer is within rounding
+        return
+    hit = K.any_hit(np.array([centre], float), np.array([radius]), pack_obstacles(ws_of(p), 0.0))
+    assert hit == (gap < 0)
+
+
+def _scenes(mbm_dir):
+    return load_mbm(mbm_dir, ARM).workspaces + [ARM.generator.make(i, "seen") for i in range(4)]
+
+
+def test_spheres_never_call_free_what_pybullet_calls_colliding(mbm_dir):
+    """20,000 random configurations in MotionBenchMaker's and arm7's scenes: none that the
+    spheres call free and pybullet's meshes (same fingers, no margin) call colliding; the
+    spheres reject some free ones (they are a covering), but few."""
+    rng = np.random.default_rng(2)
+    rejected = free = 0
+    for ws in _scenes(mbm_dir):
+        qs = np.array([ARM.space.sample(rng) for _ in range(2000)])
+        s = ARM.make_checker(ws, margin=0.0, backend="spheres").states_valid(qs)
+        p = ARM.make_checker(ws, margin=0.0, backend="pybullet").states_valid(qs)
+        assert not (s & ~p).any(), ws.id
+        rejected += int((p & ~s).sum())
+        free += int(p.sum())
+    assert rejected / free < 0.15
+
+
+def test_free_motions_are_free_at_ten_times_finer_sampling(mbm_dir):
+    """Every motion the checker calls free, sampled 10x finer than 0.02 rad (the old
+    sampled step) with the sphere state check: no state collides."""
+    rng = np.random.default_rng(3)
+    n_free = 0
+    for ws in _scenes(mbm_dir):
+        ch = ARM.make_checker(ws, margin=0.0)
+        qs = np.array([ARM.space.sample(rng) for _ in range(1500)])
+        ok = qs[ch.states_valid(qs)]
+        a = ok[rng.integers(0, len(ok), 300)]
+        b = np.clip(a + rng.normal(0, 0.4, a.shape), ARM.lower, ARM.upper)
+        for x, y in zip(a[ch.motions_valid(a, b)], b[ch.motions_valid(a, b)]):
+            n = int(np.ceil(np.linalg.norm(y - x) / 0.002)) + 1
+            states = x + np.linspace(0, 1, n)[:, None] * (y - x)
+            states[-1] = y  # x + 1.0 (y - x) can round past a joint limit y sits on
+            assert ch.states_valid(states).all()
+            n_free += 1
+    assert n_free > 300
+
+
+def test_a_thin_plate_between_samples_blocks_the_motion():
+    """The failure sampled motions had: a 2 mm plate the hand crosses between two states
+    0.02 rad apart. Certified motions catch it however short the crossing."""
+    home = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    a, b = home.copy(), home.copy()
+    a[0], b[0] = -0.6, 0.6
+    hand = MODEL.end_effector_position(home)
+    plate = Primitive("box", (hand[0], 0.0, hand[2]), (0.1, 0.002, 0.05))
+    ch = ARM.make_checker(ws_of(plate), margin=0.0)
+    assert ch.is_valid(a) and ch.is_valid(b)
+    assert not ch.motion_valid(a, b) and not ch.motions_valid([a], [b])[0]
+
+
+def test_batch_and_single_calls_agree(mbm_dir):
+    ws = load_mbm(mbm_dir, ARM).workspaces[0]
+    ch = ARM.make_checker(ws)
+    rng = np.random.default_rng(4)
+    qs = np.array([ARM.space.sample(rng) for _ in range(300)])
+    assert list(ch.states_valid(qs)) == [ch.is_valid(q) for q in qs.tolist()]
+    a, b = qs[:100], qs[100:200]
+    assert list(ch.motions_valid(a, b)) == [ch.motion_valid(x, y) for x, y in zip(a.tolist(), b.tolist())]
+
+
+def test_an_unknown_or_broken_model_is_named(tmp_path):
+    with pytest.raises(ArmModelError, match="unknown arm model 'nope'; choices: panda"):
+        load_arm_model("nope")
+
+
+def test_the_model_digest_names_both_files():
+    digest = MODEL.digest()
+    assert len(digest) == 16 and MODEL.to_json()["sha256"] == digest
+    assert json.loads(json.dumps(MODEL.to_json()))["fingers"]["panda_finger_joint1"] == 0.065
