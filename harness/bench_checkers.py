@@ -75,15 +75,31 @@ def main(argv: list[str] | None = None) -> int:
     except KeyError as e:
         print(f"bench_checkers: {e.args[0]}", file=sys.stderr)
         return 1
-    print("env     backend   states/s median (p90)   motions/s median (p90)   configurations/s median (p90)")
+    keys = ("states_per_s", "states_per_s_batched", "motions_per_s", "motions_per_s_batched")
+    print(
+        "env     backend   states/s median (p90)   batched states/s        motions/s median (p90)   "
+        "batched motions/s        configurations/s median (p90)"
+    )
+    ratios = []
     for spec in specs:
+        rates = {}
         for backend in dict.fromkeys(spec.robot.checkers):
-            r = bench_checker(spec, backend, args.workspaces)
-            cells = [f"{r[k][0]:>10,.0f} ({r[k][1]:,.0f})" for k in ("states_per_s", "motions_per_s")]
+            r = rates[backend] = bench_checker(spec, backend, args.workspaces)
+            cells = [f"{r[k][0]:>10,.0f} ({r[k][1]:,.0f})" for k in keys]
             conf = r.get("configurations_per_s")
             cells.append(f"{conf[0]:>10,.0f} ({conf[1]:,.0f})" if conf else "")
-            print(f"{spec.name:<7} {backend:<9} {cells[0]:<23} {cells[1]:<24} {cells[2]}")
+            print(f"{spec.name:<7} {backend:<9} {cells[0]:<23} {cells[1]:<23} {cells[2]:<24} {cells[3]:<24} {cells[4]}")
+        judge = spec.robot.judge_backend
+        for backend, r in rates.items():
+            if judge and backend != judge:
+                x = [r[k][0] / rates[judge][k][0] for k in keys]
+                ratios.append(
+                    f"{spec.name} {backend} / {judge} (median rates, the same states): states {x[0]:.1f}x, "
+                    f"batched states {x[1]:.1f}x, motions {x[2]:.1f}x, batched motions {x[3]:.1f}x"
+                )
     print("p90: the rate 90% of the repeats reached (the 10th percentile of rates).")
+    for line in ratios:
+        print(line)
     return 0
 
 

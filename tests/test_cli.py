@@ -629,7 +629,10 @@ def test_screenshot_needs_a_recording(tmp_path, run_cli):
 
 def test_bench_checkers(run_cli):
     p = run_cli("harness.bench_checkers", "arm7", "rigid", "--workspaces", "1")
-    rows = {tuple(line.split()[:2]) for line in p.stdout.splitlines()[1:-1]}
-    assert rows == {("arm7", "pybullet"), ("rigid", "native"), ("rigid", "fcl")}
+    lines = p.stdout.splitlines()
+    end = next(i for i, line in enumerate(lines) if line.startswith("p90:"))
+    rows = {tuple(line.split()[:2]) for line in lines[1:end]}
+    assert rows == {("arm7", "spheres"), ("arm7", "pybullet"), ("rigid", "native"), ("rigid", "fcl")}
+    assert lines[end + 1].startswith("arm7 spheres / pybullet (median rates, the same states): states ")
     bad = run_cli("harness.bench_checkers", "arm8", check=False)
     assert bad.returncode == 1 and "unknown env 'arm8'" in bad.stderr

@@ -173,3 +173,19 @@ def test_the_model_digest_names_both_files():
     digest = MODEL.digest()
     assert len(digest) == 16 and MODEL.to_json()["sha256"] == digest
     assert json.loads(json.dumps(MODEL.to_json()))["fingers"]["panda_finger_joint1"] == 0.065
+
+
+def test_a_log_names_the_model_it_was_judged_with():
+    """Logs from before arm models were data ({"fingers": 0.04}) re-check with pybullet_data's
+    Panda as it was then: its URDF limits and fingers; new logs name their model."""
+    old = ARM.for_logged_robot({"kind": "arm", "name": "panda", "urdf": "franka_panda/panda.urdf", "fingers": 0.04})
+    assert old.robot.model.name == "panda_pybullet_data" and old.bounds == MODEL.kinematics.urdf_limits
+    assert old.judge_checker(ws_of()).is_valid([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    assert ARM.for_logged_robot(ARM.robot_json()) is ARM
+
+
+def test_the_model_and_checker_version_are_in_every_arm_cache_key():
+    """Data built with another arm model, sphere set or checker version is another artifact."""
+    ident = ARM.robot.cache_identity()
+    assert ident == {"robot": f"panda:{MODEL.digest()}", "checker": "spheres@1"}
+    assert get_spec("s2d").robot.cache_identity() == {}

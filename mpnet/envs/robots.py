@@ -108,7 +108,11 @@ class ArmRobot(Robot):
     def cache_identity(self) -> dict:
         """The model (its description and sphere files' digest) and the checker that builds
         data: a changed model or checker is another dataset, never a stale one."""
-        return {"robot": f"{self.model.name}:{self.model.digest()}", "checker": self.default_backend}
+        checker = self.checkers[self.default_backend]
+        return {
+            "robot": f"{self.model.name}:{self.model.digest()}",
+            "checker": f"{self.default_backend}@{getattr(checker, 'VERSION', 1)}",
+        }
 
     def joint_space(self):
         return EuclideanSpace(self.model.limits)

@@ -21,6 +21,7 @@ from scipy.cluster.vq import kmeans2
 from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import PRISMATIC, ArmModel, load_arm_model
 from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.sphere_layout import buffer_size
 from mpnet.envs.workspace import Workspace
 
 # A motion whose spheres would still touch something with less growth than this (metres)
@@ -116,7 +117,7 @@ class SphereModel:
                 )
             ]
         )
-        self._buffer_size = K.buffer_size(F, L, G, S, D)
+        self._buffer_size = buffer_size(F, L, G, S, D)
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
 
     def _check_chain(self) -> None:
@@ -229,6 +230,10 @@ def pack_obstacles(ws: Workspace, margin: float) -> np.ndarray:
 class SphereChecker(CollisionChecker):
     """The compiled sphere checker (see the module docstring); `configurations_checked`
     counts sphere-model evaluations, motions' included."""
+
+    # Bumped whenever a change can change an answer (the motion bound, the tests): it is in
+    # every arm cache key, so data built by another version is rebuilt, never reused.
+    VERSION = 1
 
     def __init__(self, spec, ws: Workspace, margin: float):
         super().__init__(spec, ws, margin)
