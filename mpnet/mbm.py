@@ -4,7 +4,8 @@ MoveIt writes) as a test set for arm7.
 A scene folder (e.g. `box_panda/`) holds `sceneNNNN.yaml` (world.collision_objects: boxes
 [x, y, z], cylinders [height, radius] and spheres [radius] with poses in the base frame)
 and `requestNNNN.yaml` (start_state.joint_state: 7 arm joints, then the fingers, which are
-ignored: the arm model holds them (panda.yaml: 0.065, as every MBM request sets them); goal_constraints[0].joint_constraints). Each
+ignored: the arm model holds them (panda.yaml: 0.065, as every MBM request sets them);
+goal_constraints[0].joint_constraints). Each
 problem is one workspace and one query, both named by the folder and number
 (`box_panda/0001`). A start or goal that collides with our Panda model is not an error:
 the bench logs it as `invalid_query` (VAMP counts solved / valid / total the same way).

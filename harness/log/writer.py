@@ -20,6 +20,7 @@ Why it is shaped this way:
 
 from __future__ import annotations
 
+import atexit
 import os
 import time
 import warnings
@@ -113,8 +114,12 @@ class TrialLog:
         self._f = open(self.mcap_path, "wb")
         self._w = new_writer(self._f)
         self._csv = QueryCsv(self.csv_path, extra_fields)
-        # Interpreter exit without close() still finalises the files.
+        # Interpreter exit without close() still finalises the files, before Rerun's own exit
+        # handler closes its recording: weakref.finalize's exit hook runs in the order its
+        # first use registered it (any import may have used it before rerun was imported), so
+        # the finalizer is also registered with atexit here, after rerun, to run before it.
         self._finalizer = weakref.finalize(self, _finalize, self._w, self._f, self._csv, self._rr)
+        atexit.register(self._finalizer)
         self._ch = start_channels(self._w, topics)
 
         t = self._now()
@@ -181,6 +186,7 @@ class TrialLog:
         if self._closed:
             return
         self._closed = True
+        atexit.unregister(self._finalizer)
         self._finalizer.detach()
         ok = _finalize(self._w, self._f, self._csv, self._rr)
         if ok:
