@@ -31,7 +31,7 @@ from mpnet.problems import ProblemFileError
 def audit(spec, scenes, configurations: int, motions: int, seed: int = 0) -> dict:
     rng = np.random.default_rng(seed)
     false_free = rejected = pb_free = 0
-    per_ws = max(1, configurations // len(scenes))
+    per_ws = max(1, -(-configurations // len(scenes)))  # at least `configurations` in all
     for ws in scenes:
         qs = rng.uniform(spec.lower, spec.upper, (per_ws, spec.state_dim))
         s = spec.make_checker(ws, margin=0.0, backend="spheres").states_valid(qs)
@@ -40,7 +40,7 @@ def audit(spec, scenes, configurations: int, motions: int, seed: int = 0) -> dic
         rejected += int((p & ~s).sum())
         pb_free += int(p.sum())
     bad_motions = free_motions = 0
-    per = max(1, motions // len(scenes))
+    per = max(1, -(-motions // len(scenes)))
     for ws in scenes:
         ch = spec.make_checker(ws, margin=0.0)
         qs = rng.uniform(spec.lower, spec.upper, (4 * per, spec.state_dim))
