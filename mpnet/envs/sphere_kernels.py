@@ -160,23 +160,29 @@ def _dist2(p, o, boxes, cyls, balls, kind, j):
 
 
 @njit(cache=True)
+def _speed(c, i, rad, j, grow):
+    """How fast a point within rad of c[i] moves per unit of joint j's step: its distance
+    from joint j's axis now plus rad (1 for a prismatic joint)."""
+    _, dq, ap, au, pris = grow
+    if pris[j] != 0.0:
+        return 1.0
+    vx, vy, vz = c[i, 0] - ap[j, 0], c[i, 1] - ap[j, 1], c[i, 2] - ap[j, 2]
+    t = vx * au[j, 0] + vy * au[j, 1] + vz * au[j, 2]
+    rho2 = vx * vx + vy * vy + vz * vz - t * t
+    return math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i]
+
+
+@njit(cache=True)
 def _growth(c, i, rad, Bv, g, grow):
     """How far any point within rad of point c[i] can move in the current half interval:
     h sum_j |dq_j| (rho_j + rad) + h^2 / 2 B, where rho_j is c[i]'s distance from joint j's
     axis now (see _motion_free). grow = (h, |dq| (D,), axis points (D, 3), axis
     directions (D, 3), prismatic flags (D,))."""
-    h, dq, ap, au, pris = grow
+    h, dq = grow[0], grow[1]
     a = 0.0
     for j in range(dq.shape[0]):
-        if dq[j] == 0.0:
-            continue
-        if pris[j] != 0.0:
-            a += dq[j]
-            continue
-        vx, vy, vz = c[i, 0] - ap[j, 0], c[i, 1] - ap[j, 1], c[i, 2] - ap[j, 2]
-        t = vx * au[j, 0] + vy * au[j, 1] + vz * au[j, 2]
-        rho2 = vx * vx + vy * vy + vz * vz - t * t
-        a += dq[j] * (math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i])
+        if dq[j] != 0.0:
+            a += dq[j] * _speed(c, i, rad, j, grow)
     return h * a + 0.5 * h * h * Bv[g]
 
 
@@ -185,20 +191,13 @@ def _growth_from(c, i, rad, lever, j0, grow):
     """_growth counting only joints j0.. (those between a link and a link below it: how far
     a point of the lower link moves relative to the upper one), its second-order term
     computed here from the static levers."""
-    h, dq, ap, au, pris = grow
+    h, dq = grow[0], grow[1]
     first, later, second = 0.0, 0.0, 0.0
     for j in range(dq.shape[0] - 1, j0 - 1, -1):
         second += dq[j] * later
         later += dq[j] * (lever[i, j] + rad[i])
-        if dq[j] == 0.0:
-            continue
-        if pris[j] != 0.0:
-            first += dq[j]
-            continue
-        vx, vy, vz = c[i, 0] - ap[j, 0], c[i, 1] - ap[j, 1], c[i, 2] - ap[j, 2]
-        t = vx * au[j, 0] + vy * au[j, 1] + vz * au[j, 2]
-        rho2 = vx * vx + vy * vy + vz * vz - t * t
-        first += dq[j] * (math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i])
+        if dq[j] != 0.0:
+            first += dq[j] * _speed(c, i, rad, j, grow)
     return h * first + 0.5 * h * h * second
 
 
