@@ -87,6 +87,22 @@ class CollisionChecker:
         return np.array([self._motion_free(x, y) for x, y in zip(a, b)], bool)
 
 
+class SampledConfigurations(CollisionChecker):
+    """A checker that evaluates configurations one by one (the arm's): it also counts them,
+    motions' included, as `configurations_checked`."""
+
+    def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
+        super().__init__(spec, ws, margin)
+        self.configurations = 0
+
+    def counts(self) -> dict:
+        return {**super().counts(), "configurations_checked": self.configurations}
+
+    def reset_counts(self) -> None:
+        super().reset_counts()
+        self.configurations = 0
+
+
 class PointChecker(CollisionChecker):
     """A point robot in 2D or 3D: a point collides when it lies in a closed box."""
 

@@ -17,7 +17,7 @@ from functools import cache
 import numpy as np
 
 from mpnet.envs.arm_model import ArmModel, load_arm_model
-from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.collision import SampledConfigurations
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
 
@@ -156,7 +156,7 @@ def arm_world(model: str) -> ArmWorld:
     return ArmWorld(load_arm_model(model))
 
 
-class PybulletArmChecker(CollisionChecker):
+class PybulletArmChecker(SampledConfigurations):
     """The reference checker: pybullet, one configuration at a time; a motion is free when
     every state along it, at most `spec.motion_step` apart (joint-space distance), is."""
 
@@ -165,14 +165,6 @@ class PybulletArmChecker(CollisionChecker):
         self.world = arm_world(spec.robot.model.name)
         self._primitives = ws.all_primitives()
         self._step = float(spec.motion_step)
-        self.configurations = 0  # pybullet evaluations, motions' states included
-
-    def counts(self) -> dict:
-        return {**super().counts(), "configurations_checked": self.configurations}
-
-    def reset_counts(self) -> None:
-        super().reset_counts()
-        self.configurations = 0
 
     def _free(self, q) -> bool:
         self.world.load(self, self._primitives, self.margin)

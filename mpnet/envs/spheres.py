@@ -20,8 +20,7 @@ from scipy.cluster.vq import kmeans2
 
 from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import PRISMATIC, ArmModel, load_arm_model
-from mpnet.envs.collision import CollisionChecker
-from mpnet.envs.sphere_layout import buffer_size
+from mpnet.envs.collision import SampledConfigurations
 from mpnet.envs.workspace import Workspace
 
 # A motion whose spheres would still touch something with less growth than this (metres)
@@ -75,6 +74,7 @@ class SphereModel:
         # The root link never moves: it is tested against a workspace's obstacles once.
         self.first = 1 if self.link_frame[0] == 0 else 0
         self.sphere_frame = np.repeat(self.group_frame, gsizes)
+        # Static levers per sphere (the kernels use the links' and groups', which bound them).
         self.lever = self._levers(self.sphere_frame, self.local, model.dof)
         self.llever = self._levers(self.link_frame, self.blocal, model.dof)
         self.glever = self._levers(self.group_frame, self.glocal, model.dof)
@@ -111,13 +111,12 @@ class SphereModel:
                     self.bradius,
                     self.glocal,
                     self.gradius,
-                    self.lever,
                     self.llever,
                     self.glever,
                 )
             ]
         )
-        self._buffer_size = buffer_size(F, L, G, S, D)
+        self._buffer_size = K.buffer_size(F, L, G, S, D)
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
 
     def _check_chain(self) -> None:
@@ -227,7 +226,7 @@ def pack_obstacles(ws: Workspace, margin: float) -> np.ndarray:
     ).astype(float)
 
 
-class SphereChecker(CollisionChecker):
+class SphereChecker(SampledConfigurations):
     """The compiled sphere checker (see the module docstring); `configurations_checked`
     counts sphere-model evaluations, motions' included."""
 
@@ -241,7 +240,6 @@ class SphereChecker(CollisionChecker):
         self._args = (m.mi, m.mf, pack_obstacles(ws, margin), m.lower, m.upper)
         self._buf = m.buffers()
         self.base_blocked = self._base_blocked()
-        self.configurations = 0
 
     def _base_blocked(self) -> bool:
         m = self.model
@@ -249,13 +247,6 @@ class SphereChecker(CollisionChecker):
             return False
         base = m.world_spheres(np.zeros(m.model.dof))[: m.link_sizes[0]]
         return bool(K.any_hit(np.ascontiguousarray(base[:, :3]), np.ascontiguousarray(base[:, 3]), self._args[2]))
-
-    def counts(self) -> dict:
-        return {**super().counts(), "configurations_checked": self.configurations}
-
-    def reset_counts(self) -> None:
-        super().reset_counts()
-        self.configurations = 0
 
     def _state_free(self, q) -> bool:
         self.configurations += 1
