@@ -77,7 +77,9 @@ def unpack(mi, mf):
 
 @njit(cache=True)
 def unpack_obstacles(ob):
-    """(boxes (B, 15), cylinders (C, 8), balls (K, 4), margin) from [B, C, K, margin, ...]."""
+    """(boxes (B, 15), cylinders (C, 8), balls (K, 4), margin, bounds (B + C + K, 6)) from
+    [B, C, K, margin, ...]; bounds: each obstacle's axis-aligned box (low, high), boxes'
+    first, a test of 6 comparisons that rejects most (link, obstacle) pairs before _dist2."""
     nb, nc, nk = int(ob[0]), int(ob[1]), int(ob[2])
     o = 4
     boxes = ob[o : o + 15 * nb].reshape((nb, 15))
@@ -85,7 +87,9 @@ def unpack_obstacles(ob):
     cyls = ob[o : o + 8 * nc].reshape((nc, 8))
     o += 8 * nc
     balls = ob[o : o + 4 * nk].reshape((nk, 4))
-    return boxes, cyls, balls, ob[3]
+    o += 4 * nk
+    bounds = ob[o : o + 6 * (nb + nc + nk)].reshape((nb + nc + nk, 6))
+    return boxes, cyls, balls, ob[3], bounds
 
 
 # The scratch tuple's fields, in unpack_buffers' order.
@@ -213,6 +217,16 @@ def _dist2(p, o, boxes, cyls, balls, kind, j):
 
 
 @njit(cache=True)
+def _outside(p, o, bounds, row, reach):
+    """Is point p[o] farther than reach from axis-aligned box `row` along some axis?"""
+    b = bounds[row]
+    for x in range(3):
+        if p[o, x] < b[x] - reach or p[o, x] > b[3 + x] + reach:
+            return True
+    return False
+
+
+@njit(cache=True)
 def _speed(c, i, rad, j, grow):
     """How fast a point within rad of c[i] moves per unit of joint j's step: its distance
     from joint j's axis now plus rad (1 for a prismatic joint)."""
@@ -300,12 +314,12 @@ def _axes(m, pose, ap, au, pris):
             au[j, x] = pose[f, x, 0] * axis[f, 0] + pose[f, x, 1] * axis[f, 1] + pose[f, x, 2] * axis[f, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def verdict(q, m, obs, bufs, growing, h, dq):
     """FREE, NEAR or HIT for configuration q (see the module docstring). `growing`: q is
     the midpoint of a motion interval of half-width h (in the motion's parameter) along
     joint steps dq; every sphere, group and link is grown by how far it can move in it."""
-    boxes, cyls, balls, margin = obs
+    boxes, cyls, balls, margin, bounds = obs
     pose, centres, lcentres, gcentres = bufs[POSE], bufs[CENTRES], bufs[LCENTRES], bufs[GCENTRES]
     lextra, gextra = bufs[LEXTRA], bufs[GEXTRA]
     link_g0, link_g1, group_s0, group_s1 = m[LINK_G0], m[LINK_G1], m[GROUP_S0], m[GROUP_S1]
@@ -327,14 +341,20 @@ def verdict(q, m, obs, bufs, growing, h, dq):
     near = False
     counts = (boxes.shape[0], cyls.shape[0], balls.shape[0])
     for li in range(m[FIRST], L):
+        row = 0
         for ok in range(3):
             for j in range(counts[ok]):
+                row += 1
                 reach = bradius[li] + lextra[li] + margin
+                if _outside(lcentres, li, bounds, row - 1, reach):
+                    continue
                 if _dist2(lcentres, li, boxes, cyls, balls, ok, j) > reach * reach:
                     continue
                 _place_groups(li, m, bufs, grow, growing)
                 for g in range(link_g0[li], link_g1[li]):
                     reach = gradius[g] + gextra[g] + margin
+                    if _outside(gcentres, g, bounds, row - 1, reach):
+                        continue
                     if _dist2(gcentres, g, boxes, cyls, balls, ok, j) > reach * reach:
                         continue
                     _place_spheres(g, m, bufs)
@@ -383,7 +403,7 @@ def verdict(q, m, obs, bufs, growing, h, dq):
     return NEAR if near else FREE
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _state_free(q, m, obs, lower, upper, bufs):
     for d in range(q.shape[0]):
         if not lower[d] <= q[d] <= upper[d]:
@@ -495,7 +515,7 @@ def motions_free(A, B, mi, mf, ob, lower, upper, tol, buf):
 @njit(cache=True)
 def any_hit(centres, radii, ob):
     """Does any sphere (centres, radii) touch an obstacle?"""
-    boxes, cyls, balls, margin = unpack_obstacles(ob)
+    boxes, cyls, balls, margin, _ = unpack_obstacles(ob)
     counts = (boxes.shape[0], cyls.shape[0], balls.shape[0])
     for k in range(centres.shape[0]):
         for kind in range(3):

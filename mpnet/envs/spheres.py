@@ -211,18 +211,30 @@ def sphere_model(name: str) -> SphereModel:
 
 
 def pack_obstacles(ws: Workspace, margin: float) -> np.ndarray:
-    """The workspace's primitives as the kernels' packed obstacle array."""
+    """The workspace's primitives as the kernels' packed obstacle array (see
+    sphere_kernels.unpack_obstacles), each with its axis-aligned bounds."""
     boxes, cyls, balls = [], [], []
+    bounds = {"box": [], "cylinder": [], "sphere": []}
     for p in ws.all_primitives():
         r = p.rotation()
+        c = np.asarray(p.center, float)
         if p.type == "box":
-            boxes.append([*p.center, *r[:, 0], *r[:, 1], *r[:, 2], *(s / 2 for s in p.size)])
+            half = np.asarray(p.size, float) / 2
+            boxes.append([*c, *r[:, 0], *r[:, 1], *r[:, 2], *half])
+            extent = np.abs(r) @ half
         elif p.type == "cylinder":
-            cyls.append([*p.center, *r[:, 2], p.radius, p.height / 2])
+            a = r[:, 2]
+            cyls.append([*c, *a, p.radius, p.height / 2])
+            extent = p.radius * np.sqrt(np.clip(1.0 - a * a, 0.0, None)) + abs(a) * p.height / 2
         else:
-            balls.append([*p.center, p.radius])
+            balls.append([*c, p.radius])
+            extent = np.full(3, float(p.radius))
+        extent = extent + 1e-9  # rounding: the bounds must contain the obstacle
+        bounds[p.type].append([*(c - extent), *(c + extent)])
+    rows = bounds["box"] + bounds["cylinder"] + bounds["sphere"]
     return np.concatenate(
         [[len(boxes), len(cyls), len(balls), float(margin)], np.ravel(boxes), np.ravel(cyls), np.ravel(balls)]
+        + [np.ravel(rows)]
     ).astype(float)
 
 
