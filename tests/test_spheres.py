@@ -73,6 +73,47 @@ def test_levers_bound_how_far_spheres_move(seed):
     assert (moved <= m.lever @ np.abs(b - a) + 1e-12).all()
 
 
+def _table_pairs_overlap(m, q) -> bool:
+    """Does any tabled self pair (tested sphere by sphere, in numpy) overlap at q?"""
+    w = m.world_spheres(q)
+    for pi in np.flatnonzero(m.pair_table >= 0):
+        sa, sb = (w[m.sphere_link == x] for x in (m.pair_a[pi], m.pair_b[pi]))
+        d = np.linalg.norm(sa[:, None, :3] - sb[None, :, :3], axis=2) - sa[:, None, 3] - sb[None, :, 3]
+        if (d <= 0).any():
+            return True
+    return False
+
+
+def test_the_wrist_pairs_are_tabled():
+    m = sphere_model("panda")
+    tabled = {(m.links[a], m.links[b]) for a, b, t in zip(m.pair_a, m.pair_b, m.pair_table) if t >= 0}
+    wrist = {"panda_link7", "panda_hand", "panda_leftfinger", "panda_rightfinger"}
+    assert tabled == {("panda_link5", x) for x in wrist}
+
+
+@settings(deadline=None, max_examples=60)
+@given(st.integers(0, 100_000))
+def test_pair_tables_certify_whole_cells(seed):
+    """Anywhere in a cell the table calls free (not only at its centre, where it was
+    tested), with any other joints, the tabled pairs' spheres do not overlap; and the
+    kernels' lookup agrees with the table's bits."""
+    m = sphere_model("panda")
+    (ja, jb, na, nb, _), (lo_a, wa, lo_b, wb) = m._tables[0][0], m._tables[1][0]
+    bits = np.unpackbits(m._tables[2].view(np.uint8), bitorder="little")[: na * nb].reshape(na, nb)
+    rng = np.random.default_rng(seed)
+    free_cells = np.argwhere(bits == 1)
+    near_cells = np.argwhere(bits == 0)
+    for cells, free in ((free_cells, True), (near_cells, False)):
+        i, k = cells[rng.integers(len(cells))]
+        q = ARM.space.sample(rng)
+        q[ja] = lo_a + (i + rng.uniform()) * wa
+        q[jb] = lo_b + (k + rng.uniform()) * wb
+        looked_up = K._table_free(q, m._tables[0][0], m._tables[1][0], m._tables[2], 0.0, np.zeros(7))
+        assert looked_up == free
+        if free:
+            assert not _table_pairs_overlap(m, q)
+
+
 def _fcl_shape(p: Primitive):
     if p.type == "box":
         return fcl.Box(*p.size)
@@ -192,7 +233,7 @@ def test_a_log_names_the_model_it_was_judged_with():
 def test_the_model_and_checker_version_are_in_every_arm_cache_key():
     """Data built with another arm model, sphere set or checker version is another artifact."""
     ident = ARM.robot.cache_identity()
-    assert ident == {"robot": f"panda:{MODEL.digest()}", "checker": "spheres@1"}
+    assert ident == {"robot": f"panda:{MODEL.digest()}", "checker": "spheres@2"}
     assert get_spec("s2d").robot.cache_identity() == {}
 
 

@@ -29,19 +29,21 @@ FREE, NEAR, HIT = 0, 1, 2
 # stamp, so a kernel that inlined a helper or constant from another module would keep the
 # old one after that module changed.
 QUEUE = 1 << 14  # motion intervals pending at once; a motion that needs more is called blocked
-HEAD = 7  # mi starts with F, L, G, S, P, D, first
+HEAD = 8  # mi starts with F, L, G, S, P, D, first, T (pair tables)
+TABLE_SPAN = 16  # a motion interval's lookup reads at most this many table cells, else tests spheres
 # The model tuple's fields, in unpack's order.
 PARENT, ORIGIN, KIND, AXIS, COORD = 0, 1, 2, 3, 4
 LINK_FRAME, LINK_G0, LINK_G1, GROUP_FRAME, GROUP_S0, GROUP_S1 = 5, 6, 7, 8, 9, 10
 LOCAL, RADIUS, BLOCAL, BRADIUS, GLOCAL, GRADIUS = 11, 12, 13, 14, 15, 16
 PAIR_A, PAIR_B, FIRST, LLEVER, GLEVER, PAIR_J0 = 17, 18, 19, 20, 21, 22
+PAIR_TABLE, TABLE_I, TABLE_F, TABLE_BITS = 23, 24, 25, 26
 
 
 @njit(cache=True)
 def unpack(mi, mf):
     """The model's arrays as views of its two packed arrays (one int64, one float64: two
     arguments dispatch from Python in well under a microsecond, a tuple of 23 does not)."""
-    F, L, G, S, P, D, first = mi[0], mi[1], mi[2], mi[3], mi[4], mi[5], mi[6]
+    F, L, G, S, P, D, first, T = mi[0], mi[1], mi[2], mi[3], mi[4], mi[5], mi[6], mi[7]
     o = HEAD
     parent, kind, coord = mi[o : o + F], mi[o + F : o + 2 * F], mi[o + 2 * F : o + 3 * F]
     o += 3 * F
@@ -50,6 +52,11 @@ def unpack(mi, mf):
     group_frame, group_s0, group_s1 = mi[o : o + G], mi[o + G : o + 2 * G], mi[o + 2 * G : o + 3 * G]
     o += 3 * G
     pair_a, pair_b, pair_j0 = mi[o : o + P], mi[o + P : o + 2 * P], mi[o + 2 * P : o + 3 * P]
+    o += 3 * P
+    pair_table = mi[o : o + P]
+    o += P
+    table_i = mi[o : o + 5 * T].reshape((T, 5))
+    table_bits = mi[o + 5 * T :]
     o = 0
     origin = mf[o : o + 12 * F].reshape((F, 3, 4))
     o += 12 * F
@@ -70,9 +77,11 @@ def unpack(mi, mf):
     llever = mf[o : o + L * D].reshape((L, D))
     o += L * D
     glever = mf[o : o + G * D].reshape((G, D))
+    o += G * D
+    table_f = mf[o : o + 4 * T].reshape((T, 4))
     return (parent, origin, kind, axis, coord, link_frame, link_g0, link_g1, group_frame, group_s0,
             group_s1, local, radius, blocal, bradius, glocal, gradius, pair_a, pair_b, first, llever, glever,
-            pair_j0)  # fmt: skip
+            pair_j0, pair_table, table_i, table_f, table_bits)  # fmt: skip
 
 
 @njit(cache=True)
@@ -314,6 +323,84 @@ def _axes(m, pose, ap, au, pris):
             au[j, x] = pose[f, x, 0] * axis[f, 0] + pose[f, x, 1] * axis[f, 1] + pose[f, x, 2] * axis[f, 2]
 
 
+@njit(cache=True)
+def _cell(v, lo, width, n):
+    c = int(math.floor((v - lo) / width))
+    return 0 if c < 0 else (n - 1 if c >= n else c)
+
+
+@njit(cache=True)
+def _table_free(q, ti, tf, bits, h, dq):
+    """Does pair table ti certify its pairs free for every joint vector within h dq of q?
+    ti = (joint a, joint b or -1, cells along a, cells along b, first word of its bits);
+    tf = (low a, cell width a, low b, cell width b). A set bit: a cell whose pairs are free
+    everywhere in it (build_table). Reads at most TABLE_SPAN cells."""
+    ja, jb, na, nb, off = ti[0], ti[1], ti[2], ti[3], ti[4]
+    i0 = _cell(q[ja] - h * dq[ja], tf[0], tf[1], na)
+    i1 = _cell(q[ja] + h * dq[ja], tf[0], tf[1], na)
+    k0, k1 = 0, 0
+    if jb >= 0:
+        k0 = _cell(q[jb] - h * dq[jb], tf[2], tf[3], nb)
+        k1 = _cell(q[jb] + h * dq[jb], tf[2], tf[3], nb)
+    if (i1 - i0 + 1) * (k1 - k0 + 1) > TABLE_SPAN:
+        return False
+    for i in range(i0, i1 + 1):
+        for k in range(k0, k1 + 1):
+            c = i * nb + k
+            if (bits[off + (c >> 6)] >> (c & 63)) & 1 == 0:
+                return False
+    return True
+
+
+@njit(cache=True)
+def build_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n):
+    """The bits of a pair table: link a against each link of `partners`, whose poses
+    relative to a depend on joints ja and jb alone (jb -1: ja alone), on an n[0] x n[1] grid
+    of cells of `width` from `lo`. A cell's bit is set when, at its centre, every sphere of
+    a partner, grown by how far it can move within the cell (sum over the two joints of
+    half the cell's width times its static lever, which bounds its distance from that
+    joint's axis in any configuration), clears every sphere of a. The other joints are held
+    at 0: they move a and its partners together."""
+    m, bufs = unpack(mi, mf), unpack_buffers(mi, buf)
+    pose, centres, gcentres = bufs[POSE], bufs[CENTRES], bufs[GCENTRES]
+    link_g0, link_g1, group_s0, group_s1 = m[LINK_G0], m[LINK_G1], m[GROUP_S0], m[GROUP_S1]
+    radius, gradius, glever = m[RADIUS], m[GRADIUS], m[GLEVER]
+    q = np.zeros(m[LLEVER].shape[1])
+    hb = 0.5 * width[1] if jb >= 0 else 0.0
+    bits = np.zeros((n[0] * n[1] + 63) // 64, np.int64)
+    for i in range(n[0]):
+        for k in range(n[1]):
+            q[ja] = lo[0] + (i + 0.5) * width[0]
+            if jb >= 0:
+                q[jb] = lo[1] + (k + 0.5) * width[1]
+            forward(q, m[PARENT], m[ORIGIN], m[KIND], m[AXIS], m[COORD], pose)
+            free = True
+            for g in range(link_g0[a], link_g1[a]):
+                _place(pose, m[GROUP_FRAME][g], m[GLOCAL], g, gcentres, g)
+                for s in range(group_s0[g], group_s1[g]):
+                    _place(pose, m[GROUP_FRAME][g], m[LOCAL], s, centres, s)
+            for b in partners:
+                for gb in range(link_g0[b], link_g1[b]):
+                    _place(pose, m[GROUP_FRAME][gb], m[GLOCAL], gb, gcentres, gb)
+                    for s in range(group_s0[gb], group_s1[gb]):
+                        _place(pose, m[GROUP_FRAME][gb], m[LOCAL], s, centres, s)
+                    grow = 0.5 * width[0] * (glever[gb, ja] + gradius[gb])
+                    if jb >= 0:
+                        grow += hb * (glever[gb, jb] + gradius[gb])
+                    for ga in range(link_g0[a], link_g1[a]):
+                        if not free or _apart(gcentres, ga, gradius, gcentres, gb, gradius, grow):
+                            continue
+                        for x in range(group_s0[ga], group_s1[ga]):
+                            for y in range(group_s0[gb], group_s1[gb]):
+                                sg = 0.5 * width[0] * lever[y, ja] + (hb * lever[y, jb] if jb >= 0 else 0.0)
+                                if not _apart(centres, x, radius, centres, y, radius, sg):
+                                    free = False
+            if free:
+                c = i * n[1] + k
+                bits[c >> 6] |= np.int64(1) << np.int64(c & 63)
+    return bits
+
+
 @njit(cache=True, inline="always")
 def verdict(q, m, obs, bufs, growing, h, dq):
     """FREE, NEAR or HIT for configuration q (see the module docstring). `growing`: q is
@@ -369,6 +456,9 @@ def verdict(q, m, obs, bufs, growing, h, dq):
     pair_a, pair_b, pair_j0, pg = m[PAIR_A], m[PAIR_B], m[PAIR_J0], bufs[PG]
     for pi in range(pair_a.shape[0]):
         a, b, j0 = pair_a[pi], pair_b[pi], pair_j0[pi]
+        t = m[PAIR_TABLE][pi]
+        if t >= 0 and _table_free(q, m[TABLE_I][t], m[TABLE_F][t], m[TABLE_BITS], h if growing else 0.0, dq):
+            continue
         # In a motion, link b moves relative to link a (its ancestor) only through the joints
         # between them: b grows by that, a not at all. Otherwise both grow by their own motion.
         rel = growing and j0 >= 0

@@ -74,6 +74,7 @@ class SphereModel:
         # The root link never moves: it is tested against a workspace's obstacles once.
         self.first = 1 if self.link_frame[0] == 0 else 0
         self.sphere_frame = np.repeat(self.group_frame, gsizes)
+        self.sphere_link = np.repeat(np.repeat(np.arange(len(links)), per_link), gsizes)
         # Static levers per sphere (the kernels use the links' and groups', which bound them).
         self.lever = self._levers(self.sphere_frame, self.local, model.dof)
         self.llever = self._levers(self.link_frame, self.blocal, model.dof)
@@ -81,43 +82,67 @@ class SphereModel:
         self._check_chain()
         self.lower = np.array([b[0] for b in model.limits])
         self.upper = np.array([b[1] for b in model.limits])
-        F, L, G, S, P, D = len(self.parent), len(links), len(groups), len(self.radius), len(pairs), model.dof
-        self.mi = np.concatenate(
-            [
-                [F, L, G, S, P, D, self.first],
-                self.parent,
-                self.kind,
-                self.coord,
-                self.link_frame,
-                self.link_g0,
-                self.link_g1,
-                self.group_frame,
-                self.group_s0,
-                self.group_s1,
-                self.pair_a,
-                self.pair_b,
-                self.pair_j0,
-            ]
-        ).astype(np.int64)
-        self.mf = np.concatenate(
-            [
-                a.ravel()
-                for a in (
-                    self.origin,
-                    self.axis,
-                    self.local,
-                    self.radius,
-                    self.blocal,
-                    self.bradius,
-                    self.glocal,
-                    self.gradius,
-                    self.llever,
-                    self.glever,
-                )
-            ]
-        )
+        self.pair_table = np.full(len(pairs), -1, np.int64)
+        self._tables = (np.zeros((0, 5), np.int64), np.zeros((0, 4)), np.zeros(0, np.int64))
+        F, L, G, S, D = len(self.parent), len(links), len(groups), len(self.radius), model.dof
         self._buffer_size = K.buffer_size(F, L, G, S, D)
+        self._pack()
+        self._build_tables()
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
+
+    def _pack(self) -> None:
+        """The kernels' two packed arrays (sphere_kernels.unpack reads them)."""
+        table_i, table_f, bits = self._tables
+        head = [len(self.parent), len(self.links), len(self.glocal), len(self.radius), len(self.pair_a)]
+        head += [self.model.dof, self.first, len(table_i)]
+        ints = [self.parent, self.kind, self.coord, self.link_frame, self.link_g0, self.link_g1, self.group_frame]
+        ints += [self.group_s0, self.group_s1, self.pair_a, self.pair_b, self.pair_j0, self.pair_table]
+        self.mi = np.concatenate([head, *ints, table_i.ravel(), bits]).astype(np.int64)
+        floats = (self.origin, self.axis, self.local, self.radius, self.blocal, self.bradius, self.glocal)
+        floats += (self.gradius, self.llever, self.glever, table_f)
+        self.mf = np.concatenate([a.ravel() for a in floats])
+
+    def _build_tables(self) -> None:
+        """Pair tables (sphere_kernels.build_table) for the self-collision pairs whose
+        relative pose depends on at most two revolute joints (the Panda's wrist: link5
+        against link7, the hand and the fingers, which are near each other in every
+        configuration and would otherwise be tested sphere by sphere every time)."""
+        partners: dict[tuple[int, tuple[int, ...]], list[int]] = {}
+        for pi, (a, b) in enumerate(zip(self.pair_a.tolist(), self.pair_b.tolist())):
+            coords = self._coords_between(a, b)
+            if coords is not None and 1 <= len(coords) <= 2:
+                partners.setdefault((a, coords), []).append(pi)
+        rows_i, rows_f, words = [], [], []
+        for t, ((a, coords), pis) in enumerate(partners.items()):
+            lo = np.array([self.lower[c] for c in coords] + [0.0] * (2 - len(coords)))
+            hi = np.array([self.upper[c] for c in coords] + [1.0] * (2 - len(coords)))
+            n = np.array([TABLE_CELLS] + [TABLE_CELLS if len(coords) == 2 else 1], np.int64)
+            width = (hi - lo) / n
+            jb = coords[1] if len(coords) == 2 else -1
+            bits = K.build_table(
+                self.mi, self.mf, self.buffers(), self.lever, a, self.pair_b[pis], coords[0], jb, lo, width, n
+            )
+            rows_i.append([coords[0], jb, n[0], n[1], sum(len(w) for w in words)])
+            rows_f.append([lo[0], width[0], lo[1], width[1]])
+            words.append(bits)
+            self.pair_table[pis] = t
+        if rows_i:
+            self._tables = (np.array(rows_i, np.int64), np.array(rows_f), np.concatenate(words))
+            self._pack()
+
+    def _coords_between(self, a: int, b: int) -> tuple[int, ...] | None:
+        """The revolute joints that move link b relative to link a, a an ancestor of b
+        (None when it is not, or a prismatic joint lies between)."""
+        frames = self.model.kinematics.frames
+        fa, i = int(self.link_frame[a]), int(self.link_frame[b])
+        coords = []
+        while i >= 0 and i != fa:
+            if frames[i].coordinate >= 0:
+                if frames[i].kind == PRISMATIC:
+                    return None
+                coords.append(frames[i].coordinate)
+            i = frames[i].parent
+        return tuple(sorted(coords)) if i >= 0 else None
 
     def _check_chain(self) -> None:
         """The motion bound orders joints along the chain: coordinate k + 1's joint must
@@ -185,6 +210,7 @@ class SphereModel:
         return np.column_stack([centres, self.radius])
 
 
+TABLE_CELLS = 256  # a pair table's cells along each of its joints
 GROUP = 8  # spheres per group of the tree (about): a link's groups are tested before its spheres
 
 
@@ -244,7 +270,7 @@ class SphereChecker(SampledConfigurations):
 
     # Bumped whenever a change can change an answer (the motion bound, the tests): it is in
     # every arm cache key, so data built by another version is rebuilt, never reused.
-    VERSION = 1
+    VERSION = 2  # 2: pair tables (a motion NEAR by the growth bound can be free by a table)
 
     def __init__(self, spec, ws: Workspace, margin: float):
         super().__init__(spec, ws, margin)
