@@ -1160,3 +1160,46 @@ def test_a_scale_with_env_specific_sizes_names_its_envs():
     assert scale_bullet(*rows[0]).startswith("Our `quick` scale for arm7 trains smaller networks on 10 workspaces")
     assert _scale_rows({("quick", big, True): {"s2d", "c2d"}})[0][3] == ""  # one size: no envs named
     assert scale_bullet(*_scale_rows({("quick", big, True): {"s2d"}})[0]).startswith("Our `quick` scale trains")
+
+
+def test_timed_out_queries_cpu_share_is_reported_and_a_loaded_run_flagged(tmp_path):
+    """A timed-out query that got 4.5 s of CPU in a 10 s budget ran on a loaded machine: its
+    row says so (timeout_cpu_share 0.45) and the report warns that its rate is a lower bound;
+    a run whose timeouts got a whole CPU is not flagged."""
+    logs = tmp_path / "logs"
+    for planner, cpu in (("bit_star", 4.5), ("rrt_connect", 9.8)):
+        write_log(
+            logs / planner,
+            "s2d",
+            planner,
+            0,
+            [Q("seen", "0", 0, True, 0.1), Q("seen", "0", 1, False, 10.0, stats={"cpu_s": cpu})],
+        )
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    res = pd.read_csv(out / "results.csv").set_index("planner")
+    assert res.loc["bit_star", "timeouts"] == 1 and res.loc["bit_star", "timeout_cpu_share"] == pytest.approx(0.45)
+    assert res.loc["rrt_connect", "timeout_cpu_share"] == pytest.approx(0.98)
+    warned = [w for w in (out / "README.md").read_text().splitlines() if "of a CPU" in w]
+    assert len(warned) == 1 and "bit_star" in warned[0] and "lower bound" in warned[0]
+
+
+def test_problem_sets_count_valid_and_solved_per_scene_with_published_figures(tmp_path):
+    """A MotionBenchMaker-style problem-file run: per set, invalid queries are not valid,
+    timeouts and their CPU share are counted, and the published VAMP/cuRobo figures follow."""
+    logs = tmp_path / "logs"
+    queries = [
+        Q("file", "box_panda/0001", 0, True, 0.2),
+        Q("file", "box_panda/0002", 0, False, 0.01, failure="invalid_query"),
+        Q("file", "cage_panda/0001", 0, False, 10.0, stats={"cpu_s": 9.5}),
+        Q("file", "cage_panda/0002", 0, True, 0.4),
+    ]
+    write_log(logs / "rrtc", "arm7", "rrt_connect", 0, queries, split="file")
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    ps = pd.read_csv(out / "problem_sets.csv").set_index("problem_set")
+    assert ps.loc["box_panda", ["total", "valid", "solved", "timeouts"]].tolist() == [2, 1, 1, 0]
+    assert ps.loc["cage_panda", ["total", "valid", "solved", "timeouts"]].tolist() == [2, 2, 1, 1]
+    assert ps.loc["cage_panda", "timeout_cpu_share"] == pytest.approx(0.95)
+    md = (out / "problem_sets.md").read_text()
+    assert "1 (95.0)" in md and "VAMP" in md and "cuRobo" in md

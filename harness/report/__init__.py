@@ -23,6 +23,9 @@ How the numbers are computed (also written to OUT/README.md):
   a finite time (the paper's convention: time to a first solution); `time_std_s` uses ddof=1
   when there are two such queries or more, else 0. `cpu_mean_s`, `cost_mean` and
   `collision_checks_median` are over all successful queries (each over those that logged it).
+- `timeouts`: queries that ran out of budget; `timeout_cpu_share`: their CPU time over their
+  wall time, pooled. Below 0.9 the machine was loaded (the planner got less computing than
+  its budget), the report warns, and that row's success rate is a lower bound.
 - `pnet_calls_median`, `replans_mean` and `fallback_rate` are over every query that logged
   the field (NaN for planners that do not).
 - Table I: mean ± std time in seconds, and the BIT*/MPNet (NR) ratio of mean times; other

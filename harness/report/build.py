@@ -26,6 +26,7 @@ from harness.report.render import (
 from harness.report.tables import (
     ablation_table,
     load_paper,
+    loaded_warnings,
     main_planners,
     quality_table,
     results_table,
@@ -94,6 +95,7 @@ def write_report(
     warns += duplicate_warnings(q, files, facts)
     claim_out(out)
     res = results_table(q, facts)
+    warns += loaded_warnings(res)
     res.to_csv(out / "results.csv", index=False)
     written = [out / "results.csv"]
     main_res = main_planners(res, facts)

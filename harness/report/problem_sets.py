@@ -24,7 +24,29 @@ COLS = [
     "solved_ci_high",
     "time_median_s",
     "time_p90_s",
+    "timeouts",
+    "timeout_cpu_share",
 ]
+
+
+# Published figures on MotionBenchMaker's Panda problems, beside ours for orientation only:
+# other hardware, other collision models (VAMP: 59 spheres, cuRobo: 61), and for cuRobo
+# robometrics' 800-problem version of the benchmark. Neither publishes per-set figures.
+PUBLISHED = (
+    (
+        "VAMP, RRT-Connect (default settings)",
+        "699 / 699 / 700",
+        "planning time median 35 us, p95 343 us; one core of an AMD Ryzen 9 7950X",
+        "github.com/KavrakiLab/vamp, resources/README.md (Panda table)",
+    ),
+    (
+        "cuRobo v0.7.6",
+        "100% of 800 (robometrics' MotionBenchMaker)",
+        "plan time median 31 ms, p98 161 ms; NVIDIA RTX 6000 Ada",
+        "curobo.org/get_started/4_benchmarks.html (2024-11-22)",
+    ),
+)
+MBM_SUFFIX = "_panda"  # MotionBenchMaker's Panda problem sets: bookshelf_small_panda, ...
 
 
 def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
@@ -39,6 +61,7 @@ def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
         solved = valid[valid["success"].astype(bool)]
         lo, hi = wilson(len(solved), len(valid)) if len(valid) else (float("nan"), float("nan"))
         t = solved["time_s"].astype(float)
+        out = g[g["failure"] == "timeout"]
         rows.append(
             {
                 "env": env,
@@ -52,6 +75,8 @@ def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
                 "solved_ci_high": hi,
                 "time_median_s": float(t.median()) if len(t) else float("nan"),
                 "time_p90_s": float(t.quantile(0.9)) if len(t) else float("nan"),
+                "timeouts": len(out),
+                "timeout_cpu_share": float(out["cpu_s"].sum() / out["time_s"].sum()) if len(out) else float("nan"),
             }
         )
     df = pd.DataFrame(rows, columns=COLS)
@@ -60,7 +85,7 @@ def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
 
 
 def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
-    head = ["Env", "Problem set", "Planner", "Solved / valid / total", "Solved [%] [95% CI]", "Median [s]", "p90 [s]"]
+    head = ["Env", "Problem set", "Planner", "Solved / valid / total", "Solved [%] [95% CI]", "Median [s]", "p90 [s]", "Timed out (CPU)"]
     rows = [
         [
             r["env"],
@@ -70,6 +95,7 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
             f"{_pct(r['solved_rate'])} [{_pct(r['solved_ci_low'])}, {_pct(r['solved_ci_high'])}]",
             fmt_g(r["time_median_s"]),
             fmt_g(r["time_p90_s"]),
+            f"{r['timeouts']} ({_pct(r['timeout_cpu_share'])})" if r["timeouts"] else "0",
         ]
         for r in df.to_dict("records")
     ]
@@ -77,7 +103,16 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
         "Problem sets are the workspace-id prefixes of problem-file runs (MotionBenchMaker's scenes, e.g. "
         "`box_panda`). Valid: start and goal are valid for our robot model (the others are logged "
         "`invalid_query`, as VAMP counts them); solved: the path passed the fine re-check. Times are over the "
-        "solved queries, all seeds together; the success interval is Wilson's 95%. arm7's robot is the Franka "
+        "solved queries, all seeds together; the success interval is Wilson's 95%. Timed out: queries that ran out "
+        "of budget, with the share of a CPU they got (below 90%: a loaded machine, the rate a lower bound). arm7's robot is the Franka "
         "Panda as MotionBenchMaker models it (fingers held at 0.065 m, MoveIt's limits), not the paper's Baxter."
     )
-    return f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"
+    text = f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"
+    if df["problem_set"].astype(str).str.endswith(MBM_SUFFIX).any():
+        published = _md_table(["Planner", "Solved / valid / total", "Time", "Source"], [list(p) for p in PUBLISHED])
+        text += (
+            "\n## Published figures on MotionBenchMaker's Panda problems (other hardware)\n\n"
+            f"{published}\n\nPooled over the seven sets (neither publishes per-set figures); other machines, "
+            "other collision models: for orientation, not a comparison on equal terms.\n"
+        )
+    return text

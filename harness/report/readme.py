@@ -290,6 +290,9 @@ How the numbers are computed:
   finite time; the std is the sample std (ddof=1), 0 for a single one.
 - CPU time, path cost and collision checks: over all successful queries of all seeds pooled.
 - `pnet_calls_median`, `replans_mean`, `fallback_rate`: over the queries that logged them.
+- `timeouts`, `timeout_cpu_share`: the queries that ran out of budget and their CPU time over
+  their wall time, pooled; below 90% the machine was loaded, a warning says so, and that
+  row's success rate is a lower bound.
 - Which planners go where: results.csv has every planner but the time-to-equal-quality ones
   (`*_to_nr*`, whose success means "reached the target"; they are in `equal_quality.*`);
   Table I, `success_cost.*` and the figures leave out the ablations (`mpnet_nr_*`,

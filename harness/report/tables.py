@@ -41,6 +41,8 @@ RESULT_COLS = KEYS + [
     "plan_median_s",
     "plan_p90_s",
     "cpu_mean_s",
+    "timeouts",
+    "timeout_cpu_share",
     "cost_mean",
     "quality_n",
     "quality_median",
@@ -64,6 +66,20 @@ RESULT_COLS = KEYS + [
     "time_diff_significant",
     "failures",
 ]
+
+
+LOADED = 0.9  # a run whose timed-out queries got less CPU than this share of their time is flagged
+
+
+def loaded_warnings(res: pd.DataFrame) -> list[str]:
+    """One line per row whose timed-out queries got less than LOADED of a CPU."""
+    low = res[res["timeout_cpu_share"] < LOADED]
+    return [
+        f"warning: {r.env} {r.split} {r.planner}: its {r.timeouts} timed-out queries got "
+        f"{r.timeout_cpu_share:.0%} of a CPU (< {LOADED:.0%}): the machine was loaded, so its success "
+        "rate is a lower bound"
+        for r in low.itertuples()
+    ]
 
 
 def equal_quality_planners(q: pd.DataFrame, facts: Facts) -> set[str]:
@@ -98,6 +114,11 @@ def results_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
     res["plan_p90_s"] = plan.quantile(0.9)
     by = solved.groupby(KEYS, sort=False)
     res["cpu_mean_s"] = by["cpu_s"].mean()
+    # How much of a CPU the timed-out queries got: on a loaded machine a planner that ran out
+    # of time got less than its budget of computing, and its success rate is a lower bound.
+    out_of_time = q[q["failure"] == "timeout"].groupby(KEYS, sort=False)
+    res["timeouts"] = out_of_time.size()
+    res["timeout_cpu_share"] = out_of_time["cpu_s"].sum() / out_of_time["time_s"].sum()
     res["cost_mean"] = by["path_cost"].mean()
     ref = solved["reference_cost"]
     has_ref = np.isfinite(solved["path_cost"]) & np.isfinite(ref) & (ref > 0)
@@ -131,7 +152,7 @@ def results_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
     res["failures"] = res["failures"].fillna("")
     draws = {k: boot_medians(v.to_numpy(), ("time",) + k) for k, v in t}
     res = res.reset_index()
-    for c in ("queries", "seeds", "successes", "quality_n", "cost_over_bit_star_n"):
+    for c in ("queries", "seeds", "successes", "timeouts", "quality_n", "cost_over_bit_star_n"):
         res[c] = res[c].fillna(0).astype(int)
     res["success_rate"] = res["successes"] / res["queries"]
     keys = list(zip(res["env"], res["split"], res["planner"]))
