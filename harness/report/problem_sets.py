@@ -85,7 +85,8 @@ def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
 
 
 def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
-    head = ["Env", "Problem set", "Planner", "Solved / valid / total", "Solved [%] [95% CI]", "Median [s]", "p90 [s]", "Timed out (CPU)"]
+    head = ["Env", "Problem set", "Planner", "Solved / valid / total", "Solved [%] [95% CI]", "Median [s]", "p90 [s]"]
+    head.append("Timed out (CPU)")
     rows = [
         [
             r["env"],
@@ -104,7 +105,8 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
         "`box_panda`). Valid: start and goal are valid for our robot model (the others are logged "
         "`invalid_query`, as VAMP counts them); solved: the path passed the fine re-check. Times are over the "
         "solved queries, all seeds together; the success interval is Wilson's 95%. Timed out: queries that ran out "
-        "of budget, with the share of a CPU they got (below 90%: a loaded machine, the rate a lower bound). arm7's robot is the Franka "
+        "of budget, with the share of a CPU they got (below 90%: a loaded machine, the rate a lower bound). "
+        "arm7's robot is the Franka "
         "Panda as MotionBenchMaker models it (fingers held at 0.065 m, MoveIt's limits), not the paper's Baxter."
     )
     text = f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"
