@@ -14,7 +14,9 @@ centre moves per radian of that joint. A test descends the tree only where a bou
 touches, so a configuration far from everything costs a few dozen tests, not thousands.
 
 A state's verdict is one of FREE (free even with every sphere grown by its `extra`),
-NEAR (free, but not with the growth) or HIT (a sphere touches an obstacle or another link).
+NEAR (a grown sphere touches something: returned at the first such contact, without
+looking further for a HIT, which a plain check answers far more cheaply than a grown scan)
+or HIT (a sphere touches an obstacle or another link).
 """
 
 from __future__ import annotations
@@ -425,7 +427,6 @@ def verdict(q, m, obs, bufs, growing, h, dq):
         bufs[LPLACED][li] = 0.0
     bufs[GPLACED][:] = 0.0
     bufs[TOP][0] = top
-    near = False
     counts = (boxes.shape[0], cyls.shape[0], balls.shape[0])
     for li in range(m[FIRST], L):
         row = 0
@@ -452,7 +453,7 @@ def verdict(q, m, obs, bufs, growing, h, dq):
                             return HIT
                         r += gextra[g]
                         if d2 <= r * r:
-                            near = True
+                            return NEAR
     pair_a, pair_b, pair_j0, pg = m[PAIR_A], m[PAIR_B], m[PAIR_J0], bufs[PG]
     for pi in range(pair_a.shape[0]):
         a, b, j0 = pair_a[pi], pair_b[pi], pair_j0[pi]
@@ -489,8 +490,8 @@ def verdict(q, m, obs, bufs, growing, h, dq):
                         if not _apart(centres, k, radius, centres, n, radius, 0.0):
                             return HIT
                         if not _apart(centres, k, radius, centres, n, radius, grown):
-                            near = True
-    return NEAR if near else FREE
+                            return NEAR
+    return FREE
 
 
 @njit(cache=True, inline="always")
@@ -573,7 +574,11 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
         v = verdict(q, m, obs, bufs, True, half, dq)
         if v == FREE:
             continue
-        if v == HIT or bufs[TOP][0] < tol or tail - head + 2 > QUEUE:
+        top = bufs[TOP][0]
+        if v == NEAR:  # a grown sphere touches: is the midpoint itself hit? (ends blocked motions early)
+            evaluated += 1
+            v = verdict(q, m, obs, bufs, False, 0.0, dq)
+        if v == HIT or top < tol or tail - head + 2 > QUEUE:
             return False, evaluated
         t0s[tail % QUEUE], t1s[tail % QUEUE] = t0, mid
         tail += 1
