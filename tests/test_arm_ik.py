@@ -1,0 +1,57 @@
+"""Inverse kinematics on the arm model (mpnet.envs.arm_ik): the Jacobian matches finite
+differences, and poses the arm can reach are reached within MBM-like tolerances."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from mpnet.envs.arm_ik import IKTarget, jacobian, meets, solve
+from mpnet.envs.arm_model import load_arm_model
+
+MODEL = load_arm_model("panda")
+LOWER = np.array([b[0] for b in MODEL.limits])
+UPPER = np.array([b[1] for b in MODEL.limits])
+
+
+@settings(deadline=None, max_examples=30)
+@given(st.integers(0, 2**31 - 1))
+def test_jacobian_matches_finite_differences(seed):
+    q = np.random.default_rng(seed).uniform(LOWER, UPPER)
+    T, J = jacobian(MODEL, q, "panda_link8")
+    h = 1e-6
+    for j in range(MODEL.dof):
+        dq = np.zeros(MODEL.dof)
+        dq[j] = h
+        T2 = MODEL.link_transforms(q + dq)[MODEL.kinematics.index("panda_link8")]
+        assert np.allclose((T2[:3, 3] - T[:3, 3]) / h, J[:3, j], atol=1e-5)
+        w = Rotation.from_matrix(T2[:3, :3] @ T[:3, :3].T).as_rotvec() / h
+        assert np.allclose(w, J[3:, j], atol=1e-5)
+
+
+@settings(deadline=None, max_examples=20)
+@given(st.integers(0, 2**31 - 1))
+def test_a_reachable_pose_is_reached_within_tolerance(seed):
+    rng = np.random.default_rng(seed)
+    q0 = rng.uniform(LOWER, UPPER)
+    pose = MODEL.link_transforms(q0)[MODEL.kinematics.index("panda_link8")]
+    target = IKTarget("panda_link8", pose, np.full(3, 0.01), np.full(3, 0.01))
+    q = solve(MODEL, target, rng, attempts=50)
+    assert q is not None and meets(MODEL, q, target)
+    assert np.all(q >= LOWER) and np.all(q <= UPPER)
+
+
+def test_an_unreachable_pose_gives_none():
+    far = np.eye(4)
+    far[:3, 3] = [3.0, 0.0, 0.5]
+    target = IKTarget("panda_link8", far, np.full(3, 0.01), np.full(3, 0.01))
+    assert solve(MODEL, target, np.random.default_rng(0), attempts=5) is None
+
+
+def test_valid_rejects_solutions():
+    rng = np.random.default_rng(1)
+    pose = MODEL.link_transforms(rng.uniform(LOWER, UPPER))[MODEL.kinematics.index("panda_link8")]
+    target = IKTarget("panda_link8", pose, np.full(3, 0.01), np.full(3, 0.01))
+    assert solve(MODEL, target, rng, attempts=5, valid=lambda q: False) is None
