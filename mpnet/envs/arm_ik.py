@@ -44,8 +44,11 @@ def _frames(model: ArmModel, link: str) -> tuple[int, list[int]]:
 
 def jacobian(model: ArmModel, q: np.ndarray, link: str) -> tuple[np.ndarray, np.ndarray]:
     """(link's 4 x 4 pose, 6 x dof geometric Jacobian: linear rows first, base frame)."""
+    return _jacobian(model, q, *_frames(model, link))
+
+
+def _jacobian(model: ArmModel, q: np.ndarray, tip: int, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:
     kin = model.kinematics
-    tip, joints = _frames(model, link)
     T = kin.link_transforms(q)
     p = T[tip, :3, 3]
     J = np.zeros((6, model.dof))
@@ -86,13 +89,14 @@ def solve(
     pose drawn within the tolerances, as MBM's IK query does."""
     lower = np.array([b[0] for b in model.limits])
     upper = np.array([b[1] for b in model.limits])
+    chain = _frames(model, target.link)  # once: every iteration walks the same chain
     for k in range(attempts):
         q = np.array(seed_q, float) if (k == 0 and seed_q is not None) else rng.uniform(lower, upper)
         aim = target.pose.copy()
         aim[:3, 3] += rng.uniform(-target.position_tol / 2, target.position_tol / 2)
         aim[:3, :3] = aim[:3, :3] @ Rotation.from_rotvec(rng.uniform(-1, 1, 3) * target.orientation_tol).as_matrix()
         for _ in range(iterations):
-            T, J = jacobian(model, q, target.link)
+            T, J = _jacobian(model, q, *chain)
             e = np.concatenate([aim[:3, 3] - T[:3, 3], Rotation.from_matrix(aim[:3, :3] @ T[:3, :3].T).as_rotvec()])
             if np.linalg.norm(e) < 1e-6:
                 break

@@ -159,7 +159,12 @@ def _data() -> dict:
 
 
 def families() -> dict[str, SceneFamily]:
-    """MBM's seven Panda families, by name."""
+    """MBM's seven Panda families, by name (parsed once per process; a fresh dict per call)."""
+    return dict(_families())
+
+
+@cache
+def _families() -> dict[str, SceneFamily]:
     return {name: _family(name, d) for name, d in _data()["families"].items()}
 
 

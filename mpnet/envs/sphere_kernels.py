@@ -455,10 +455,14 @@ def verdict(q, m, obs, bufs, growing, h, dq):
                         if d2 <= r * r:
                             return NEAR
     pair_a, pair_b, pair_j0, pg = m[PAIR_A], m[PAIR_B], m[PAIR_J0], bufs[PG]
+    looked_up, table_says_free = -1, False  # a table's pairs are consecutive: one lookup serves them all
     for pi in range(pair_a.shape[0]):
         a, b, j0 = pair_a[pi], pair_b[pi], pair_j0[pi]
         t = m[PAIR_TABLE][pi]
-        if t >= 0 and _table_free(q, m[TABLE_I][t], m[TABLE_F][t], m[TABLE_BITS], h if growing else 0.0, dq):
+        if t >= 0 and t != looked_up:
+            looked_up = t
+            table_says_free = _table_free(q, m[TABLE_I][t], m[TABLE_F][t], m[TABLE_BITS], h if growing else 0.0, dq)
+        if t >= 0 and table_says_free:
             continue
         # In a motion, link b moves relative to link a (its ancestor) only through the joints
         # between them: b grows by that, a not at all. Otherwise both grow by their own motion.
