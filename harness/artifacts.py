@@ -125,7 +125,7 @@ def dataset_shard(cfg: DictConfig, shard: int, shards: int, progress: bool = Tru
     except ArtifactError:
         pass
     resume = partial_dir(cfg.cache_dir, "data", key_config)
-    total = sum(len(c) for c in chunks_of(params.train_workspaces, shard=(shard, shards)).values())
+    total = sum(len(c) for c in chunks_of(params.train_workspaces, params.expert_chunk, (shard, shards)).values())
     with _bar(total, f"expert paths {spec.name} shard {shard}/{shards}", progress) as bar:
         paths = build_expert_shard(spec, params, resume, (shard, shards), jobs=int(cfg.jobs), progress=bar.update)
     return resume, paths

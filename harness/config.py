@@ -17,6 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from harness.cli import UsageError
 from mpnet.data.dataset import DataParams
+from mpnet.data.expert import EXPERTS
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
 
@@ -33,7 +34,11 @@ def geometry_params(env_cfg) -> dict:
     """The config's geometry knobs, for cache keys. The validation step decides which
     expert paths are kept and the reference costs, so it is in the key too, but only when
     it differs from the env's registry value (existing caches keep their keys)."""
-    out = _geometry(env_cfg) | get_spec(env_cfg.name).robot.cache_identity()
+    spec = get_spec(env_cfg.name)
+    out = _geometry(env_cfg) | spec.robot.cache_identity()
+    version = getattr(spec.generator, "VERSION", None)  # generators that version their output
+    if version is not None:
+        out["generator"] = f"{type(spec.generator).__name__}@{version}"
     step = env_cfg.get("validation_step")
     if step is not None and float(step) != get_spec(env_cfg.name).validation_step:
         out["validation_step"] = float(step)
@@ -190,6 +195,13 @@ def check_config(cfg: DictConfig) -> None:
     for key in ("blocked_only", "contract"):
         if not isinstance(cfg.env.expert.get(key, False), bool):
             raise UsageError(f"config key env.expert.{key}: expected true or false, got {cfg.env.expert[key]!r}")
+    if cfg.env.expert.get("planner", "rrt_star") not in EXPERTS:
+        raise UsageError(
+            f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {cfg.env.expert.planner!r}"
+        )
+    chunk = cfg.env.expert.get("chunk", 1)
+    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+        raise UsageError(f"config key env.expert.chunk: expected an integer >= 1, got {chunk!r}")
     for key in ("rerun", "resume", "progress"):
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
@@ -198,6 +210,13 @@ def check_config(cfg: DictConfig) -> None:
         check_planner(cfg.planner, "planner", spec, cfg.seed)
         if cfg.planner.get("cost_target") is not None:
             check_planner(cfg.planner.cost_target, "planner.cost_target", spec, cfg.seed)
+
+
+def _expert_range(env_cfg) -> dict:
+    """The RRT-Connect expert plans with the env's planner_range: then the data depends on it."""
+    if env_cfg.expert.get("planner", "rrt_star") != "rrt_connect":
+        return {}
+    return {"planner_range": float(env_cfg.planner_range)}
 
 
 def data_params(cfg: DictConfig) -> DataParams:
@@ -213,7 +232,9 @@ def data_params(cfg: DictConfig) -> DataParams:
         expert_max_seconds=float(cfg.env.expert.max_seconds),
         expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)),
         expert_contract=bool(cfg.env.expert.get("contract", False)),
-        geometry=geometry_params(cfg.env),
+        geometry=geometry_params(cfg.env) | _expert_range(cfg.env),
+        expert_chunk=int(cfg.env.expert.get("chunk", 1)),
+        expert_planner=str(cfg.env.expert.get("planner", "rrt_star")),
     )
 
 

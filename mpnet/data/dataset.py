@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.data.expert import ExpertPaths, expert_paths, summary
+from mpnet.data.expert import ExpertPaths, chunks_of, expert_paths, summary
 from mpnet.data.store import ArtifactError
 from mpnet.envs.clouds import clouds
-from mpnet.envs.generators import extra_ids, make_workspaces, split_ids
+from mpnet.envs.generators import extra_ids, make_workspaces, split_ids, split_sizes
 from mpnet.envs.spec import EnvSpec
 
 DATA_FILE = "data.npz"
@@ -44,11 +44,16 @@ class DataParams:
     expert_blocked_only: bool = True
     expert_contract: bool = False
     geometry: dict | None = None  # the env's motion step and planning margin, where it has them
+    expert_chunk: int = 1  # workspaces per expert process (OMPL's RNG is seeded per chunk)
+    expert_planner: str = "rrt_star"  # or rrt_connect (mpnet.data.expert.EXPERTS)
 
     def key_config(self) -> dict:
         key = {"format": FORMAT, **self.__dict__}
         if not self.geometry:  # envs without them keep their keys
             key.pop("geometry")
+        for name, default in (("expert_chunk", 1), ("expert_planner", "rrt_star")):
+            if key[name] == default:  # keys of the datasets built before these existed
+                key.pop(name)
         return key
 
 
@@ -71,6 +76,8 @@ def _expert_paths(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> Expert
         p.expert_max_seconds,
         blocked_only=p.expert_blocked_only,
         contract=p.expert_contract,
+        chunk_size=p.expert_chunk,
+        planner=p.expert_planner,
         **kwargs,
     )
 
@@ -87,7 +94,7 @@ def build_dataset(
     """Write data.npz into folder; returns the manifest fields. resume_dir: where finished
     chunks of expert paths are kept, so that a build cut short resumes; plan=False: every
     chunk must be there already (the merge of a sharded build; MissingChunks otherwise)."""
-    train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
+    train = make_workspaces(spec, split_ids("seen", p.train_workspaces, split_sizes(spec)), "train", p.data_seed)
     paths = _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, plan=plan)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
     total = spec.cloud_size(p.points_per_block)
@@ -120,7 +127,10 @@ def build_expert_shard(
 ) -> ExpertPaths:
     """Shard (i, shards) of the dataset's expert paths, planned into resume_dir (chunks
     already there are kept); build_dataset with the same resume_dir assembles them."""
-    train = make_workspaces(spec, split_ids("seen", p.train_workspaces), "train", p.data_seed)
+    ids = split_ids("seen", p.train_workspaces, split_sizes(spec))
+    mine = sorted(i for c in chunks_of(len(ids), p.expert_chunk, shard).values() for i in c)
+    made = dict(zip(mine, make_workspaces(spec, [ids[i] for i in mine], "train", p.data_seed)))
+    train = [made.get(i) for i in range(len(ids))]  # only this shard's workspaces are made
     return _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, shard=shard)
 
 

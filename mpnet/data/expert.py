@@ -11,6 +11,7 @@ one build.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import time
@@ -94,6 +95,42 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
     return path
 
 
+def rrt_connect_path(spec: EnvSpec, checker, start, goal, runs: int, max_seconds: float) -> list | None:
+    """The shortest of `runs` RRT-Connect paths (the env's planner_range; the runs stop at the
+    first that finds none within max_seconds), each shortened by
+    OMPL's rope shortcut and lazy states contraction: the expert where RRT* for a fixed number
+    of iterations rarely solves the queries (panda_mbm's goals deep in shelves; FINDINGS,
+    issue 26, compares its costs with BIT*'s)."""
+    from ompl import base as ob
+    from ompl import geometric as og
+
+    from mpnet.envs.ompl_space import make_problem
+
+    best, best_cost = None, math.inf
+    for _ in range(runs):
+        si, pdef, to_tuple, keep = make_problem(spec, checker, start, goal)
+        planner = og.RRTConnect(si)
+        if spec.planner_range is not None:
+            planner.setRange(float(spec.planner_range))
+        planner.setProblemDefinition(pdef)
+        planner.setup()
+        planner.solve(ob.timedPlannerTerminationCondition(max_seconds))
+        if not pdef.hasExactSolution():
+            break  # a pair RRT-Connect cannot solve in max_seconds costs one run, not `runs`
+        solution = pdef.getSolutionPath()
+        og.PathSimplifier(si).ropeShortcutPath(solution)
+        path = [list(to_tuple(x)) for x in solution.getStates()]
+        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
+        path = lazy_states_contraction(checker, dedupe(path))
+        cost = path_cost(spec, path)
+        if cost < best_cost:
+            best, best_cost = path, cost
+    return best
+
+
+EXPERTS = {"rrt_star": rrt_star_path, "rrt_connect": rrt_connect_path}
+
+
 def dedupe(path: list) -> list:
     """The path without states equal to the one before them (the original's data generator
     drops repeated states the same way)."""
@@ -115,25 +152,28 @@ def workspace_paths(
     blocked_only: bool = True,
     max_tries: int = 50,
     contract: bool = False,
+    planner: str = "rrt_star",
 ) -> ExpertPaths:
-    """`count` expert paths between random valid states of one workspace.
+    """`count` expert paths between valid start/goal pairs of one workspace (the env's
+    `pairs`: random states, or MotionBenchMaker's queries); fewer when its pairs run out.
 
     blocked_only keeps the pairs whose straight line is blocked, as every test query's
     is: a free pair only teaches Pnet to step onto the goal. contract: lazy states
-    contraction of each path (off: RRT*'s vertex list, as the paper trained on)."""
+    contraction of each path (off: RRT*'s vertex list, as the paper trained on). planner:
+    rrt_star (`iterations` iterations), or rrt_connect (the best of `iterations` shortened
+    runs, see rrt_connect_path)."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
     states, lengths, costs, raws, raw_states = [], [], [], [], 0
-    for _ in range(count * max_tries):
+    for s, g in itertools.islice(spec.pairs(spec, ws, checker, rng), count * max_tries):
         if len(lengths) == count:
             break
-        s, g = spec.space.sample(rng), spec.space.sample(rng)
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
             continue
         if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):
             continue
-        path = rrt_star_path(spec, checker, s, g, iterations, max_seconds)
+        path = EXPERTS[planner](spec, checker, s, g, iterations, max_seconds)
         if path is None:
             continue
         path = dedupe(path)
@@ -161,14 +201,16 @@ def workspace_paths(
 
 def chunk_worker(args: tuple) -> ExpertPaths:
     """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path."""
-    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only, contract = args
+    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only, contract, planner = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
     return ExpertPaths.concat(
         [
-            workspace_paths(spec, ws, idx, count, seed, iterations, max_seconds, blocked_only, contract=contract)
+            workspace_paths(
+                spec, ws, idx, count, seed, iterations, max_seconds, blocked_only, contract=contract, planner=planner
+            )
             for idx, ws in workspaces
         ],
         spec.state_dim,
@@ -209,6 +251,7 @@ def expert_paths(
     resume_dir: Path | None = None,
     shard: tuple[int, int] | None = None,
     plan: bool = True,
+    planner: str = "rrt_star",
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
@@ -222,7 +265,7 @@ def expert_paths(
 
     chunks = chunks_of(len(workspaces), chunk_size, shard)
     tasks = {
-        k: (spec, [workspaces[i] for i in c], count, seed, k, iterations, max_seconds, blocked_only, contract)
+        k: (spec, [workspaces[i] for i in c], count, seed, k, iterations, max_seconds, blocked_only, contract, planner)
         for k, c in chunks.items()
     }
     results: dict[int, ExpertPaths | None] = {}

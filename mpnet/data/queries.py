@@ -9,9 +9,11 @@ The test set depends on the data config only, never on the run's `seed`.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
-from mpnet.envs.generators import make_workspace, split_ids
+from mpnet.envs.generators import make_workspace, split_ids, split_sizes
 from mpnet.envs.ompl_space import is_solvable
 from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.workspace import Query, Workspace
@@ -33,10 +35,9 @@ def make_queries(
     rng = np.random.default_rng([seed, SPLIT_CODES.get(split, 0), int(ws.id) if ws.id.isdigit() else 0])
     checker = spec.make_checker(ws)
     out: list[Query] = []
-    for _ in range(max_tries):
+    for s, g in itertools.islice(spec.pairs(spec, ws, checker, rng), max_tries):
         if len(out) == count:
             return out
-        s, g = spec.space.sample(rng), spec.space.sample(rng)
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
             continue
         if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):
@@ -44,6 +45,8 @@ def make_queries(
         if not is_solvable(spec, checker, s, g, solvable_s):
             continue
         out.append(Query(f"{ws.id}/{len(out)}", ws.id, split, s, g))
+    if len(out) == count:
+        return out
     raise RuntimeError(f"workspace {ws.id}: found only {len(out)} of {count} queries in {max_tries} draws")
 
 
@@ -60,7 +63,7 @@ def make_testset(
     workspaces: list[Workspace] = []
     queries: list[Query] = []
     for split, (n_ws, n_q) in splits.items():
-        for i in split_ids(split, n_ws):
+        for i in split_ids(split, n_ws, split_sizes(spec)):
             ws = make_workspace(spec, i, split, seed)
             workspaces.append(ws)
             queries += make_queries(spec, ws, n_q, seed, split, solvable_s, blocked_only=blocked_only)

@@ -56,17 +56,25 @@ def c3d_layouts(seed: int, count: int = N_TRAIN + N_UNSEEN) -> tuple[np.ndarray,
     return centres, np.array(rows)
 
 
-def split_ids(split: str, count: int) -> list[int]:
-    """The first `count` workspace ids of a split."""
+def split_ids(split: str, count: int, sizes: tuple[int, int] = (N_TRAIN, N_UNSEEN)) -> list[int]:
+    """The first `count` workspace ids of a split, for a generator with `sizes` = (training
+    workspaces, unseen ones): ids 0.. are training (seen), the unseen ones follow."""
+    n_train, n_unseen = sizes
     if split == "seen":
-        if count > N_TRAIN:
-            raise ValueError(f"the seen split has {N_TRAIN} workspaces, {count} asked")
+        if count > n_train:
+            raise ValueError(f"the seen split has {n_train} workspaces, {count} asked")
         return list(range(count))
     if split == "unseen":
-        if count > N_UNSEEN:
-            raise ValueError(f"the unseen split has {N_UNSEEN} workspaces, {count} asked")
-        return list(range(N_TRAIN, N_TRAIN + count))
+        if count > n_unseen:
+            raise ValueError(f"the unseen split has {n_unseen} workspaces, {count} asked")
+        return list(range(n_train, n_train + count))
     raise ValueError(f"unknown split {split!r}; choices: seen, unseen")
+
+
+def split_sizes(spec) -> tuple[int, int]:
+    """(training, unseen) workspaces of an env's generator: the original's 100 and 10 unless
+    the generator says otherwise (`split_sizes`)."""
+    return getattr(spec.generator, "split_sizes", (N_TRAIN, N_UNSEEN))
 
 
 class OriginalLayouts:

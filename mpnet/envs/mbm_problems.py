@@ -1,59 +1,143 @@
-"""MotionBenchMaker-style problems (issue 26): a scene of one of MBM's Panda families and one
-query in it, made as MBM's generator makes them (scripts/generate.cpp, ProblemGenerator):
-the start is MBM's "ready" state (table_under_pick: inverse kinematics under the table top),
-the goal is inverse kinematics to the pose one of the family's goal objects asks of
-panda_link8, and the pair is kept only when both are valid and RRT-Connect solves it. Any
-failure gives None, and the caller draws a new scene, as MBM does.
+"""panda_mbm's workspaces and queries (issue 26): scenes of MotionBenchMaker's seven Panda
+families and queries made as MBM's generator makes them (scripts/generate.cpp,
+ProblemGenerator): the start is MBM's "ready" state (table_under_pick: inverse kinematics
+under the table top), the goal is inverse kinematics to the pose one of the family's goal
+objects asks of panda_link8, and both must be valid. A scene with no valid start or goal is
+drawn again, as MBM does.
 
-Where we differ from MBM, and why: MBM validated with a MoveIt planner given 60 s and two
-attempts; we use the env's `solvable_s` with OMPL's RRT-Connect (the screen every generated
-test query passes). MBM's IK is KDL with 200 restarts of 0.01 s; ours is mpnet.envs.arm_ik
-with the same number of restarts.
+Workspace i is of family FAMILY_ORDER[i % 7] and depends on (seed, i) only. Where we differ
+from MBM, and why: MBM validated each query with a MoveIt planner given 60 s; test queries
+here pass the env's RRT-Connect screen (`solvable_s`), expert paths the expert's RRT*. MBM's
+IK is KDL with 200 restarts of 0.01 s; ours is mpnet.envs.arm_ik with the same number of
+restarts. MBM's 700 packaged problems are test data: nothing here reads them.
 """
 
 from __future__ import annotations
 
+import os
+from functools import cached_property
+
 import numpy as np
 
 from mpnet.envs.arm_ik import IKTarget, solve
-from mpnet.envs.mbm_scenes import SceneFamily, default_start
-from mpnet.envs.ompl_space import is_solvable
+from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.mbm_scenes import PoseQuery, SceneFamily, default_start, families
 from mpnet.envs.spec import EnvSpec
-from mpnet.envs.workspace import Query, Workspace
+from mpnet.envs.workspace import Workspace
 
 TIP = "panda_link8"  # MBM's IK tip: the SRDF's panda_arm chain ends there
+FAMILY_ORDER = (
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "box",
+    "cage",
+    "table_pick",
+    "table_under_pick",
+)
 
 
-def _ik(spec: EnvSpec, family: SceneFamily, poses, query, rng, seed_q, checker, attempts) -> np.ndarray | None:
-    name = query.objects[int(rng.integers(len(query.objects)))]
+def family_of(ws: Workspace) -> SceneFamily:
+    """The family of a generated workspace (its id is its index)."""
+    return families()[FAMILY_ORDER[int(ws.id) % len(FAMILY_ORDER)]]
+
+
+def poses_of(family: SceneFamily, ws: Workspace) -> dict[str, np.ndarray]:
+    """Every object's 4 x 4 pose, read back from the workspace (the family's object order)."""
+    if len(ws.primitives) != len(family.objects):
+        raise ValueError(
+            f"workspace {ws.id!r}: {len(ws.primitives)} obstacles, {family.name} has {len(family.objects)}"
+        )
+    out = {}
+    for o, p in zip(family.objects, ws.primitives):
+        m = np.eye(4)
+        m[:3, :3], m[:3, 3] = p.rotation(), p.center
+        out[o.name] = m
+    return out
+
+
+def ik_to(model, family: SceneFamily, poses, query: PoseQuery, name: str, rng, seed_q, checker, attempts: int):
+    """A valid joint vector putting panda_link8 where `query` asks at object `name`, or None."""
     target = IKTarget(TIP, family.link8_targets(poses, query)[name], query.position_tol, query.orientation_tol)
-    return solve(
-        spec.robot.model, target, rng, seed_q=seed_q, attempts=attempts, valid=lambda q: checker.is_valid(q.tolist())
-    )
+    return solve(model, target, rng, seed_q=seed_q, attempts=attempts, valid=lambda q: checker.is_valid(q.tolist()))
 
 
-def make_problem(
-    spec: EnvSpec,
-    family: SceneFamily,
-    rng: np.random.Generator,
-    workspace_id: str,
-    split: str,
-    *,
-    solvable_s: float = 2.0,
-    ik_attempts: int = 200,
-) -> tuple[Workspace, Query] | None:
-    """One scene of `family` and one query in it, or None when this scene gives none."""
-    poses = family.sample(rng)
-    ws = Workspace(workspace_id, split, np.zeros((0, 3)), np.zeros((0, 3)), family.primitives(poses))
-    checker = spec.make_checker(ws)
-    start = default_start()
-    if family.starts is not None:
-        start = _ik(spec, family, poses, family.starts, rng, start, checker, ik_attempts)
-        if start is None:
-            return None
-    if not checker.is_valid(start.tolist()):
-        return None
-    goal = _ik(spec, family, poses, family.goals, rng, start, checker, ik_attempts)
-    if goal is None or not is_solvable(spec, checker, start, goal, solvable_s):
-        return None
-    return ws, Query(f"{workspace_id}/0", workspace_id, split, start, goal)
+def _any(objects, rng) -> str:
+    return objects[int(rng.integers(len(objects)))]
+
+
+class MBMScenes:
+    """panda_mbm's generator: `make` draws scene i until it has a valid start and a valid
+    goal (MBM's redraw), `pairs` yields MBM's queries in a scene: the start, and a goal by IK
+    at a goal object drawn at random (table_under_pick: a start by IK too). It ends when
+    `goal_failures` IK calls in a row found nothing for every goal object, or for the start
+    (IK is random: an object given up on may have been reachable; that costs variety, never
+    a wrong pair)."""
+
+    VERSION = 1  # in the data and test set keys: bumped when a change can change a scene or query
+    split_sizes = (7000, 700)  # training (seen) ids 0-6999, unseen 7000-7699: 1000 and 100 per family
+
+    def __init__(self, robot, ik_attempts: int = 200, scene_attempts: int = 200, goal_failures: int = 3):
+        self.robot = robot
+        self.ik_attempts, self.scene_attempts, self.goal_failures = ik_attempts, scene_attempts, goal_failures
+
+    @cached_property
+    def _screen(self) -> EnvSpec:
+        """The spec the scene screen checks with: the robot's default checker, no margin."""
+        return EnvSpec("mbm-screen", self.robot.joint_space(), self.robot, 3, self, planning_margin=0.0)
+
+    def _start(self, family: SceneFamily, poses, checker: CollisionChecker, rng) -> np.ndarray | None:
+        if family.starts is None:
+            start = default_start()
+            return start if checker.is_valid(start.tolist()) else None
+        name = _any(family.starts.objects, rng)
+        return ik_to(
+            self.robot.model, family, poses, family.starts, name, rng, default_start(), checker, self.ik_attempts
+        )
+
+    def _goal(self, family: SceneFamily, poses, checker, rng, start, name: str) -> np.ndarray | None:
+        return ik_to(self.robot.model, family, poses, family.goals, name, rng, start, checker, self.ik_attempts)
+
+    def make(self, index: int, split: str, seed: int = 0) -> Workspace:
+        family = families()[FAMILY_ORDER[index % len(FAMILY_ORDER)]]
+        for attempt in range(self.scene_attempts):
+            rng = np.random.default_rng([seed, 26, index, attempt])
+            poses = family.sample(rng)
+            ws = Workspace(str(index), split, np.zeros((0, 3)), np.zeros((0, 3)), family.primitives(poses))
+            checker = self._screen.make_checker(ws)
+            start = self._start(family, poses, checker, rng)
+            name = _any(family.goals.objects, rng)
+            if start is not None and self._goal(family, poses, checker, rng, start, name) is not None:
+                return ws
+        raise RuntimeError(f"{family.name} scene {index}: no valid query in {self.scene_attempts} draws")
+
+    def make_many(self, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
+        """Several scenes; many are drawn in parallel (a scene's screen takes about a second
+        of IK, and a training set has hundreds)."""
+        if len(indices) < 8:
+            return [self.make(i, split, seed) for i in indices]
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=os.cpu_count(), mp_context=mp.get_context("spawn")) as pool:
+            return list(pool.map(self.make, indices, [split] * len(indices), [seed] * len(indices), chunksize=4))
+
+    def pairs(self, spec: EnvSpec, ws: Workspace, checker: CollisionChecker, rng: np.random.Generator):
+        family = family_of(ws)
+        poses = poses_of(family, ws)
+        misses = dict.fromkeys(family.goals.objects, 0)  # IK calls in a row that found nothing, per object
+        failures = 0
+        while misses and failures < self.goal_failures:
+            start = self._start(family, poses, checker, rng)
+            if start is None:
+                failures += 1
+                continue
+            name = _any(list(misses), rng)
+            goal = self._goal(family, poses, checker, rng, start, name)
+            if goal is None:
+                misses[name] += 1
+                if misses[name] == self.goal_failures:
+                    del misses[name]
+                continue
+            failures, misses[name] = 0, 0
+            yield start, goal

@@ -15,13 +15,22 @@ from mpnet.envs.spaces import StateSpace
 from mpnet.envs.workspace import Query, Workspace
 
 
+def random_pairs(spec: EnvSpec, ws: Workspace, checker: CollisionChecker, rng: np.random.Generator):
+    """Start/goal candidates for expert paths and test queries: two uniform states at a time,
+    without end (the caller keeps the valid ones it wants)."""
+    while True:
+        yield spec.space.sample(rng), spec.space.sample(rng)
+
+
 @dataclass(frozen=True)
 class EnvSpec:
     """What an environment is. `space` holds the state bounds, metric and interpolation;
     `robot` the log description and checkers; `generator` makes its workspaces
     (`make(index, split, seed)`, `make_many`); `sample_cloud(ws, total, rng)` draws the
     obstacle points Enet sees. `exact_reference`: path costs have an exact reference (the
-    2D visibility graph) instead of a planned one."""
+    2D visibility graph) instead of a planned one. `pairs(spec, ws, checker, rng)` yields
+    the start/goal candidates of expert paths and test queries (uniform states by default;
+    MotionBenchMaker's queries for panda_mbm) and ends when the workspace has no more."""
 
     name: str
     space: StateSpace
@@ -41,6 +50,7 @@ class EnvSpec:
     planner_range: float | None = None
     # Per-axis scale the networks divide cloud points by; None: the workspace axes' state bounds.
     cloud_scale: tuple[float, ...] | None = None
+    pairs: Callable = random_pairs
 
     @property
     def state_dim(self) -> int:

@@ -6,12 +6,15 @@ from __future__ import annotations
 from mpnet.envs.arm_model import load_arm_model
 from mpnet.envs.arm_scenes import ArmScenes, arm_cloud
 from mpnet.envs.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
+from mpnet.envs.mbm_problems import MBMScenes
 from mpnet.envs.robots import ArmRobot, PointRobot, RectangleRobot
 from mpnet.envs.spaces import EuclideanSpace, SE2Space
 from mpnet.envs.spec import EnvSpec
 
 _BOX = ((-20.0, 20.0),)
 _RIGID = RectangleRobot((2.0, 5.0))
+_PANDA = ArmRobot("panda")
+_MBM_SCENES = MBMScenes(_PANDA)
 
 SPECS: dict[str, EnvSpec] = {
     "s2d": EnvSpec("s2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(), exact_reference=True),
@@ -32,6 +35,22 @@ SPECS: dict[str, EnvSpec] = {
         motion_step=0.02,
         planning_margin=0.0,
         cloud_scale=(1.0, 1.0, 1.0),
+    ),
+    # The same Panda in scenes of MotionBenchMaker's seven families, with MBM's queries
+    # (mpnet.envs.mbm_problems): the training and test data for MBM's 700 problems (issue 26).
+    "panda_mbm": EnvSpec(
+        "panda_mbm",
+        _PANDA.joint_space(),
+        _PANDA,
+        3,
+        _MBM_SCENES,
+        blocks=10,
+        validation_step=0.002,
+        sample_cloud=arm_cloud,
+        motion_step=0.02,
+        planning_margin=0.0,
+        cloud_scale=(1.0, 1.0, 1.0),
+        pairs=_MBM_SCENES.pairs,
     ),
 }
 
