@@ -157,7 +157,7 @@ def request_states(path: Path) -> tuple[list[float], list[float]]:
 def load_mbm(path: str | Path, spec: EnvSpec) -> TestSet:
     """Every scene/request pair under `path` as one workspace and one query each."""
     if spec.state_dim != len(ARM_JOINTS) or spec.workspace_dim != 3:
-        raise ProblemFileError(path, f"MotionBenchMaker's Panda problems need env arm7, not {spec.name}")
+        raise ProblemFileError(path, f"MotionBenchMaker's Panda problems need env arm7 or panda_mbm, not {spec.name}")
     workspaces, queries = [], []
     for pid, scene, request in _pairs(Path(path)):
         start, goal = request_states(request)

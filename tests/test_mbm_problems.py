@@ -1,48 +1,136 @@
-"""MotionBenchMaker-style problems (mpnet.envs.mbm_problems): the start and goal are valid,
-the goal puts panda_link8 where the query asks, and RRT-Connect solves the pair."""
+"""panda_mbm's scenes and queries (mpnet.envs.mbm_problems): scenes depend on (seed, index)
+only, a scene's queries start where MBM starts and end where a goal object asks panda_link8
+to be, both valid; the split ids follow the generator's sizes."""
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 import pytest
 
 from mpnet.envs.arm_ik import IKTarget, meets
-from mpnet.envs.mbm_problems import TIP, make_problem
+from mpnet.envs.generators import split_ids, split_sizes
+from mpnet.envs.mbm_problems import FAMILY_ORDER, TIP, family_of, poses_of
 from mpnet.envs.mbm_scenes import default_start, families
 from mpnet.envs.specs import get_spec
 
-ARM = get_spec("arm7")
+SPEC = get_spec("panda_mbm")
 FAMILIES = families()
 
 
-def _first_problem(name: str, tries: int = 15):
-    rng = np.random.default_rng(3)
-    for i in range(tries):
-        out = make_problem(ARM, FAMILIES[name], rng, f"{name}/{i:04d}", "seen", ik_attempts=40)
-        if out is not None:
-            return out
-    pytest.fail(f"{name}: no problem in {tries} scenes")
-
-
-@pytest.mark.parametrize("name", ["bookshelf_small", "table_under_pick"])
-def test_a_problem_is_valid_reaches_its_target_and_is_solvable(name):
-    ws, q = _first_problem(name)
-    checker = ARM.make_checker(ws)
-    assert checker.is_valid(q.start.tolist()) and checker.is_valid(q.goal.tolist())
-    f = FAMILIES[name]
-    if f.starts is None:
-        assert np.allclose(q.start, default_start())
-    # the goal meets one of the goal objects' panda_link8 targets, computed from the objects'
-    # poses as the workspace holds them (the data's object order)
-    model = ARM.robot.model
-    assert len(ws.primitives) == len(f.objects)
-    assert any(meets(model, q.goal, _target(f, ws, n)) for n in f.goals.objects)
-
-
-def _target(f, ws, name) -> IKTarget:
+def _target(f, ws, query, name) -> IKTarget:
     p = ws.primitives[[o.name for o in f.objects].index(name)]
     pose = np.eye(4)
     pose[:3, :3] = p.rotation()
     pose[:3, 3] = p.center
-    link8 = pose @ f.goals.offset @ np.linalg.inv(f.ee_offset)
-    return IKTarget(TIP, link8, f.goals.position_tol, f.goals.orientation_tol)
+    link8 = pose @ query.offset @ np.linalg.inv(f.ee_offset)
+    return IKTarget(TIP, link8, query.position_tol, query.orientation_tol)
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    """Scene 0 (bookshelf_small) and scene 6 (table_under_pick, whose start is IK too)."""
+    return {i: SPEC.generator.make(i, "train", 0) for i in (0, 6)}
+
+
+def test_a_scene_is_its_index_s_family_and_depends_on_seed_and_index_only(scenes):
+    ws = scenes[0]
+    assert family_of(ws).name == FAMILY_ORDER[0] == "bookshelf_small"
+    assert family_of(scenes[6]).name == "table_under_pick"
+    assert SPEC.generator.make(0, "train", 0).primitives == ws.primitives
+    assert SPEC.generator.make(0, "train", 1).primitives != ws.primitives
+    assert len(ws.primitives) == len(FAMILIES["bookshelf_small"].objects)
+
+
+def test_poses_read_back_from_the_workspace_give_the_scene_again(scenes):
+    f = family_of(scenes[0])
+    again = f.primitives(poses_of(f, scenes[0]))
+    for a, b in zip(again, scenes[0].primitives, strict=True):
+        assert a.type == b.type and np.allclose(a.center, b.center) and np.allclose(a.size, b.size)
+        assert np.allclose(a.rotation(), b.rotation(), atol=1e-9)
+
+
+@pytest.mark.parametrize("index", [0, 6])
+def test_a_scene_s_pairs_are_valid_and_meet_the_queries(scenes, index):
+    ws = scenes[index]
+    f = family_of(ws)
+    checker = SPEC.make_checker(ws)
+    pairs = list(itertools.islice(SPEC.pairs(SPEC, ws, checker, np.random.default_rng(5)), 3))
+    assert pairs, "a screened scene gives at least one pair"
+    model = SPEC.robot.model
+    for start, goal in pairs:
+        assert checker.is_valid(start.tolist()) and checker.is_valid(goal.tolist())
+        assert any(meets(model, goal, _target(f, ws, f.goals, n)) for n in f.goals.objects)
+        if f.starts is None:
+            assert np.array_equal(start, default_start())
+        else:  # table_under_pick: the start is under the table top
+            assert any(meets(model, start, _target(f, ws, f.starts, n)) for n in f.starts.objects)
+
+
+def test_pairs_end_when_no_start_is_valid(scenes):
+    """A scene whose start collides (a box over the arm) yields nothing, and ends."""
+    from mpnet.envs.shapes import Primitive
+    from mpnet.envs.workspace import Workspace
+
+    ws = scenes[0]
+    blocked = Workspace(
+        ws.id, ws.split, ws.centers, ws.sizes, ws.primitives[:-1] + (Primitive("box", (0, 0, 0.5), (1, 1, 1)),)
+    )
+    checker = SPEC.make_checker(blocked)
+    assert list(SPEC.pairs(SPEC, blocked, checker, np.random.default_rng(0))) == []
+
+
+def test_split_ids_follow_the_generator_s_sizes():
+    n_train, n_unseen = split_sizes(SPEC)
+    assert (n_train, n_unseen) == (7000, 700) and n_train % 7 == 0
+    assert split_ids("unseen", 2, (n_train, n_unseen)) == [7000, 7001]
+    assert split_sizes(get_spec("arm7")) == (100, 10)
+    with pytest.raises(ValueError, match="700 workspaces"):
+        split_ids("unseen", 701, (n_train, n_unseen))
+
+
+AUDITED_BUILD = """
+import json, runpy, sys
+opened = []
+sys.addaudithook(lambda e, a: opened.append(a[0]) if e == "open" and str(a[0]).endswith((".yaml", ".yml")) else None)
+sys.argv = ["harness.data", *sys.argv[1:]]
+try:
+    runpy.run_module("harness.data", run_name="__main__", alter_sys=True)
+finally:
+    print("OPENED " + json.dumps([str(p) for p in opened]))
+"""
+
+
+@pytest.mark.slow
+def test_the_training_set_is_built_without_any_mbm_problem(tmp_path, repo):
+    """Issue 26: MBM's 700 problems are test data only. The tiny panda_mbm build (data and
+    test set) opens no YAML but the configs, Hydra's own and the package's scene families
+    and robot model: never a MoveIt scene or request."""
+    import json
+    import subprocess
+    import sys
+
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            AUDITED_BUILD,
+            "+env=panda_mbm",
+            "scale=tiny",
+            "progress=false",
+            f"cache_dir={tmp_path}",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert p.returncode == 0, p.stderr
+    assert "expert paths over 2 workspaces" in p.stdout and "8 queries" in p.stdout
+    opened = json.loads(p.stdout.split("OPENED ", 1)[1])
+    allowed = (str(repo / "conf"), str(repo / "mpnet" / "data_files" / "mbm" / "panda_scenes.yaml"))
+    others = [
+        f for f in opened if not f.startswith(allowed) and not any(s in f for s in ("/hydra/", "/.hydra/", "/robots/"))
+    ]
+    assert others == [] and any(f.endswith("panda_scenes.yaml") for f in opened)

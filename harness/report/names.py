@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-ENV_ORDER = ("s2d", "c2d", "c3d", "rigid", "arm7")
+ENV_ORDER = ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")
 # arm7 is the Franka Panda of pybullet_data: the paper's Baxter model is not installable.
 ENV_LABELS = {
     "s2d": "Simple 2D",
@@ -12,6 +12,7 @@ ENV_LABELS = {
     "c3d": "Complex 3D",
     "rigid": "Rigid body",
     "arm7": "7-DOF arm (Panda, not the paper's Baxter)",
+    "panda_mbm": "7-DOF arm (Panda) in MotionBenchMaker-style scenes",
 }
 SPLIT_ORDER = ("seen", "unseen")
 PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
