@@ -24,7 +24,7 @@ from harness.config import (
     reference_params,
 )
 from harness.provenance import artifact_provenance
-from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset
+from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset, reusable, seed_chunks
 from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
 from mpnet.data.shipped import copy_testset, find_testset
@@ -102,6 +102,7 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True, plan: bool = True):
         bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
         try:
             resume = partial_dir(cfg.cache_dir, "data", params.key_config())  # a build cut short resumes
+            _reuse_superset(cfg.cache_dir, params, resume)
             return build_dataset(
                 spec, params, folder, jobs=int(cfg.jobs), progress=bar.update, resume_dir=resume, plan=plan
             )
@@ -109,6 +110,21 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True, plan: bool = True):
             bar.close()
 
     return _ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance, _check_dataset)
+
+
+def _reuse_superset(root, params, resume: Path) -> None:
+    """A learning curve's smaller datasets are the first chunks of a larger one: take them
+    from a cached larger dataset, if there is one, instead of planning them again."""
+    for manifest_path in sorted(Path(root, "data").glob("*/manifest.json")):
+        try:
+            manifest = read_manifest(manifest_path.parent, manifest_path.parent.name)
+        except ArtifactError:
+            continue
+        if manifest.get("kind") == "data" and reusable(params, manifest.get("config", {})):
+            n = seed_chunks(params, load_dataset(manifest_path.parent, manifest), resume)
+            if n:
+                print(f"expert paths: {n} chunks from the larger dataset {manifest_path.parent}", file=sys.stderr)
+            return
 
 
 def dataset_shard(cfg: DictConfig, shard: int, shards: int, progress: bool = True):

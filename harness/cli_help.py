@@ -80,7 +80,7 @@ ENTRIES = {
         ("export_dir", "cache_dir"),
         (
             "python -m harness.export_weights +env=s2d scale=quick",
-            "python -m harness.export_weights -m +env=s2d,c2d,c3d,rigid,arm7 scale=quick",
+            "python -m harness.export_weights -m +env=s2d,c2d,c3d,rigid,arm7,panda_mbm scale=quick",
             "python -m harness.export_weights +env=s2d scale=tiny export_dir=/tmp/sets",
         ),
     ),

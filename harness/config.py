@@ -18,6 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from harness.cli import UsageError
 from mpnet.data.dataset import DataParams
 from mpnet.data.expert import EXPERTS
+from mpnet.envs.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
 
@@ -36,6 +37,8 @@ def geometry_params(env_cfg) -> dict:
     it differs from the env's registry value (existing caches keep their keys)."""
     spec = get_spec(env_cfg.name)
     out = _geometry(env_cfg) | spec.robot.cache_identity()
+    if env_cfg.get("cloud", "surface") != "surface":  # envs without the key keep their keys
+        out["cloud"] = str(env_cfg.cloud)
     version = getattr(spec.generator, "VERSION", None)  # generators that version their output
     if version is not None:
         out["generator"] = f"{type(spec.generator).__name__}@{version}"
@@ -49,6 +52,8 @@ def env_spec(env_cfg) -> EnvSpec:
     """The env's fixed geometry with the config's validation step (and motion step and
     planning margin, where the env has them)."""
     extra = _geometry(env_cfg)
+    if env_cfg.get("cloud", "surface") == "camera":
+        extra["sample_cloud"] = camera_cloud
     if env_cfg.get("planner_range") is not None:  # not geometry: no data or test set depends on it
         extra["planner_range"] = float(env_cfg.planner_range)
     return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **extra)
@@ -195,6 +200,9 @@ def check_config(cfg: DictConfig) -> None:
     for key in ("blocked_only", "contract"):
         if not isinstance(cfg.env.expert.get(key, False), bool):
             raise UsageError(f"config key env.expert.{key}: expected true or false, got {cfg.env.expert[key]!r}")
+    cloud = cfg.env.get("cloud", "surface")
+    if cloud not in ("surface", "camera") or (cloud == "camera" and not get_spec(cfg.env.name).robot.posed_obstacles):
+        raise UsageError(f"config key env.cloud: expected surface, or camera (envs of posed obstacles), got {cloud!r}")
     if cfg.env.expert.get("planner", "rrt_star") not in EXPERTS:
         raise UsageError(
             f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {cfg.env.expert.planner!r}"

@@ -352,7 +352,10 @@ def test_every_env_and_planner_config_runs(tmp_path, run_cli):
                 assert all("target_cost" in q and q["target_planner"] == "mpnet_nr" for q in queries)
                 assert all(q["failure"] == "no_target" for q in queries if q["target_cost"] is None)
             elif not planner.startswith("mpnet_") or planner == "mpnet_hr_forgiving":
-                assert verified >= 3  # a 2-epoch tiny Pnet plans what it can; the rest always solve
+                # a 2-epoch tiny Pnet plans what it can; the rest always solve, but for
+                # panda_mbm's goals deep in shelves and cages only RRT-Connect does in 10 s
+                if f.parent.parent.parent.name != "panda_mbm" or planner == "rrt_connect":
+                    assert verified >= 3
             if planner.startswith("mpnet_") and f.parent.parent.parent.name == "s2d":
                 assert_diagnostics_recompute(msgs)
             if f.parent.parent.parent.name in ("s2d", "c2d"):  # exact reference costs, a lower bound
@@ -510,6 +513,7 @@ PAPER_PNETS = {
     "s2d": [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32],
     "rigid": [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32],
     "arm7": [1280, 896, 512, 384, 256, 128, 64, 32],  # the original code's 9-layer arm Pnet
+    "panda_mbm": [1280, 896, 512, 384, 256, 128, 64, 32],
 }
 
 
@@ -529,7 +533,7 @@ def test_paper_scale_dry_run(tmp_path, env, run_cli):
     assert "seen" in p.stdout and "unseen" in p.stdout
     manifest = json.loads(next((tmp_path / "cache" / "models").glob("*/manifest.json")).read_text())
     assert manifest["config"]["pnet_hidden"] == PAPER_PNETS[env]
-    assert manifest["config"].get("end_to_end", False) == (env == "arm7")
+    assert manifest["config"].get("end_to_end", False) == (env in ("arm7", "panda_mbm"))
     assert manifest["config"]["limit_batches"] == 2
     rows = list(csv.DictReader((tmp_path / "run" / "queries.csv").open()))
     assert len(rows) == 4

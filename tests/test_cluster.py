@@ -47,9 +47,7 @@ def test_sweep_of_two_seeds_on_a_launcher(tmp_path, run_cli, launcher):
 
 def _data(folder):
     (path,) = folder.glob("data/*/data.npz")
-    key = json.loads((path.parent / "manifest.json").read_text())["key"]
-    with np.load(path) as z:
-        return key, {k: (z[k].dtype, z[k].shape, z[k].tobytes()) for k in z.files}
+    return _data_at(path.parent)
 
 
 @pytest.mark.slow
@@ -143,3 +141,23 @@ def test_launcher_configs_compose(compose_config):
         params = OmegaConf.to_container(cfg.hydra.launcher, resolve=True)
         assert (params["cpus_per_task"], params["gpus_per_node"]) == (cpus, gpus)
         assert params["_target_"].endswith("SlurmLauncher" if "slurm" in launcher else "LocalLauncher")
+
+
+@pytest.mark.slow
+def test_a_smaller_dataset_takes_a_larger_one_s_chunks(tmp_path, run_cli):
+    """A learning curve's small dataset is the first chunks of a larger one: built from a
+    cache holding the larger one it plans only its own last, shorter chunk, and it equals
+    the same dataset built from nothing."""
+    base = ("harness.data", "+env=s2d", "scale=tiny", "progress=false", "env.expert.chunk=2", "scale.train.paths=3")
+    run_cli(*base, "scale.train.workspaces=4", f"cache_dir={tmp_path / 'big'}", f"hydra.run.dir={tmp_path / 'r1'}")
+    p = run_cli(*base, "scale.train.workspaces=3", f"cache_dir={tmp_path / 'big'}", f"hydra.run.dir={tmp_path / 'r2'}")
+    assert "1 chunks from the larger dataset" in p.stderr
+    run_cli(*base, "scale.train.workspaces=3", f"cache_dir={tmp_path / 'new'}", f"hydra.run.dir={tmp_path / 'r3'}")
+    small = next(f for f in (tmp_path / "big").glob("data/*/manifest.json") if '"train_workspaces": 3' in f.read_text())
+    assert _data(tmp_path / "new") == _data_at(small.parent)
+
+
+def _data_at(folder):
+    key = json.loads((folder / "manifest.json").read_text())["key"]
+    with np.load(folder / "data.npz") as z:
+        return key, {k: (z[k].dtype, z[k].shape, z[k].tobytes()) for k in z.files}

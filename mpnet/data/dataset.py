@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.data.expert import ExpertPaths, chunks_of, expert_paths, summary
+from mpnet.data.expert import ExpertPaths, chunks_of, expert_paths, save_chunk, summary
 from mpnet.data.store import ArtifactError
 from mpnet.envs.clouds import clouds
 from mpnet.envs.generators import extra_ids, make_workspaces, split_ids, split_sizes
@@ -132,6 +132,47 @@ def build_expert_shard(
     made = dict(zip(mine, make_workspaces(spec, [ids[i] for i in mine], "train", p.data_seed)))
     train = [made.get(i) for i in range(len(ids))]  # only this shard's workspaces are made
     return _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, shard=shard)
+
+
+def reusable(p: DataParams, config: dict) -> bool:
+    """Does a dataset of key config `config` hold this one's expert paths as its first
+    chunks? It does when everything but the number of workspaces is the same and it has at
+    least as many: workspace i and chunk k's OMPL seed depend on (seed, i) and (seed, k) only."""
+    mine = p.key_config()
+    return config.get("train_workspaces", -1) >= p.train_workspaces and {
+        k: v for k, v in config.items() if k != "train_workspaces"
+    } == {k: v for k, v in mine.items() if k != "train_workspaces"}
+
+
+def seed_chunks(p: DataParams, superset: Dataset, resume_dir: Path) -> int:
+    """Write the chunks of this dataset that a larger one holds whole (its first chunks; a
+    last, shorter chunk of ours is planned anew) into resume_dir, where the build finds them;
+    their planning seconds and raw states are the larger build's means. Returns how many."""
+    paths, n = superset.paths, 0
+    expert = superset.manifest.get("expert", {})
+    per_path = float(expert.get("planning_seconds", 0.0)) / max(len(paths), 1)
+    raw_per_path = float(expert.get("raw_states_per_path_mean", 0.0))
+    for k, c in chunks_of(p.train_workspaces, p.expert_chunk).items():
+        if len(c) < p.expert_chunk or (resume_dir / f"chunk_{k}.npz").exists():
+            continue
+        idx = np.flatnonzero((paths.workspace >= c.start) & (paths.workspace < c.stop))
+        part = _subset(paths, idx)
+        part.seconds, part.raw_states = per_path * len(idx), round(raw_per_path * len(idx))
+        save_chunk(resume_dir, k, part)
+        n += 1
+    return n
+
+
+def _subset(paths: ExpertPaths, idx: np.ndarray) -> ExpertPaths:
+    states = [paths.path(i) for i in idx]
+    lengths = [len(x) for x in states]
+    return ExpertPaths(
+        np.concatenate(states) if states else np.zeros((0, paths.states.shape[1])),
+        np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        paths.workspace[idx],
+        paths.cost[idx],
+        paths.raw_cost[idx],
+    )
 
 
 def load_dataset(folder: Path, manifest: dict) -> Dataset:

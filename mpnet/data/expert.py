@@ -286,7 +286,7 @@ def expert_paths(
             for fut in as_completed(futures):
                 k = futures[fut]
                 results[k] = fut.result()
-                _save_chunk(resume_dir, k, results[k])
+                save_chunk(resume_dir, k, results[k])
                 if progress is not None:
                     progress(len(chunks[k]))
     return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
@@ -295,7 +295,7 @@ def expert_paths(
 _FIELDS = ("states", "offsets", "workspace", "cost", "raw_cost")
 
 
-def _save_chunk(folder: Path | None, k: int, paths: ExpertPaths) -> None:
+def save_chunk(folder: Path | None, k: int, paths: ExpertPaths) -> None:
     if folder is None:
         return
     folder.mkdir(parents=True, exist_ok=True)

@@ -3,7 +3,6 @@ kind of robot adds its space, robot and checker classes and an entry here."""
 
 from __future__ import annotations
 
-from mpnet.envs.arm_model import load_arm_model
 from mpnet.envs.arm_scenes import ArmScenes, arm_cloud
 from mpnet.envs.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
 from mpnet.envs.mbm_problems import MBMScenes
@@ -16,6 +15,26 @@ _RIGID = RectangleRobot((2.0, 5.0))
 _PANDA = ArmRobot("panda")
 _MBM_SCENES = MBMScenes(_PANDA)
 
+
+def _panda(name: str, generator, **kwargs) -> EnvSpec:
+    """An env of the Panda: its joint space, surface clouds of 10 x points_per_block points
+    in metres, the judge's 0.002 rad re-check, no planning margin."""
+    return EnvSpec(
+        name,
+        _PANDA.joint_space(),
+        _PANDA,
+        3,
+        generator,
+        blocks=10,
+        validation_step=0.002,
+        sample_cloud=arm_cloud,
+        motion_step=0.02,
+        planning_margin=0.0,
+        cloud_scale=(1.0, 1.0, 1.0),
+        **kwargs,
+    )
+
+
 SPECS: dict[str, EnvSpec] = {
     "s2d": EnvSpec("s2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(), exact_reference=True),
     "c2d": EnvSpec("c2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(C2D_SIZES), exact_reference=True),
@@ -23,35 +42,10 @@ SPECS: dict[str, EnvSpec] = {
     "rigid": EnvSpec("rigid", SE2Space(_BOX * 2, radius=_RIGID.radius), _RIGID, 2, OriginalLayouts()),
     # MotionBenchMaker's Franka Panda (the paper's Baxter is not installable): joint vectors
     # within the model's limits, obstacles in metres in the base frame.
-    "arm7": EnvSpec(
-        "arm7",
-        EuclideanSpace(load_arm_model("panda").limits),
-        ArmRobot("panda"),
-        3,
-        ArmScenes(),
-        blocks=10,
-        validation_step=0.002,
-        sample_cloud=arm_cloud,
-        motion_step=0.02,
-        planning_margin=0.0,
-        cloud_scale=(1.0, 1.0, 1.0),
-    ),
+    "arm7": _panda("arm7", ArmScenes()),
     # The same Panda in scenes of MotionBenchMaker's seven families, with MBM's queries
     # (mpnet.envs.mbm_problems): the training and test data for MBM's 700 problems (issue 26).
-    "panda_mbm": EnvSpec(
-        "panda_mbm",
-        _PANDA.joint_space(),
-        _PANDA,
-        3,
-        _MBM_SCENES,
-        blocks=10,
-        validation_step=0.002,
-        sample_cloud=arm_cloud,
-        motion_step=0.02,
-        planning_margin=0.0,
-        cloud_scale=(1.0, 1.0, 1.0),
-        pairs=_MBM_SCENES.pairs,
-    ),
+    "panda_mbm": _panda("panda_mbm", _MBM_SCENES, pairs=_MBM_SCENES.pairs),
 }
 
 
