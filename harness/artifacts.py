@@ -211,7 +211,10 @@ def ensure_testset_artifact(cfg: DictConfig, progress: bool = True):
             "format": TESTSET_FORMAT,
             "files": [f"{s}.json" for s in sizes],
             "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes},
-            "reference": {"method": describe(spec), "seconds": ref_s},
+            "reference": {
+                "method": describe(spec, key_config["reference"].get("expert", "rrt_star")),
+                "seconds": ref_s,
+            },
         }
 
     return _ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance, _testset_check(spec))

@@ -250,11 +250,15 @@ def reference_params(cfg: DictConfig, spec: EnvSpec) -> dict:
     """What decides the test set's reference costs (none for exact ones)."""
     if spec.exact_reference:
         return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
-    return {
+    out = {
         "iterations": int(cfg.env.expert.iterations),
         "expert_s": float(cfg.env.expert.max_seconds),
         "bit_star_s": float(cfg.env.reference.bit_star_s),
     }
+    expert = str(cfg.env.expert.get("planner", "rrt_star"))
+    if expert != "rrt_star":  # the RRT* expert's test sets keep their keys
+        out["expert"] = expert
+    return out
 
 
 def model_params(cfg: DictConfig) -> dict:

@@ -94,3 +94,15 @@ def test_planned_references_for_rigid_are_set_and_sane():
     reference_costs(spec, [ws], qs, iterations=300, expert_s=1.0, bit_star_s=0.2, seed=0, jobs=1)
     for q in qs:
         assert q.reference_cost is not None and q.reference_cost >= spec.distance(q.start, q.goal) - 1e-9
+
+
+def test_the_reference_takes_the_data_s_expert():
+    """panda_mbm's expert is RRT-Connect, shortened: its references use it (with BIT* given
+    almost no time, the RRT-Connect expert's path is what the reference is), never RRT*."""
+    ws = make_workspace(S2D, 5, "seen")
+    q = make_queries(S2D, ws, 1, seed=2, split="seen")[0]
+    checker = S2D.make_checker(ws)
+    exact = shortest_path_cost_2d(S2D, ws, q.start, q.goal)
+    got = planned_cost(S2D, ws, checker, q.start, q.goal, 3, 1.0, 1e-4, expert="rrt_connect")
+    assert exact - 1e-9 <= got < math.inf
+    assert planned_cost(S2D, ws, checker, q.start, q.goal, 0, 1.0, 1e-4) == math.inf  # RRT*, no iterations

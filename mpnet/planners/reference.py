@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from mpnet.data.expert import rrt_star_path
+from mpnet.data.expert import EXPERTS
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Query, Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
@@ -28,11 +28,12 @@ from mpnet.planners.classical import OmplPlanner
 EPS = 1e-9
 
 
-def describe(spec: EnvSpec) -> str:
+def describe(spec: EnvSpec, expert: str = "rrt_star") -> str:
     """How the env's reference cost is computed, in words (for the report)."""
     if spec.exact_reference:
         return "exact shortest path (visibility graph over the box corners)"
-    return "best of the expert path (RRT*, fixed iterations) and a budgeted BIT* run, both contracted"
+    how = "RRT*, fixed iterations" if expert == "rrt_star" else "the shortest of shortened RRT-Connect runs"
+    return f"best of the expert path ({how}) and a budgeted BIT* run, both contracted"
 
 
 def visible(p: np.ndarray, q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -91,11 +92,20 @@ def shortest_path_cost_2d(spec: EnvSpec, ws: Workspace, start, goal) -> float:
 
 
 def planned_cost(
-    spec: EnvSpec, ws: Workspace, checker, start, goal, iterations: int, expert_s: float, bit_star_s: float
+    spec: EnvSpec,
+    ws: Workspace,
+    checker,
+    start,
+    goal,
+    iterations: int,
+    expert_s: float,
+    bit_star_s: float,
+    expert: str = "rrt_star",
 ) -> float:
-    """The best verified, contracted cost of the expert's RRT* path and a BIT* run of
-    bit_star_s seconds; inf when neither finds a path."""
-    expert = rrt_star_path(spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
+    """The best verified, contracted cost of the expert's path (the data's expert planner:
+    mpnet.data.expert.EXPERTS) and a BIT* run of bit_star_s seconds; inf when neither finds
+    a path."""
+    expert = EXPERTS[expert](spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
     bit_star = OmplPlanner("bit_star", "bit_star", stop="time").solve(
         Problem(spec, ws, checker, np.asarray(start, float), np.asarray(goal, float)), float(bit_star_s)
     )
@@ -111,23 +121,29 @@ def planned_cost(
 
 
 def workspace_references(
-    spec: EnvSpec, ws: Workspace, queries: list[Query], iterations: int, expert_s: float, bit_star_s: float
+    spec: EnvSpec,
+    ws: Workspace,
+    queries: list[Query],
+    iterations: int,
+    expert_s: float,
+    bit_star_s: float,
+    expert: str = "rrt_star",
 ) -> list[float]:
     """The reference cost of each query of one workspace."""
     if spec.exact_reference:
         return [shortest_path_cost_2d(spec, ws, q.start, q.goal) for q in queries]
 
     checker = spec.make_checker(ws)
-    return [planned_cost(spec, ws, checker, q.start, q.goal, iterations, expert_s, bit_star_s) for q in queries]
+    return [planned_cost(spec, ws, checker, q.start, q.goal, iterations, expert_s, bit_star_s, expert) for q in queries]
 
 
 def _worker(args: tuple) -> list[float]:
-    spec, ws, queries, iterations, expert_s, bit_star_s, seed, chunk = args
+    spec, ws, queries, iterations, expert_s, bit_star_s, seed, chunk, expert = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(int(np.random.default_rng([seed, 13, chunk]).integers(1, 2**31 - 1)))
-    return workspace_references(spec, ws, queries, iterations, expert_s, bit_star_s)
+    return workspace_references(spec, ws, queries, iterations, expert_s, bit_star_s, expert)
 
 
 def reference_costs(
@@ -138,6 +154,7 @@ def reference_costs(
     iterations: int,
     expert_s: float,
     bit_star_s: float,
+    expert: str = "rrt_star",
     seed: int = 0,
     jobs: int = 2,
     progress=None,
@@ -156,7 +173,7 @@ def reference_costs(
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    tasks = [(spec, ws, qs, iterations, expert_s, bit_star_s, seed, k) for k, (ws, qs) in enumerate(by_ws)]
+    tasks = [(spec, ws, qs, iterations, expert_s, bit_star_s, seed, k, expert) for k, (ws, qs) in enumerate(by_ws)]
     with ProcessPoolExecutor(
         max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
     ) as pool:
