@@ -102,7 +102,7 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True, plan: bool = True):
         bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
         try:
             resume = partial_dir(cfg.cache_dir, "data", params.key_config())  # a build cut short resumes
-            _reuse_superset(cfg.cache_dir, params, resume)
+            _reuse_chunks(cfg.cache_dir, params, resume)
             return build_dataset(
                 spec, params, folder, jobs=int(cfg.jobs), progress=bar.update, resume_dir=resume, plan=plan
             )
@@ -112,9 +112,10 @@ def ensure_dataset(cfg: DictConfig, progress: bool = True, plan: bool = True):
     return _ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance, _check_dataset)
 
 
-def _reuse_superset(root, params, resume: Path) -> None:
-    """A learning curve's smaller datasets are the first chunks of a larger one: take them
-    from a cached larger dataset, if there is one, instead of planning them again."""
+def _reuse_chunks(root, params, resume: Path) -> None:
+    """Datasets of one config and other sizes (a learning curve's, a grown scale's) share
+    their first chunks of expert paths: take them from the cached ones instead of planning
+    them again."""
     for manifest_path in sorted(Path(root, "data").glob("*/manifest.json")):
         try:
             manifest = read_manifest(manifest_path.parent, manifest_path.parent.name)
@@ -123,8 +124,7 @@ def _reuse_superset(root, params, resume: Path) -> None:
         if manifest.get("kind") == "data" and reusable(params, manifest.get("config", {})):
             n = seed_chunks(params, load_dataset(manifest_path.parent, manifest), resume)
             if n:
-                print(f"expert paths: {n} chunks from the larger dataset {manifest_path.parent}", file=sys.stderr)
-            return
+                print(f"expert paths: {n} chunks from the dataset {manifest_path.parent}", file=sys.stderr)
 
 
 def dataset_shard(cfg: DictConfig, shard: int, shards: int, progress: bool = True):

@@ -144,17 +144,24 @@ def test_launcher_configs_compose(compose_config):
 
 
 @pytest.mark.slow
-def test_a_smaller_dataset_takes_a_larger_one_s_chunks(tmp_path, run_cli):
-    """A learning curve's small dataset is the first chunks of a larger one: built from a
-    cache holding the larger one it plans only its own last, shorter chunk, and it equals
-    the same dataset built from nothing."""
+def test_datasets_of_other_sizes_share_their_chunks(tmp_path, run_cli):
+    """A learning curve's small dataset is the first chunks of a larger one, and a larger one
+    begins with a smaller one's: built from a cache holding the other, a dataset plans only
+    the chunks it does not share, and equals the same dataset built from nothing."""
     base = ("harness.data", "+env=s2d", "scale=tiny", "progress=false", "env.expert.chunk=2", "scale.train.paths=3")
-    run_cli(*base, "scale.train.workspaces=4", f"cache_dir={tmp_path / 'big'}", f"hydra.run.dir={tmp_path / 'r1'}")
-    p = run_cli(*base, "scale.train.workspaces=3", f"cache_dir={tmp_path / 'big'}", f"hydra.run.dir={tmp_path / 'r2'}")
-    assert "1 chunks from the larger dataset" in p.stderr
-    run_cli(*base, "scale.train.workspaces=3", f"cache_dir={tmp_path / 'new'}", f"hydra.run.dir={tmp_path / 'r3'}")
+
+    def build(n, cache, run):
+        return run_cli(*base, f"scale.train.workspaces={n}", f"cache_dir={tmp_path / cache}", f"hydra.run.dir={run}")
+
+    build(4, "big", tmp_path / "r1")
+    assert "1 chunks from the dataset" in build(3, "big", tmp_path / "r2").stderr  # its last is shorter
+    build(3, "new", tmp_path / "r3")
     small = next(f for f in (tmp_path / "big").glob("data/*/manifest.json") if '"train_workspaces": 3' in f.read_text())
     assert _data(tmp_path / "new") == _data_at(small.parent)
+    assert "1 chunks from the dataset" in build(5, "new", tmp_path / "r4").stderr  # chunk 0 of the 3
+    build(5, "five", tmp_path / "r5")
+    grown = next(f for f in (tmp_path / "new").glob("data/*/manifest.json") if '"train_workspaces": 5' in f.read_text())
+    assert _data(tmp_path / "five") == _data_at(grown.parent)
 
 
 def _data_at(folder):

@@ -106,7 +106,7 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
         "`invalid_query`, as VAMP counts them); solved: the path passed the fine re-check. Times are over the "
         "solved queries, all seeds together; the success interval is Wilson's 95%. Timed out: queries that ran out "
         "of budget, with the share of a CPU they got (below 90%: a loaded machine, the rate a lower bound). "
-        "arm7's robot is the Franka "
+        "arm7's and panda_mbm's robot is the Franka "
         "Panda as MotionBenchMaker models it (fingers held at 0.065 m, MoveIt's limits), not the paper's Baxter."
     )
     text = f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"

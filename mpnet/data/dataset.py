@@ -135,25 +135,27 @@ def build_expert_shard(
 
 
 def reusable(p: DataParams, config: dict) -> bool:
-    """Does a dataset of key config `config` hold this one's expert paths as its first
-    chunks? It does when everything but the number of workspaces is the same and it has at
-    least as many: workspace i and chunk k's OMPL seed depend on (seed, i) and (seed, k) only."""
+    """Does a dataset of key config `config` share chunks of expert paths with this one? It
+    does when everything but the number of workspaces is the same: workspace i and chunk k's
+    OMPL seed depend on (seed, i) and (seed, k) only, so chunk k is the same in both wherever
+    it is whole in both."""
     mine = p.key_config()
-    return config.get("train_workspaces", -1) >= p.train_workspaces and {
-        k: v for k, v in config.items() if k != "train_workspaces"
-    } == {k: v for k, v in mine.items() if k != "train_workspaces"}
+    return "train_workspaces" in config and {k: v for k, v in config.items() if k != "train_workspaces"} == {
+        k: v for k, v in mine.items() if k != "train_workspaces"
+    }
 
 
-def seed_chunks(p: DataParams, superset: Dataset, resume_dir: Path) -> int:
-    """Write the chunks of this dataset that a larger one holds whole (its first chunks; a
-    last, shorter chunk of ours is planned anew) into resume_dir, where the build finds them;
-    their planning seconds and raw states are the larger build's means. Returns how many."""
-    paths, n = superset.paths, 0
-    expert = superset.manifest.get("expert", {})
+def seed_chunks(p: DataParams, other: Dataset, resume_dir: Path) -> int:
+    """Write the chunks this dataset shares with another of another size (see reusable)
+    into resume_dir, where the build finds them; the rest are planned. Their planning seconds
+    and raw states are the other build's means. Returns how many."""
+    paths, n = other.paths, 0
+    their_n = int(other.manifest["config"]["train_workspaces"])
+    expert = other.manifest.get("expert", {})
     per_path = float(expert.get("planning_seconds", 0.0)) / max(len(paths), 1)
     raw_per_path = float(expert.get("raw_states_per_path_mean", 0.0))
     for k, c in chunks_of(p.train_workspaces, p.expert_chunk).items():
-        if len(c) < p.expert_chunk or (resume_dir / f"chunk_{k}.npz").exists():
+        if len(c) < p.expert_chunk or c.stop > their_n or (resume_dir / f"chunk_{k}.npz").exists():
             continue
         idx = np.flatnonzero((paths.workspace >= c.start) & (paths.workspace < c.stop))
         part = _subset(paths, idx)
