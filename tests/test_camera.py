@@ -54,9 +54,9 @@ def test_each_ray_stops_at_the_obstacle_and_never_passes_inside(kind, dims, quat
     p = Primitive(kind, np.array([0.7, 0.0, 0.3]) + offset, size, quat)
     directions = rays(pixels=(24, 20))
     t = depth([p], POSITION, directions)
-    assert np.isfinite(t).any()  # in view
     steps = np.arange(0.0, 4.0, 0.002)
-    for d, ti in zip(directions[::7], t[::7]):
+    some = np.isfinite(t) | (np.arange(len(t)) % 7 == 0)  # every hit, and rays that miss
+    for d, ti in zip(directions[some], t[some]):
         inside = _inside(p, POSITION + steps[:, None] * d)
         first = steps[np.argmax(inside)] if inside.any() else np.inf
         assert ti <= first + 1e-9
