@@ -79,6 +79,9 @@ def test_pairs_end_when_no_start_is_valid(scenes):
     )
     checker = SPEC.make_checker(blocked)
     assert list(SPEC.pairs(SPEC, blocked, checker, np.random.default_rng(0))) == []
+    from mpnet.data.queries import make_queries
+
+    assert make_queries(SPEC, blocked, 1, 0, "seen") == []  # the test set goes without it, as MBM does
 
 
 def test_split_ids_follow_the_generator_s_sizes():
