@@ -15,7 +15,7 @@ SETS = sorted(p.parent for p in SHIPPED.glob("*/meta.json"))
 
 
 def test_every_env_ships_a_quick_set():
-    assert {p.name for p in SETS} == {f"{e}-quick" for e in ("s2d", "c2d", "c3d", "rigid", "arm7")}
+    assert {p.name for p in SETS} == {f"{e}-quick" for e in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")}
 
 
 @pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])

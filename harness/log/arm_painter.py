@@ -22,6 +22,7 @@ from mpnet.envs.robots import logged_model_name
 from mpnet.envs.shapes import IDENTITY, quat_matrix
 
 TRACE_STEP = 0.05  # joint-space step of the end-effector trace (rad)
+MAX_TRACE_POINTS = 300  # partial paths' traces are coarser when longer: the log process keeps up with the planner
 GHOSTS = 6  # arm poses drawn along each path (start and goal included)
 
 
@@ -100,7 +101,9 @@ class ArmPainter(Painter):
         if not len(q):
             return np.zeros((0, 3))
         w = arm_world(self.model)
-        return np.array([w.hand_position(x) for x in _dense(q, TRACE_STEP)], float).reshape(-1, 3)
+        length = float(np.linalg.norm(np.diff(q, axis=0), axis=1).sum()) if len(q) > 1 else 0.0
+        step = max(TRACE_STEP, length / MAX_TRACE_POINTS)  # a failed MPNet query's trees span many radians
+        return np.array([w.hand_position(x) for x in _dense(q, step)], float).reshape(-1, 3)
 
     def legend_layout(self, msg):
         """Beside the arm's reach (the bounds are joint limits), stacked downward."""
