@@ -105,11 +105,11 @@ def planned_cost(
     """The best verified, contracted cost of the expert's path (the data's expert planner:
     mpnet.data.expert.EXPERTS) and a BIT* run of bit_star_s seconds; inf when neither finds
     a path."""
-    expert = EXPERTS[expert](spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
+    expert_path = EXPERTS[expert](spec, checker, start, goal, iterations, expert_s)  # first: OMPL's RNG order
     bit_star = OmplPlanner("bit_star", "bit_star", stop="time").solve(
         Problem(spec, ws, checker, np.asarray(start, float), np.asarray(goal, float)), float(bit_star_s)
     )
-    candidates = [expert, bit_star.path]
+    candidates = [expert_path, bit_star.path]
     best = math.inf
     for path in candidates:
         if path is None:
