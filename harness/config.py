@@ -123,6 +123,38 @@ def _stop_before_models():
     raise _SettingsChecked
 
 
+# Keys of a planner config that are the bench's, not the constructor's: the cost target's
+# planner (time to equal quality) and the networks' training variant (`networks`).
+PLANNER_HOOKS = ("cost_target", "networks")
+
+# What a planner's `networks` may set: the training knobs of a named variant of the networks
+# (e.g. mpnet_nr_dense), overriding the scale's; the models' cache key then differs.
+# equal_steps: Pnet's epochs scaled by (the scale's pairs / these pairs), for the same number of
+# gradient steps as the scale's networks.
+NETWORK_KEYS = {"waypoint_step": float, "equal_steps": bool}
+
+
+def networks_params(cfg: DictConfig) -> dict:
+    """The planner's `networks` overrides, checked (UsageError naming the key)."""
+    planner = cfg.get("planner")
+    nets = planner.get("networks") if planner is not None else None
+    if nets is None:
+        return {}
+    if not OmegaConf.is_dict(nets):
+        raise UsageError(f"config key planner.networks: expected a mapping of {', '.join(NETWORK_KEYS)}, got {nets!r}")
+    out = {}
+    for key, value in nets.items():
+        if key not in NETWORK_KEYS:
+            raise UsageError(f"config key planner.networks.{key}: unknown (expected one of {', '.join(NETWORK_KEYS)})")
+        if NETWORK_KEYS[key] is bool:
+            if not isinstance(value, bool):
+                raise UsageError(f"config key planner.networks.{key}: expected true or false, got {value!r}")
+        else:
+            _number(f"planner.networks.{key}", value)
+        out[key] = NETWORK_KEYS[key](value)
+    return out
+
+
 def make_planner(planner_cfg, key: str, runtime: dict):
     """The planner a config names (`_target_` and its constructor arguments), given the
     run's objects its signature asks for by name (env, seed, models_dir, cloud). An unknown
@@ -130,7 +162,7 @@ def make_planner(planner_cfg, key: str, runtime: dict):
     import hydra
     from hydra.errors import InstantiationException
 
-    args = {k: v for k, v in planner_cfg.items() if k != "cost_target"}  # a bench hook, not an argument
+    args = {k: v for k, v in planner_cfg.items() if k not in PLANNER_HOOKS}
     try:
         factory = hydra.utils.instantiate(args, _partial_=True)
     except InstantiationException as e:
@@ -214,6 +246,7 @@ def check_config(cfg: DictConfig) -> None:
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
     if cfg.get("planner") is not None:
+        networks_params(cfg)
         spec = env_spec(cfg.env)
         check_planner(cfg.planner, "planner", spec, cfg.seed)
         if cfg.planner.get("cost_target") is not None:
@@ -284,7 +317,7 @@ def model_params(cfg: DictConfig) -> dict:
         params["end_to_end"] = True
     if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
         params["limit_batches"] = int(f.limit_batches)
-    return params
+    return params | networks_params(cfg)  # a planner's own networks (absent: the keys stay)
 
 
 ENET_KEYS = ("enet_hidden", "latent", "ae_epochs", "batch_size", "seed", "lr", "optimizer", "lam", "val_fraction")

@@ -249,7 +249,13 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
     from mpnet.models import MPNetDataModule, Pnet, PnetModule, waypoint_pairs
 
     t1 = time.perf_counter()
-    pairs = waypoint_pairs(data.paths.paths(), data.paths.workspace, space=spec.space)  # the planner's angles
+    pairs = waypoint_pairs(  # the planner's angles
+        data.paths.paths(), data.paths.workspace, space=spec.space, waypoint_step=params.get("waypoint_step")
+    )
+    epochs = params["pnet_epochs"]
+    if params.get("equal_steps"):  # as many gradient steps as the scale's networks take on the plain pairs
+        plain = waypoint_pairs(data.paths.paths(), data.paths.workspace, space=spec.space)
+        epochs = max(1, round(epochs * len(plain.x_t) / len(pairs.x_t)))
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
     module = PnetModule(
         pnet,
@@ -276,7 +282,6 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         groups=pairs.path_id,
         features="codes" if frozen else "clouds",
     )
-    epochs = params["pnet_epochs"]
     bar = _bar(progress, "Pnet" if frozen else "Enet+Pnet", epochs, 2 if frozen else 1, 2 if frozen else 1)
     trainer, ckpt = _trainer(
         folder, "pnet", epochs, params["patience"], lightning, bar, _batches(dm), params.get("limit_batches")
@@ -287,5 +292,6 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         "epochs": _epochs(trainer, folder, "pnet"),
         "best_val_loss": _best_score(ckpt),
         "pairs": len(pairs.x_t),
+        "max_epochs": epochs,
         "end_to_end": not frozen,
     }

@@ -31,6 +31,7 @@ _LAZY = {
     "MPNetDataModule": "mpnet.models.datamodule",
     "CloudDataModule": "mpnet.models.datamodule",
     "waypoint_pairs": "mpnet.models.datamodule",
+    "resample_path": "mpnet.models.datamodule",
     "split_indices": "mpnet.models.datamodule",
     "Pairs": "mpnet.models.datamodule",
 }

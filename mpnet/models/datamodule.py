@@ -235,8 +235,34 @@ class Pairs(NamedTuple):
     path_id: np.ndarray  # (n,) int64: the index of the source path (for ``groups``)
 
 
+def resample_path(path: np.ndarray, step: float, space=None) -> np.ndarray:
+    """The path with each segment cut into ``ceil(length / step)`` equal pieces (length: the
+    space's ``distance``, else Euclidean), so that consecutive states are at most ``step``
+    apart; the path's own states stay. A named variant of the training data (issue 26): the
+    expert's contracted paths put waypoints ~1.3 rad apart on the arm, and Pnet regresses
+    the mean of such far, multimodal next states."""
+    if not step > 0:
+        raise ValueError(f"waypoint_step must be positive, got {step}")
+    path = np.asarray(path, dtype=np.float64)
+    if len(path) < 2:
+        return path
+    if space is None:
+        d = path[1:] - path[:-1]
+        lengths = np.linalg.norm(d, axis=1)
+    else:
+        d = space.difference(path[:-1], path[1:])
+        lengths = np.array([space.distance(a, b) for a, b in zip(path[:-1], path[1:])])
+    pieces = np.maximum(1, np.ceil(lengths / step - 1e-9).astype(int))
+    parts = [path[i] + (np.arange(k)[:, None] / k) * d[i] for i, k in enumerate(pieces)]
+    return np.concatenate([*parts, path[-1:]])
+
+
 def waypoint_pairs(
-    paths: Sequence[np.ndarray], ws_index: Sequence[int], bidirectional: bool = True, space=None
+    paths: Sequence[np.ndarray],
+    ws_index: Sequence[int],
+    bidirectional: bool = True,
+    space=None,
+    waypoint_step: float | None = None,
 ) -> Pairs:
     """Expert paths -> Pnet samples, as the public code: for a path ``x_0..x_T`` every
     ``(x_j, x_T) -> x_{j+1}``; with ``bidirectional`` also the reversed path (the planner grows
@@ -245,7 +271,9 @@ def waypoint_pairs(
     With ``space`` (a StateSpace), samples take the planner's convention: ``x_j`` and ``x_T``
     in canonical coordinates (angles wrapped, as the planner feeds them) and the target
     ``x_j + difference(x_j, x_{j+1})``, the next state as the motion reaches it from ``x_j``
-    (an angle may leave [-pi, pi) by less than a step; the planner wraps Pnet's output)."""
+    (an angle may leave [-pi, pi) by less than a step; the planner wraps Pnet's output).
+
+    With ``waypoint_step``, each path is first resampled (:func:`resample_path`)."""
     if len(paths) != len(ws_index):
         raise ValueError(f"{len(paths)} paths but {len(ws_index)} workspace indices")
     cols: dict[str, list] = {"ws": [], "x_t": [], "x_goal": [], "x_next": [], "pid": []}
@@ -259,6 +287,8 @@ def waypoint_pairs(
             raise ValueError(f"path {pid} has state_dim {path.shape[1]}, expected {dim}")
         if len(path) < 2:
             continue
+        if waypoint_step is not None:
+            path = resample_path(path, waypoint_step, space)
         for p in (path, path[::-1]) if bidirectional else (path,):
             k = len(p) - 1
             x_t, x_next, goal = p[:-1], p[1:], p[-1:]
@@ -285,5 +315,6 @@ __all__ = [
     "CloudDataset",
     "split_indices",
     "waypoint_pairs",
+    "resample_path",
     "Pairs",
 ]
