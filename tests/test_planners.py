@@ -179,3 +179,39 @@ def test_a_seeded_problem_plans_the_same_whatever_ran_before(algorithm):
         planner.solve(p(seed), 5.0)
     assert planner.solve(p(11), 5.0).path == first
     assert any(planner.solve(p(s), 5.0).path != first for s in (12, 13, 14))
+
+
+def test_run_bench_warms_the_checker_up_before_the_first_query(monkeypatch):
+    """A fresh clone's first arm query paid numba's compilation in its own time (~18 s, logged
+    as a timeout): run_bench warms the first checker up first, outside every query's clock."""
+    from harness.bench.loop import run_bench
+    from mpnet.envs import Query, TestSet, get_spec
+    from mpnet.envs.collision import CollisionChecker
+    from mpnet.envs.generators import make_workspace
+    from mpnet.planners.base import Result
+
+    events = []
+    warm_up = CollisionChecker.warm_up
+    monkeypatch.setattr(CollisionChecker, "warm_up", lambda self, q: events.append("warm_up") or warm_up(self, q))
+
+    class Recorder:
+        name = "recorder"
+
+        def solve(self, problem, budget_s):
+            events.append(("solve", problem.checker.checks))
+            return Result(None, "failure", {})
+
+    class Log:
+        done = set()
+
+        def add_workspace(self, ws):
+            pass
+
+        def add_query(self, rec):
+            events.append(("logged", rec["collision_checks"]))
+
+    spec = get_spec("s2d")
+    ws = make_workspace(spec, 0, "seen")
+    queries = [Query(f"q{i}", ws.id, "seen", [-19.0, -19.0 + i], [19.0, 19.0]) for i in range(2)]
+    run_bench(TestSet(spec, [ws], queries), Recorder(), Log(), budget_s=1.0, progress=False)
+    assert events == ["warm_up", ("solve", 0), ("logged", 0), ("solve", 0), ("logged", 0)]
