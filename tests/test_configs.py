@@ -99,6 +99,23 @@ def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models
             build(cfg, models_dirs)
 
 
+def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(compose_config):
+    from harness.artifacts import models_key_config
+
+    for override, key in (
+        ("+planner.networks.bogus=1", "planner.networks.bogus"),
+        ("planner.networks.waypoint_step=-1", "planner.networks.waypoint_step"),
+        ("planner.networks.equal_steps=yes", "planner.networks.equal_steps"),
+    ):
+        with pytest.raises(UsageError, match=key):
+            check_config(compose_config(["+env=panda_mbm", "+planner=mpnet_nr_dense", override]))
+    plain, dense = (
+        models_key_config(compose_config(["+env=panda_mbm", f"+planner={p}"])) for p in ("mpnet_nr", "mpnet_nr_dense")
+    )
+    assert dense == {**plain, "waypoint_step": 0.5, "equal_steps": True}
+    assert models_key_config(compose_config(["+env=panda_mbm", "+planner=mpnet_hr_dense"])) == dense
+
+
 @pytest.mark.parametrize("env", ["s2d", "arm7"])
 def test_the_validation_step_is_in_the_cache_keys_when_changed(env, compose_config):
     """It decides which expert paths are kept and the reference costs: a data set built at

@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 import torch
 import torch.nn.functional as F
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import mpnet.models.networks as networks
 from mpnet.models import (
@@ -27,6 +29,7 @@ from mpnet.models import (
     load_pnet_checkpoint,
     paper_s2d,
     pnet_numpy,
+    resample_path,
     split_indices,
     waypoint_pairs,
 )
@@ -303,6 +306,35 @@ def test_waypoint_pairs_across_pi_train_on_wrapped_inputs():
             np.abs(space.difference(p.x_t, p.x_next)[:, 2]), np.abs(p.x_next[:, 2] - p.x_t[:, 2])
         )
         np.testing.assert_allclose(space.wrap(p.x_next), space.wrap(np.concatenate([path[1:], path[-2::-1]])))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.lists(st.floats(-3, 3), min_size=7, max_size=7), min_size=2, max_size=6),
+    st.floats(0.05, 2.0),
+)
+def test_resampled_paths_keep_their_states_and_take_steps_of_at_most_the_step(states, step):
+    """mpnet_nr_dense's training paths: the expert's states all kept, in order, every step at
+    most `waypoint_step` (the space's distance), the segments' lengths unchanged."""
+    from mpnet.envs import get_spec
+
+    space = get_spec("panda_mbm").space
+    path = np.array(states)
+    out = resample_path(path, step, space)
+    steps = np.linalg.norm(np.diff(out, axis=0), axis=1)
+    assert np.all(steps <= step + 1e-9)
+    assert np.isclose(steps.sum(), np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+    at = 0  # each expert state found in order, after the previous one
+    for q in path[1:]:
+        at += 1 + int(np.flatnonzero(np.all(np.isclose(out[at + 1 :], q), axis=1))[0])
+    assert at == len(out) - 1 and np.array_equal(out[0], path[0])
+    pairs = waypoint_pairs([path], [0], space=space, waypoint_step=step)
+    assert len(pairs.x_t) == 2 * (len(out) - 1)
+
+
+def test_resample_path_refuses_a_step_that_is_not_positive():
+    with pytest.raises(ValueError, match="waypoint_step"):
+        resample_path(np.zeros((2, 2)), 0.0)
 
 
 def _pair_data(n=2000, n_ws=12, cloud_dim=120, seed=0):

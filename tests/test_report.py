@@ -772,6 +772,8 @@ def test_facts_come_from_the_run_config(tmp_path, capsys):
     assert facts("mpnet_hr", proposal="straight", dropout=False).ablation == ("mpnet_hr", "straight+nodropout")
     assert facts("mpnet_hr").ablation is None and facts("mpnet_hr").base == "mpnet_hr"
     assert facts("mpnet_hr_rrtc").ablation == ("mpnet_hr", "rrtc")
+    assert facts("mpnet_nr_dense").ablation == ("mpnet_nr", "dense")
+    assert facts("mpnet_hr_dense").ablation == ("mpnet_hr", "dense")
     assert facts("bit_star_to_nr_x1.1").equal_quality == ("bit_star", "nr", 1.1)
     assert facts("rrt_star", cost_target={"hybrid": True}, cost_factor=1.5).equal_quality == ("rrt_star", "hr", 1.5)
     new_style = {k: v for k, v in planner_section("mpnet_nr_zeros").items() if k != "needs_models"}

@@ -8,7 +8,7 @@ whatever it is called. Only keys that old and current configs share are read (no
 - `planner.hybrid` present: an MPNet run, base mpnet_hr if it is true, else mpnet_nr; an ablation of
   that base when `proposal` is not pnet (random, random_any, straight), `encoding` is zeros, `dropout`
   is false or `replanning` is not original (a config without the key predates it: its runs replanned
-  the forgiving way);
+  the forgiving way), or its `networks` were trained on resampled expert paths (`waypoint_step`);
 - `planner.algorithm`: a classical run.
 
 Rows and labels keep the logged planner name; the facts decide which table a row goes to and how it
@@ -135,6 +135,9 @@ def run_facts(run: dict) -> PlannerFacts | None:
             variant.append("zeros")
         if p.get("dropout") is False:
             variant.append("nodropout")
+        networks = p.get("networks")
+        if isinstance(networks, dict) and networks.get("waypoint_step") is not None:
+            variant.append("dense")
         fallback = p.get("fallback", "rrt_star")
         if p["hybrid"] is True and fallback != "rrt_star":  # the paper's HR replans with RRT*
             variant.append("rrtc" if fallback == "rrt_connect" else f"fallback_{fallback}")
