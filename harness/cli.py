@@ -39,8 +39,46 @@ def normalize_argv(argv: list[str]) -> list[str]:
     return (["--multirun"] if len(rest) != len(argv) else []) + rest
 
 
-def choices(group: str) -> list[str]:
-    return sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
+SEARCHPATH = "hydra.searchpath"
+
+
+def _searchpath_entries(argv) -> list[str]:
+    """The entries of a `hydra.searchpath=[file://...,pkg://...]` override, if any."""
+    for arg in argv:
+        key, sep, value = arg.partition("=")
+        if sep and key.lstrip("+~") == SEARCHPATH:
+            return [v.strip().strip("'\"") for v in value.strip().strip("[]").split(",") if v.strip()]
+    return []
+
+
+def _entry_dir(entry: str) -> Path | None:
+    """The folder of a search-path entry: file://DIR, or pkg://a.b (package a.b's folder)."""
+    import importlib.util
+
+    if entry.startswith("file://"):
+        return Path(entry[len("file://") :])
+    if entry.startswith("pkg://"):
+        dotted = entry[len("pkg://") :].strip("/").replace("/", ".")
+        head, _, rest = dotted.partition(".")
+        try:
+            spec = importlib.util.find_spec(head)
+        except (ImportError, ValueError):
+            return None
+        if spec is None or not spec.submodule_search_locations:
+            return None
+        return Path(list(spec.submodule_search_locations)[0]).joinpath(*filter(None, rest.split(".")))
+    return None
+
+
+def search_dirs(argv=()) -> list[Path]:
+    """Our conf/ and the folders a `hydra.searchpath` override adds (a planner or env of
+    one's own: README "Benchmark your own planner"), in Hydra's order (ours first)."""
+    return [CONF_DIR] + [d for d in map(_entry_dir, _searchpath_entries(argv)) if d is not None]
+
+
+def choices(group: str, argv=()) -> list[str]:
+    """The names of a config group, in our conf/ and on the command line's search path."""
+    return sorted({p.stem for d in search_dirs(argv) for p in (d / group).glob("*.yaml")})
 
 
 def _override_values(argv: list[str], group: str) -> list[str] | None:
@@ -60,7 +98,7 @@ def check_groups(argv: list[str], required: tuple[str, ...], optional: tuple[str
     """Raise UsageError for a missing required group or an unknown name in any group."""
     has_experiment = _override_values(argv, "experiment") is not None
     for group in required + optional:
-        names = choices(group)
+        names = choices(group, argv)
         values = _override_values(argv, group)
         if values is None:
             if group in required and not has_experiment:
@@ -71,7 +109,10 @@ def check_groups(argv: list[str], required: tuple[str, ...], optional: tuple[str
             continue
         for v in values:
             if v not in names and "*" not in v:
-                raise UsageError(f"unknown {group} {v!r} (choices: {', '.join(names)})")
+                raise UsageError(
+                    f"unknown {group} {v!r} (choices: {', '.join(names)}; one of your own: its folder's parent "
+                    f'with hydra.searchpath=[file://DIR], README "Benchmark your own planner")'
+                )
 
 
 def _overrides(argv: list[str]) -> list[str]:
@@ -83,8 +124,8 @@ def _overrides(argv: list[str]) -> list[str]:
     return out
 
 
-def _is_group(name: str) -> bool:
-    return "/" in name or (CONF_DIR / name).is_dir()
+def _is_group(name: str, dirs=(CONF_DIR,)) -> bool:
+    return "/" in name or any((d / name).is_dir() for d in dirs)
 
 
 def check_plus(argv: list[str]) -> None:
@@ -164,12 +205,15 @@ def check_keys(argv: list[str], config_name: str) -> None:
     one), and for `+key=` on a key it has. Keys of a group an experiment's sweep chooses
     (planner.* under +experiment=table1) are left to Hydra."""
     groups, keys = [], []
+    dirs = search_dirs(argv)
     for arg in _overrides(argv):
         key, sep, value = arg.partition("=")
         bare = key.lstrip("+~")
         if "@" in bare or not bare:
             continue
-        if _is_group(bare):
+        if bare == SEARCHPATH:  # composed with it, so that a planner of one's own is found
+            groups.append(arg)
+        elif _is_group(bare, dirs):
             values = _override_values([f"{bare}={value}"], bare) or []
             if values and "*" not in values[0]:
                 groups.append(f"{key}={values[0]}")
@@ -189,7 +233,7 @@ def check_keys(argv: list[str], config_name: str) -> None:
             raise UsageError(f"write {bare}={value} ({bare} is already in the config; + adds a new key)")
         if found == "open" and not key.startswith(("+", "~")):
             raise UsageError(f"write +{bare}={value} ({bare} is a new key: add it with +)")
-        if found != "unknown" or (bare.split(".")[0] not in cfg and _is_group(bare.split(".")[0])):
+        if found != "unknown" or (bare.split(".")[0] not in cfg and _is_group(bare.split(".")[0], dirs)):
             continue
         known = [k for k in _dotted(cfg) if bare.startswith("hydra.") or not k.startswith("hydra")]
         close = difflib.get_close_matches(bare, known, n=1)

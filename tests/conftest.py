@@ -48,8 +48,8 @@ def run_cli(workdir):
     """run_cli("harness", "+env=s2d", ...) runs `python -m ...` as a user does (from the
     session's workdir); raises with its output when it fails and check is true."""
 
-    def run(*args, cwd=None, check=True, timeout=600):
-        env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
+    def run(*args, cwd=None, check=True, timeout=600, env=None):
+        env = {**os.environ, "HYDRA_FULL_ERROR": "0", **(env or {})}
         p = subprocess.run(
             [sys.executable, "-m", *args], cwd=cwd or workdir, capture_output=True, text=True, timeout=timeout, env=env
         )
