@@ -1,10 +1,12 @@
 """From the composed config to what the stages take: the env object, data and model
 parameters (which are also cache keys), and the checks of the app's own keys.
 
-A planner's settings are checked by the planner's constructor (one place); the keys
-checked here are the app's: budget, seed, splits, logging switches, the env's knobs, and
-the counts and sizes of data and training. check_planner runs the planner's constructor
-once before any set-up (seeding imports torch; MPNet's networks may need training).
+A planner's settings are checked where its config's `_target_` makes them (one place: a
+planner's constructor, or MPNet's MPNetSettings); the keys checked here are the app's:
+budget, seed, splits, logging switches, the env's knobs, and the counts and sizes of data
+and training. check_planner makes the planner's settings before any set-up (seeding
+imports torch; MPNet's networks may need training); make_planner then builds the planner
+in one step with the resolved networks.
 """
 
 from __future__ import annotations
@@ -115,14 +117,6 @@ def _check_training(cfg: DictConfig) -> None:
             raise UsageError(f"config key train.val_fraction: expected a number between 0 and 1, got {fraction}")
 
 
-class _SettingsChecked(Exception):
-    """Raised by the stand-in models folder: the constructor checked its settings first."""
-
-
-def _stop_before_models():
-    raise _SettingsChecked
-
-
 # Keys of a planner config that are the bench's, not the constructor's: the cost target's
 # planner (time to equal quality) and the networks' training variant (`networks`).
 PLANNER_HOOKS = ("cost_target", "networks")
@@ -155,10 +149,26 @@ def networks_params(cfg: DictConfig) -> dict:
     return out
 
 
-def make_planner(planner_cfg, key: str, runtime: dict):
-    """The planner a config names (`_target_` and its constructor arguments), given the
-    run's objects its signature asks for by name (env, seed, models_dir, cloud). An unknown
-    argument, or a constructor's ValueError/TypeError, becomes one line naming the key."""
+def _call(func, args: tuple, given: dict, runtime: dict, key: str):
+    """func(*args, **given) plus the runtime objects its signature names; an unknown argument,
+    or its ValueError/TypeError, becomes one line naming the key."""
+    signature = inspect.signature(func)
+    kwargs = {**given, **{k: v for k, v in runtime.items() if k in signature.parameters}}
+    try:
+        signature.bind(*args, **kwargs)
+    except TypeError as e:
+        raise UsageError(f"config key {key}: {e}") from None
+    if callable(kwargs.get("models_dir")):  # the networks' folder, built on first use: resolved now
+        kwargs["models_dir"] = kwargs["models_dir"]()
+    try:
+        return func(*args, **kwargs)
+    except (ValueError, TypeError) as e:  # float("abc"), float(None): not every constructor names its key
+        raise UsageError(str(e) if "config key" in str(e) else f"config key {key}: {e}") from None
+
+
+def _settings(planner_cfg, key: str, runtime: dict):
+    """What a planner config's `_target_` makes from its settings: the planner itself, or
+    settings with a `build` (MPNet's: checked when made, built once the networks exist)."""
     import hydra
     from hydra.errors import InstantiationException
 
@@ -167,27 +177,28 @@ def make_planner(planner_cfg, key: str, runtime: dict):
         factory = hydra.utils.instantiate(args, _partial_=True)
     except InstantiationException as e:
         raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
-    signature = inspect.signature(factory.func)
-    kwargs = {**factory.keywords, **{k: v for k, v in runtime.items() if k in signature.parameters}}
-    try:
-        signature.bind(*factory.args, **kwargs)
-    except TypeError as e:
-        raise UsageError(f"config key {key}: {e}") from None
-    try:
-        return factory.func(*factory.args, **kwargs)
-    except (ValueError, TypeError) as e:  # float("abc"), float(None): not every constructor names its key
-        raise UsageError(str(e) if "config key" in str(e) else f"config key {key}: {e}") from None
+    return _call(factory.func, factory.args, factory.keywords, runtime, key)
+
+
+def make_planner(planner_cfg, key: str, runtime: dict):
+    """The planner a config names, in one step: its settings, then, where they have a
+    `build`, the planner built from them with the run's objects it names (env, seed, the
+    networks' folder, resolved here, and cloud)."""
+    made = _settings(planner_cfg, key, runtime)
+    build = getattr(made, "build", None)
+    return made if build is None else _call(build, (), {}, runtime, key)
 
 
 def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
-    """The planner's constructor on its config, given stand-ins for the run's objects
-    (models_dir stops it before any training: from_checkpoint checks its settings first);
-    its complaint as UsageError. The bench builds the planner itself later."""
-    runtime = {"env": spec, "seed": seed, "models_dir": _stop_before_models, "cloud": lambda ws: None}
-    try:
-        make_planner(planner_cfg, key, runtime)
-    except _SettingsChecked:
-        pass
+    """The planner config's settings checked before any set-up (UsageError naming the key):
+    MPNet's settings object is made (its networks are not needed); a planner without a
+    `build` is constructed, unless it asks for the networks' folder (that would train)."""
+    import hydra
+
+    target = hydra.utils.get_method(planner_cfg["_target_"]) if "_target_" in planner_cfg else None
+    if target is not None and "models_dir" in inspect.signature(target).parameters:
+        return
+    _settings(planner_cfg, key, {"env": spec, "seed": seed, "cloud": lambda ws: None})
 
 
 def check_config(cfg: DictConfig) -> None:

@@ -1,10 +1,14 @@
-"""MPNet assembled from a models folder, behind the same Planner protocol as OMPL's
-(conf/planner/mpnet_nr.yaml, mpnet_hr.yaml and the ablations mpnet_*_*.yaml name
-`from_checkpoint` with its constructor arguments)."""
+"""MPNet assembled from a models folder, behind the same Planner protocol as OMPL's.
+
+conf/planner/mpnet_nr.yaml, mpnet_hr.yaml and the ablations mpnet_*_*.yaml make an
+:class:`MPNetSettings` (every setting checked when it is made, so a bad one costs no
+training); the app then calls its ``build`` with the resolved networks' folder, the env,
+the run's seed and the workspace cloud, and gets the planner in one step."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -12,69 +16,83 @@ import numpy as np
 from mpnet.envs.spec import EnvSpec
 from mpnet.models.checkpoint import load_pnet_checkpoint
 from mpnet.planners.classical import OmplPlanner
-from mpnet.planners.neural import MPNetPlanner
+from mpnet.planners.neural import MPNetPlanner, check_settings
 
 PNET_FILE = "pnet.ckpt"
 
 
-def from_checkpoint(
-    models_dir: Path | Callable[[], Path],
-    env: EnvSpec,
-    seed: int,
-    cloud: Callable,
-    *,
-    name: str,
-    hybrid: bool = False,
-    max_steps: int = 80,
-    replan_steps: int = 50,
-    replan_rounds: int = 10,
-    steer_steps=None,
-    fallback: str = "rrt_star",
-    fallback_restart_s: float | None = 0.5,
-    proposal: str = "pnet",
-    straight_step: float = 0.1,
-    encoding: str = "cloud",
-    dropout: bool = True,
-    replanning: str = "original",
-) -> MPNetPlanner:
-    """MPNet (NR, or HR with the OMPL planner `fallback`) on the networks in models_dir.
+@dataclass(frozen=True)
+class MPNetSettings:
+    """MPNet (NR, or HR with the OMPL planner `fallback`), as a config gives it. proposal,
+    encoding and dropout ablate one piece each (Pnet's proposals, the workspace code Pnet
+    sees, Pnet's dropout at planning time); replanning="forgiving" is CMPNet's replanning
+    (MPNetPlanner). The defaults are MPNetPlanner's."""
 
-    models_dir may be a callable that returns the folder (building the networks on first
-    use): the settings are checked before it is called, so a bad one costs no training.
-    cloud(workspace) is the workspace's point cloud as training drew it. proposal, encoding
-    and dropout ablate one piece each (Pnet's proposals, the workspace code Pnet sees,
-    Pnet's dropout at planning time); replanning="forgiving" is CMPNet's replanning
-    (MPNetPlanner).
-    """
-    planner = MPNetPlanner(
-        name,
-        None,
-        None,
-        None,
-        hybrid=hybrid,
-        max_steps=max_steps,
-        replan_steps=replan_steps,
-        replan_rounds=replan_rounds,
-        seed=seed,
-        steer_steps=steer_steps,
-        proposal=proposal,
-        straight_step=straight_step,
-        fallback_restart_s=fallback_restart_s,
-        encoding=encoding,
-        dropout=dropout,
-        replanning=replanning,
-    )
-    # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
-    planner.fallback = OmplPlanner(fallback, fallback, keep_partial=False) if hybrid else None
-    folder = Path(models_dir() if callable(models_dir) else models_dir)
-    encode, pnet_step = load_pnet_checkpoint(folder / PNET_FILE).to_numpy()
-    if encoding == "zeros":
-        code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
-        encode, cloud = (lambda _cloud: code), (lambda _ws: None)
-    space = env.space
+    name: str
+    hybrid: bool = False
+    max_steps: int = 80
+    replan_steps: int = 50
+    replan_rounds: int = 10
+    steer_steps: tuple | None = None
+    fallback: str = "rrt_star"
+    fallback_restart_s: float | None = 0.5
+    proposal: str = "pnet"
+    straight_step: float = 0.1
+    encoding: str = "cloud"
+    dropout: bool = True
+    replanning: str = "original"
 
-    def step(z, x, goal, rng):
-        return space.wrap(np.asarray(pnet_step(z, x, goal, rng if dropout else None), float))
+    def __post_init__(self):
+        check_settings(
+            self.name,
+            max_steps=self.max_steps,
+            replan_steps=self.replan_steps,
+            replan_rounds=self.replan_rounds,
+            steer_steps=self.steer_steps,
+            proposal=self.proposal,
+            straight_step=self.straight_step,
+            fallback_restart_s=self.fallback_restart_s,
+            encoding=self.encoding,
+            dropout=self.dropout,
+            replanning=self.replanning,
+        )
+        if self.steer_steps is not None:
+            object.__setattr__(self, "steer_steps", tuple(self.steer_steps))
 
-    planner.encode, planner.step, planner.cloud = encode, step, cloud
-    return planner
+    def build(self, models_dir: Path, env: EnvSpec, seed: int, cloud: Callable) -> MPNetPlanner:
+        """The planner on the networks in models_dir; cloud(workspace) is the workspace's
+        point cloud as training drew it."""
+        encode, pnet_step = load_pnet_checkpoint(Path(models_dir) / PNET_FILE).to_numpy()
+        if self.encoding == "zeros":
+            code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
+            encode, cloud = (lambda _cloud: code), (lambda _ws: None)
+        space, dropout = env.space, self.dropout
+
+        def step(z, x, goal, rng):
+            return space.wrap(np.asarray(pnet_step(z, x, goal, rng if dropout else None), float))
+
+        return MPNetPlanner(
+            self.name,
+            encode,
+            step,
+            cloud,
+            hybrid=self.hybrid,
+            max_steps=self.max_steps,
+            replan_steps=self.replan_steps,
+            replan_rounds=self.replan_rounds,
+            seed=seed,
+            # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
+            fallback=OmplPlanner(self.fallback, self.fallback, keep_partial=False) if self.hybrid else None,
+            steer_steps=self.steer_steps,
+            proposal=self.proposal,
+            straight_step=self.straight_step,
+            fallback_restart_s=self.fallback_restart_s,
+            encoding=self.encoding,
+            dropout=self.dropout,
+            replanning=self.replanning,
+        )
+
+
+def from_checkpoint(models_dir: Path, env: EnvSpec, seed: int, cloud: Callable, **settings) -> MPNetPlanner:
+    """MPNet on the networks in models_dir, its settings as MPNetSettings takes them."""
+    return MPNetSettings(**settings).build(models_dir, env, seed, cloud)

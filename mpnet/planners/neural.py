@@ -87,7 +87,7 @@ class MPNetPlanner:
         steer_steps=None,
         proposal: str = "pnet",
         straight_step: float = 0.1,
-        fallback_restart_s: float | None = None,
+        fallback_restart_s: float | None = 0.5,
         encoding: str = "cloud",
         dropout: bool = True,
         replanning: str = "original",
