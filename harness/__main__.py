@@ -13,17 +13,20 @@ from harness.cli import run_hydra
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 def main(cfg: DictConfig) -> None:
-    from harness.bench import bench_in_child, bench_or_exit, ompl_seeded
+    from hydra.types import RunMode
+
+    from harness.bench import bench_in_child, bench_or_exit
     from harness.log import spawn_context
 
-    run_dir = Path(hydra.core.hydra_config.HydraConfig.get().runtime.output_dir)
+    hydra_cfg = hydra.core.hydra_config.HydraConfig.get()
+    run_dir = Path(hydra_cfg.runtime.output_dir)
     if cfg.problems:
         cfg.problems = hydra.utils.to_absolute_path(str(cfg.problems))
-    if not ompl_seeded():
+    if hydra_cfg.mode != RunMode.MULTIRUN:
         bench_or_exit(cfg, run_dir)
         return
-    # OMPL's RNG takes its seed once per process: a later job of an in-process sweep
-    # (Hydra's basic launcher) runs in a fresh interpreter so its seed holds.
+    # OMPL's RNG takes its seed once per process: each job of a sweep (several may run in
+    # one process: Hydra's basic launcher, a joblib worker) runs in a fresh interpreter.
     child = spawn_context().Process(
         target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir))
     )

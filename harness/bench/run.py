@@ -21,11 +21,7 @@ from mpnet.planners.base import sub_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
 
-_OMPL_SEEDED = False
-
-
-def ompl_seeded() -> bool:
-    return _OMPL_SEEDED
+_OMPL_SEEDED = False  # a guard only: a second seeding in one process is a bug, not a choice
 
 
 def seed_everything(seed: int) -> None:
@@ -37,7 +33,7 @@ def seed_everything(seed: int) -> None:
 
     ou.setLogLevel(ou.LOG_WARN)
     if _OMPL_SEEDED:
-        raise RuntimeError("OMPL's RNG can be seeded once per process")
+        raise RuntimeError("OMPL's RNG can be seeded once per process (each sweep job runs in its own)")
     ou.RNG.setSeed(sub_seed(seed))
     _OMPL_SEEDED = True
     np.random.seed(int(seed) % 2**32)
