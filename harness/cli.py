@@ -30,7 +30,8 @@ HELP_FLAGS = ("-h", "--help")
 
 
 class UsageError(Exception):
-    """A one-line message for the user; the entry point prints it and exits 2."""
+    """A one-line message for the user: exit status 2 for a command line refused before any
+    work (run_hydra), 1 for one found by the job itself (user_errors, bench_or_exit)."""
 
 
 def normalize_argv(argv: list[str]) -> list[str]:

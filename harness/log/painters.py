@@ -3,8 +3,9 @@
 A painter turns the log's own messages (/workspace and /query as JSON) into Foxglove scene
 primitives, Rerun archetypes, and the report's example figure (matplotlib, through
 harness.log.mpl). The writer, the Rerun sink, the Foxglove module and the report only call a
-painter, so a new robot kind (an arm) is a new painter class registered here, and nothing else
-changes.
+painter, so a new robot kind is a new painter class, registered with `register` (here, or in
+its own module imported by harness/log/__init__.py, as arm_painter's ArmPainter), and nothing
+else changes.
 
     painter = painter_for(ws_msg["robot"], workspace_dim)
 """

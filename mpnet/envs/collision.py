@@ -1,10 +1,13 @@
 """Collision checking against closed axis-aligned boxes, with every check counted.
 
 One checker per workspace serves every planner, for single states (plain Python: OMPL
-calls it per state, where a numpy call costs ~30 us) and for batches (numpy). Motions
-are checked continuously, never by sampling: exactly for point robots (slab test), and
-by conservative advancement on a proven clearance bound for the rigid body
-(mpnet.envs.rigid), so a motion called free is free at any resolution.
+calls it per state, where a numpy call costs ~30 us) and for batches (numpy). The point
+robots' and the rigid body's motions are checked continuously, never by sampling: exactly
+for point robots (slab test), and by conservative advancement on a proven clearance bound
+for the rigid body (mpnet.envs.rigid), so a motion called free is free at any resolution.
+The arm's checkers evaluate configurations along a motion: the sphere checker
+(mpnet.envs.spheres) with a bound on how far its spheres move between them, pybullet's
+(mpnet.envs.pybullet_arm) at env.motion_step; the fine re-check then judges every path.
 
 A robot kind's checker subclasses CollisionChecker and implements the four `_free`
 methods; everything else uses only the public, counted calls.
