@@ -15,6 +15,7 @@ from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
 from harness.config import check_config, env_spec, make_planner
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
+from harness.log.facts import facts_from_config
 from harness.provenance import run_info
 from mpnet.mbm import is_mbm, load_mbm
 from mpnet.planners.base import sub_seed
@@ -97,6 +98,12 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
         )
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
     info["settings"] = run_settings(cfg)
+    robot = spec.robot.to_json()
+    info["facts"] = facts_from_config(
+        OmegaConf.to_container(cfg, resolve=True),
+        workspace_dim=spec.workspace_dim,
+        robot=str(robot.get("name") or robot["kind"]),
+    )
     info["queries_expected"] = len(testset.queries)
     with LogProcess(
         run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun), resume=bool(cfg.resume)

@@ -62,6 +62,12 @@ RUN_SCHEMA = {
             "its sha256): a resumed run must have the same",
         },
         "queries_expected": {"type": "integer", "description": "Queries in the run's test set or problem file"},
+        "facts": {
+            "type": "object",
+            "description": "What the report needs to know, computed once from the config (harness/log/facts.py): "
+            "the planner's kind (base, variant, algorithm, cost target and factor), budget_s, the training set's "
+            "size, the expert and reference settings, the workspace dimension and the robot",
+        },
     },
     "required": list(RUN_FIELDS),
 }

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.report.facts import Facts, config_budget
+from harness.report.facts import Facts, logged_facts
 from harness.report.load import TrialFile, run_seed
 
 # OMPL's PlannerStatus, in the order its Benchmark writes the `status` enum.
@@ -107,18 +107,12 @@ GROUP BY plannerName ORDER BY avg_solved DESC, avg_total_time ASC;
 """
 
 
-def planner_settings(config) -> str:
-    """The `planner:` section of a run's resolved config (YAML text), or all of it."""
+def planner_settings(run: dict) -> str:
+    """The run's planner config section as YAML text (its logged facts), or its whole config."""
     import yaml
 
-    text = str(config or "")
-    try:
-        cfg = yaml.safe_load(text)
-    except yaml.YAMLError:
-        return text
-    if isinstance(cfg, dict) and isinstance(cfg.get("planner"), dict):
-        return yaml.safe_dump(cfg["planner"], sort_keys=False)
-    return text
+    section = logged_facts(run)["planner_config"]
+    return yaml.safe_dump(section, sort_keys=False) if section is not None else str(run.get("config") or "")
 
 
 def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
@@ -211,7 +205,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
         for name, typ in PARAMETERS:
             c.execute(f"ALTER TABLE experiments ADD {name} {typ}")
         c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
-        configs = [(str(tf.run["planner"]), planner_settings(tf.run.get("config"))) for tf in files]
+        configs = [(str(tf.run["planner"]), planner_settings(tf.run)) for tf in files]
         config_ids = {}
         for p, settings in sorted(set(configs), key=lambda k: (facts.rank(k[0]), k[1])):
             c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)", (f"geometric_{p}", settings))
@@ -233,7 +227,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 }
             )
             logged_seed = np.array([run_seed(files[f].run) is not None for f in d["file"]], bool)
-            budgets = {b for b in (config_budget(r.get("config")) for r in fruns) if b is not None}
+            budgets = {b for b in (logged_facts(r)["budget_s"] for r in fruns) if b is not None}
             started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
             hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
             git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})

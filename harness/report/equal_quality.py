@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from harness.report.facts import Facts, cfg_get, config_budget, number, run_config, run_facts
+from harness.report.facts import Facts, logged_facts, run_facts
 from harness.report.load import TrialFile
 from harness.report.names import env_rank, labelled, split_rank
 from harness.report.stats import boot_interval, boot_medians, excludes_one, wilson
@@ -71,10 +71,9 @@ def equal_quality_table(q: pd.DataFrame, files: list[TrialFile], facts: Facts) -
         if eq is not None:
             alg, target, factor = eq[0], "mpnet_" + eq[1], eq[2]
         else:  # no cost target in its config, but its queries log a target planner
-            cfg = run_config(tf.run)
-            alg, target = str(cfg_get(cfg, "planner", "algorithm") or tf.run["planner"]), None
-            factor = number(cfg_get(cfg, "planner", "cost_factor")) or 1.0
-        meta[f] = (alg, factor, target, config_budget(tf.run.get("config")), tf.label or "")
+            pf = run_facts(tf.run)
+            alg, target, factor = str((pf and pf.algorithm) or tf.run["planner"]), None, 1.0
+        meta[f] = (alg, factor, target, logged_facts(tf.run)["budget_s"], tf.label or "")
     d["algorithm"] = [meta[f][0] for f in d["file"]]
     d["factor"] = [meta[f][1] for f in d["file"]]
     d["budget_s"] = [meta[f][3] for f in d["file"]]

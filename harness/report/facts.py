@@ -1,29 +1,19 @@
-"""What kind of planner each run is, read from the resolved config its /run message logs (`config`: the
-run's Hydra config as YAML text), never parsed out of the planner's name, so that a run keeps its place
-whatever it is called. Only keys that old and current configs share are read (not `_target_`, not
-`needs_models`, which change between versions):
-
-- `planner.cost_target` a mapping: a time-to-equal-quality run of `planner.algorithm`, to reach MPNet
-  (HR if `cost_target.hybrid`, else NR)'s cost times `planner.cost_factor`;
-- `planner.hybrid` present: an MPNet run, base mpnet_hr if it is true, else mpnet_nr; an ablation of
-  that base when `proposal` is not pnet (random, random_any, straight), `encoding` is zeros, `dropout`
-  is false or `replanning` is not original (a config without the key predates it: its runs replanned
-  the forgiving way), or its `networks` were trained on resampled expert paths (`waypoint_step`);
-- `planner.algorithm`: a classical run.
-
-Rows and labels keep the logged planner name; the facts decide which table a row goes to and how it
-is ordered, labelled and compared. A run without a readable config is a plain planner (with a warning).
+"""What kind of planner each run is, from the facts its `/run` message logs (harness/log/facts.py:
+computed once from the run's resolved config when it started; an older log's from its config text),
+never from the planner's name, so that a run keeps its place whatever it is called. Rows and labels
+keep the logged planner name; the facts decide which table a row goes to and how it is ordered,
+labelled and compared. A run without a readable config is a plain planner (with a warning).
 """
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import pandas as pd
 
+from harness.log.facts import run_facts as log_facts
 from harness.report.names import (
     ABLATION_BASES,
     ABLATIONS,
@@ -38,44 +28,10 @@ from harness.report.names import (
 _LABELLED = re.compile(r"(.+) \[([^\[\]]+)\]")  # names.labelled's `planner [label]`
 
 
-def run_config(run: dict) -> dict:
-    """A run's resolved config (its YAML text) as a dict; {} when it is not one."""
-    import yaml
-
-    try:
-        cfg = yaml.safe_load(str(run.get("config") or "")) or {}
-    except yaml.YAMLError:
-        return {}
-    return cfg if isinstance(cfg, dict) else {}
-
-
-def cfg_get(cfg: dict, *keys):
-    """cfg[k1][k2]..., None where a level is missing or not a mapping."""
-    for k in keys:
-        if not isinstance(cfg, dict):
-            return None
-        cfg = cfg.get(k)
-    return cfg
-
-
-def number(v) -> float | None:
-    """A config value as a finite float, else None."""
-    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-        return None
-    try:
-        v = float(v)
-    except ValueError:
-        return None
-    return v if math.isfinite(v) else None
-
-
-def config_budget(config) -> float | None:
-    """The top-level `budget_s` of a run's config text, None when it gives none."""
-    m = re.search(r"^budget_s:\s*([0-9.eE+-]+)\s*$", str(config or ""), re.MULTILINE)
-    try:
-        return float(m.group(1)) if m else None
-    except ValueError:
-        return None
+def logged_facts(run: dict) -> dict:
+    """A run's facts (harness.log.facts): budget_s, train_workspaces, train_paths, expert_planner,
+    expert_iterations, reference_bit_star_s, workspace_dim, robot, planner."""
+    return log_facts(run)
 
 
 @dataclass(frozen=True)
@@ -109,42 +65,10 @@ class PlannerFacts:
 PLAIN = PlannerFacts()
 
 
-def planner_section(run: dict) -> dict | None:
-    """The `planner` mapping of a run's config; None when the config is missing, unparsable or has none."""
-    p = run_config(run).get("planner")
-    return p if isinstance(p, dict) else None
-
-
 def run_facts(run: dict) -> PlannerFacts | None:
-    """The facts of one run (see the module docstring), None when its config has no `planner` mapping."""
-    p = planner_section(run)
-    if p is None:
-        return None
-    target = p.get("cost_target")
-    if isinstance(target, dict):
-        return PlannerFacts(
-            algorithm=str(p.get("algorithm") or run.get("planner")),
-            target="hr" if target.get("hybrid") is True else "nr",
-            factor=number(p.get("cost_factor")) or 1.0,
-        )
-    if "hybrid" in p:
-        variant = [] if p.get("proposal", "pnet") in ("pnet", None) else [str(p["proposal"])]
-        if p.get("replanning", "forgiving") != "original":
-            variant.append(str(p.get("replanning", "forgiving")))
-        if p.get("encoding") == "zeros":
-            variant.append("zeros")
-        if p.get("dropout") is False:
-            variant.append("nodropout")
-        networks = p.get("networks")
-        if isinstance(networks, dict) and networks.get("waypoint_step") is not None:
-            variant.append("dense")
-        fallback = p.get("fallback", "rrt_star")
-        if p["hybrid"] is True and fallback != "rrt_star":  # the paper's HR replans with RRT*
-            variant.append("rrtc" if fallback == "rrt_connect" else f"fallback_{fallback}")
-        return PlannerFacts(base="mpnet_hr" if p["hybrid"] is True else "mpnet_nr", variant="+".join(variant) or None)
-    if p.get("algorithm"):
-        return PlannerFacts(algorithm=str(p["algorithm"]))
-    return PLAIN
+    """The planner facts of one run, None when its config has no `planner` mapping."""
+    p = log_facts(run)["planner"]
+    return None if p is None else PlannerFacts(**p)
 
 
 class Facts:

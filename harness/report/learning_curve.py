@@ -1,6 +1,6 @@
 """`python -m harness.report.learning_curve DIR [DIR ...] [--out reports/learning_curve]`: how
 MPNet grows with data. Each run's training-set size comes from its logged config
-(`scale.train.workspaces` × `scale.train.paths`); per env × split × planner × size: success
+(its logged facts: `scale.train.workspaces` × `scale.train.paths`); per env × split × planner × size: success
 with its Wilson interval, path quality (median cost / reference over successes), the share
 of Pnet's proposals in collision and reachable from their tree end, and the workspace-code
 sensitivity. A table (md, csv) and a figure against training paths on a log axis, beside the
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.report.facts import cfg_get, number, run_config
+from harness.report.facts import logged_facts
 from harness.report.load import load, queries_frame
 from harness.report.names import PAPER, env_label, env_rank, split_rank
 from harness.report.stats import wilson
@@ -46,8 +46,8 @@ COLUMNS = [
 
 def train_size(run: dict) -> tuple[int, int] | None:
     """(training workspaces, paths per workspace) from a run's logged config."""
-    cfg = run_config(run)
-    w, p = number(cfg_get(cfg, "scale", "train", "workspaces")), number(cfg_get(cfg, "scale", "train", "paths"))
+    facts = logged_facts(run)
+    w, p = facts["train_workspaces"], facts["train_paths"]
     return (int(w), int(p)) if w and p else None
 
 

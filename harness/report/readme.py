@@ -11,7 +11,7 @@ import pandas as pd
 
 from harness.log import painter_for
 from harness.report.equal_quality import REACH_RTOL
-from harness.report.facts import cfg_get, run_config
+from harness.report.facts import logged_facts
 from harness.report.load import TrialFile
 from harness.report.names import APPROX, CITATION, PAPER_PNET_HIDDEN, PAPER_SCALE, PAPER_SCALE_TEXT, env_label, env_rank
 from harness.report.stats import BOOT_N, BOOT_SEED
@@ -67,8 +67,6 @@ def scale_bullet(name: str, sizes: tuple[int, ...] | None, smaller_net: bool = F
 def provenance(files: list[TrialFile]) -> dict:
     """Where the logs came from, read from their /run messages: git revisions, hosts,
     dates, scales (with their sizes where logged), budgets and versions."""
-    import yaml
-
     revs, hosts, scales, budgets, starts, scale_rows = set(), set(), set(), set(), [], {}
     versions: dict[str, set] = {}
     for f in files:
@@ -80,16 +78,13 @@ def provenance(files: list[TrialFile]) -> dict:
         vers = r.get("versions")
         for k, v in vers.items() if isinstance(vers, dict) else ():
             versions.setdefault(k, set()).add(str(v))
-        try:
-            cfg = yaml.safe_load(r.get("config") or "") or {}
-        except yaml.YAMLError:
-            cfg = {}
-        scale = cfg.get("scale") if isinstance(cfg, dict) else None
+        facts = logged_facts(r)
+        scale = facts["scale"]
         name = str(scale.get("name")) if isinstance(scale, dict) else "unknown"
         scales.add(name)
         scale_rows.setdefault((name, scale_sizes(scale), _smaller_net(scale)), set()).add(str(r.get("env")))
-        if isinstance(cfg, dict) and cfg.get("budget_s") is not None:
-            budgets.add(str(cfg["budget_s"]))
+        if facts["budget_s"] is not None:
+            budgets.add(str(facts["budget_s"]))
     return {
         "git_rev": sorted(revs),
         "host": sorted(hosts),
@@ -141,13 +136,15 @@ def reference_notes(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
                 "it may touch obstacles, so it is a lower bound and quality >= 1"
             )
         else:
-            cfgs = [run_config(files[int(i)].run) for i in fidx]
-            its = sorted({str(v) for v in (cfg_get(c, "env", "expert", "iterations") for c in cfgs) if v is not None})
-            bit = sorted(
-                {str(v) for v in (cfg_get(c, "env", "reference", "bit_star_s") for c in cfgs) if v is not None}
-            )
+            facts = [logged_facts(files[int(i)].run) for i in fidx]
+            experts = sorted({str(f["expert_planner"]) for f in facts if f["expert_planner"]}) or ["rrt_star"]
+            expert = {"rrt_star": "RRT*", "rrt_connect": "RRT-Connect"}
+            its = sorted({str(f["expert_iterations"]) for f in facts if f["expert_iterations"] is not None})
+            bit = sorted({f"{f['reference_bit_star_s']:g}" for f in facts if f["reference_bit_star_s"] is not None})
+            what = "/".join(expert.get(e, e) for e in experts)
+            runs = "iterations" if experts == ["rrt_star"] else "runs"
             ref = (
-                f"the better of the expert's RRT* path ({'/'.join(its) or 'unknown'} iterations, "
+                f"the better of the expert's {what} path ({'/'.join(its) or 'unknown'} {runs}, "
                 f"`env.expert.iterations`) and BIT* run for {'/'.join(bit) or 'unknown'} s "
                 "(`env.reference.bit_star_s`), each shortened by lazy states contraction and kept only if it "
                 "passes the fine re-check; a planner can beat it (quality < 1)"
