@@ -42,3 +42,24 @@ def test_the_report_parses_no_config(repo):
         text = path.read_text()
         assert "safe_load" not in text and "yaml.load" not in text, path.name
         assert "re.search" not in text or "config" not in text.split("re.search", 1)[1][:80], path.name
+
+
+OLD_LOGS = ("s2d_mpnet_nr", "s2d_bit_star_to_nr_x1.1")
+
+
+@pytest.mark.parametrize("name", OLD_LOGS)
+def test_a_log_written_before_facts_still_reads(name, repo):
+    """tests/data/old_logs: tiny runs logged by revision af39b8a, before /run carried `facts`."""
+    from harness.report.facts import run_facts as planner_facts
+    from harness.report.load import read_trials
+
+    tf, warning = read_trials(repo / "tests" / "data" / "old_logs" / name / "trials.mcap")
+    assert tf is not None and warning is None and "facts" not in tf.run
+    facts = run_facts(tf.run)
+    assert facts["budget_s"] == 10.0 and (facts["train_workspaces"], facts["train_paths"]) == (2, 10)
+    assert facts["scale"]["name"] == "tiny" and facts["planner_config"]["name"] == tf.run["planner"]
+    pf = planner_facts(tf.run)
+    if name.endswith("mpnet_nr"):
+        assert (pf.base, pf.variant, pf.equal_quality) == ("mpnet_nr", None, None)
+    else:
+        assert pf.equal_quality == ("bit_star", "nr", 1.1)

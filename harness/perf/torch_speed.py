@@ -19,6 +19,7 @@ import time
 import numpy as np
 import torch
 
+from harness.provenance import machine_info
 from mpnet.models.networks import ENET_LATENT, Pnet, paper_s2d, pnet_numpy
 
 SIZES = {  # (latent, hidden) of conf/scale/quick.yaml and of the paper's s2D Pnet
@@ -114,7 +115,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
     ap.add_argument("--out", help="also write the JSON here")
     args = ap.parse_args(argv)
-    res = measure(args.device)
+    res = {**measure(args.device), "machine": machine_info()}  # revision, date, CPU: where it came from
     text = json.dumps(res, indent=2)
     print(text)
     if args.out:

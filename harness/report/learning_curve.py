@@ -22,6 +22,7 @@ import pandas as pd
 from harness.report.facts import logged_facts
 from harness.report.load import load, queries_frame
 from harness.report.names import PAPER, env_label, env_rank, split_rank
+from harness.report.readme import provenance
 from harness.report.stats import wilson
 
 PAPER_NR_SUCCESS = 0.97
@@ -117,7 +118,20 @@ def _pct(x) -> str:
     return "–" if x != x else f"{100 * x:.1f}"
 
 
-def render_learning_curve(df: pd.DataFrame) -> str:
+def provenance_lines(files) -> list[str]:
+    """Where the rows come from: the logs' revisions (a dirty tree marked), machines, dates."""
+    prov = provenance(files)
+    dirty = [r for r in prov["git_rev"] if r.endswith("-dirty")]
+    lines = [
+        f"From {len(files)} trial logs: git revision {', '.join(prov['git_rev'])}; machine {', '.join(prov['host'])}; "
+        f"runs started between {prov['from']} and {prov['to']} (UTC).",
+    ]
+    if dirty:
+        lines.append(f"**Some logs come from a dirty tree** ({', '.join(dirty)}): uncommitted code made them.")
+    return lines
+
+
+def render_learning_curve(df: pd.DataFrame, files=()) -> str:
     head = [
         "env",
         "split",
@@ -137,6 +151,7 @@ def render_learning_curve(df: pd.DataFrame) -> str:
         f"{PAPER_NR_SUCCESS:.0%} on 100 × 4000 paths ({PAPER}). Quality: median path cost / reference over the "
         "solved queries. Proposal shares and code sensitivity from the `/query` diagnostics (see diagnostics.md).",
         "",
+        *(provenance_lines(files) + [""] if files else []),
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),
     ]
@@ -219,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     df.to_csv(out / "learning_curve.csv", index=False)
-    (out / "learning_curve.md").write_text(render_learning_curve(df))
+    (out / "learning_curve.md").write_text(render_learning_curve(df, files))
     figure(df, out)
     print(f"wrote {out / 'learning_curve.md'}, learning_curve.csv and the figure ({len(df)} rows)")
     return 0
