@@ -1,6 +1,11 @@
 """`python -m harness.fetch_mbm DEST`: MotionBenchMaker's Panda problems (7 scenes x 100
-scene/request YAML pairs) from the `vamp-planner` source distribution on PyPI
+scene/request YAML pairs) from the `vamp-planner` source distribution
 (`resources/panda/problems.tar.bz2`, Apache-2.0), into DEST/problems/<scene>_panda/.
+
+The source distribution is downloaded by pip (`pip download --no-deps --no-binary
+vamp-planner vamp-planner==0.6.4`), so the user's own index, mirror and proxy settings apply.
+(`--no-binary :all:` would also build pip's build requirements from source, cmake among them:
+many minutes.)
 
     python -m harness.fetch_mbm data/mbm
     python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems/box_panda
@@ -12,20 +17,26 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
+import subprocess
 import sys
 import tarfile
-import urllib.request
+import tempfile
 from pathlib import Path
 
 PACKAGE, VERSION = "vamp-planner", "0.6.4"
 MEMBER = "resources/panda/problems.tar.bz2"
 
 
-def sdist_url(version: str = VERSION) -> str:
-    with urllib.request.urlopen(f"https://pypi.org/pypi/{PACKAGE}/{version}/json", timeout=60) as r:
-        meta = json.load(r)
-    return next(u["url"] for u in meta["urls"] if u["packagetype"] == "sdist")
+def download_sdist(folder: Path, version: str = VERSION) -> Path:
+    """The vamp-planner source distribution, downloaded into folder by pip (the user's
+    configured index); OSError with pip's last line when it fails."""
+    cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", PACKAGE, "-d", str(folder)]
+    p = subprocess.run([*cmd, f"{PACKAGE}=={version}"], capture_output=True, text=True)
+    found = sorted(folder.glob("vamp_planner-*.tar.gz")) + sorted(folder.glob("vamp-planner-*.tar.gz"))
+    if p.returncode != 0 or not found:
+        last = (p.stderr.strip() or p.stdout.strip() or "no file").splitlines()[-1]
+        raise OSError(f"pip download {PACKAGE}=={version} failed: {last}")
+    return found[0]
 
 
 def extract(sdist: bytes, dest: Path) -> list[Path]:
@@ -46,8 +57,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sdist", type=Path, help="a vamp-planner .tar.gz already downloaded")
     args = ap.parse_args(argv)
     try:
-        data = args.sdist.read_bytes() if args.sdist else urllib.request.urlopen(sdist_url(), timeout=300).read()
-        scenes = extract(data, args.dest)
+        if args.sdist:
+            scenes = extract(args.sdist.read_bytes(), args.dest)
+        else:
+            with tempfile.TemporaryDirectory() as tmp:
+                scenes = extract(download_sdist(Path(tmp)).read_bytes(), args.dest)
     except (OSError, ValueError, tarfile.TarError, StopIteration) as e:
         print(f"fetch_mbm: {e}", file=sys.stderr)
         return 1
