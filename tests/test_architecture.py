@@ -114,3 +114,10 @@ def test_architecture_lists_every_module(repo):
         if p.name != "__init__.py" and "__pycache__" not in p.parts and str(p.relative_to(repo / pkg)) not in text
     ]
     assert not missing, f"ARCHITECTURE.md does not list {missing}"
+
+
+def test_no_package_index_host_in_the_code(repo):
+    """Downloads go through pip (the user's index, mirror and proxy), never a hard-coded host."""
+    hosts = ("pypi.org", "pythonhosted.org")
+    found = [str(p.relative_to(repo)) for p in _sources(repo) if any(h in p.read_text() for h in hosts)]
+    assert found == []
