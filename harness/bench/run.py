@@ -98,11 +98,8 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
         )
     info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
     info["settings"] = run_settings(cfg)
-    robot = spec.robot.to_json()
     info["facts"] = facts_from_config(
-        OmegaConf.to_container(cfg, resolve=True),
-        workspace_dim=spec.workspace_dim,
-        robot=str(robot.get("name") or robot["kind"]),
+        OmegaConf.to_container(cfg, resolve=True), workspace_dim=spec.workspace_dim, robot=spec.robot.label
     )
     info["queries_expected"] = len(testset.queries)
     with LogProcess(

@@ -26,6 +26,11 @@ class Robot:
     def to_json(self) -> dict:
         return {"kind": self.kind}
 
+    @property
+    def label(self) -> str:
+        """The robot as a run's facts name it: its kind (an arm: its model)."""
+        return self.kind
+
     def as_logged(self, robot: dict | str | None) -> Robot:
         """This robot as a log describes it (a log written with another model of it)."""
         return self
@@ -91,6 +96,10 @@ class ArmRobot(Robot):
     def model(self) -> ArmModel:
         """Loaded on first use (the URDF is read then)."""
         return load_arm_model(self.model_name)
+
+    @property
+    def label(self) -> str:
+        return str(self.model_name)
 
     @property
     def name(self) -> str:

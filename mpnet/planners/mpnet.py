@@ -15,7 +15,7 @@ import numpy as np
 
 from mpnet.envs.spec import EnvSpec
 from mpnet.models.checkpoint import load_pnet_checkpoint
-from mpnet.planners.classical import OmplPlanner
+from mpnet.planners.classical import ALGORITHMS, OmplPlanner
 from mpnet.planners.neural import MPNetPlanner, check_settings
 
 PNET_FILE = "pnet.ckpt"
@@ -56,6 +56,11 @@ class MPNetSettings:
             dropout=self.dropout,
             replanning=self.replanning,
         )
+        if self.hybrid and self.fallback not in ALGORITHMS:
+            raise ValueError(
+                f"config key planner.fallback: unknown OMPL algorithm {self.fallback!r}; "
+                f"choices: {', '.join(ALGORITHMS)}"
+            )
         if self.steer_steps is not None:
             object.__setattr__(self, "steer_steps", tuple(self.steer_steps))
 
