@@ -140,7 +140,7 @@ def reference_notes(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
             experts = sorted({str(f["expert_planner"]) for f in facts if f["expert_planner"]}) or ["rrt_star"]
             expert = {"rrt_star": "RRT*", "rrt_connect": "RRT-Connect"}
             its = sorted({str(f["expert_iterations"]) for f in facts if f["expert_iterations"] is not None})
-            bit = sorted({f"{f['reference_bit_star_s']:g}" for f in facts if f["reference_bit_star_s"] is not None})
+            bit = sorted({str(f["reference_bit_star_s"]) for f in facts if f["reference_bit_star_s"] is not None})
             what = "/".join(expert.get(e, e) for e in experts)
             runs = "iterations" if experts == ["rrt_star"] else "runs"
             ref = (
