@@ -10,6 +10,7 @@ from mpnet.envs.generators import make_workspace
 from mpnet.motion import verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, Problem
 from mpnet.planners.classical import OmplPlanner
+from mpnet.planners.mpnet import MPNetSettings
 from mpnet.planners.neural import MPNetPlanner
 
 S2D = get_spec("s2d")
@@ -360,3 +361,19 @@ def test_a_seeded_problem_plans_the_same_whatever_ran_before():
     in_order = [proposals(q, 100 + i) for i, q in enumerate(qs)]
     assert in_order[3] and proposals(qs[3], 103) == in_order[3]
     assert proposals(qs[3], 104) != in_order[3]  # the seed does decide the draws
+
+
+def test_clipped_proposals_stay_in_the_joint_bounds():
+    """mpnet_nr_clip: a Pnet proposal past a joint limit is held at it; angles still wrap."""
+    from mpnet.envs import get_spec
+
+    arm = get_spec("panda_mbm").space
+    q = arm.upper + np.array([0.5, -0.1, 0, 0, 0, 2.0, 0])
+    out = arm.clip(q)
+    assert arm.in_bounds(out) and out[1] == q[1] and out[0] == arm.upper[0] and out[5] == arm.upper[5]
+    rigid = get_spec("rigid").space
+    np.testing.assert_allclose(rigid.clip([25.0, -3.0, 3.5]), [20.0, -3.0, 3.5 - 2 * np.pi])
+    with pytest.raises(ValueError, match="planner.clip"):
+        MPNetSettings(name="mpnet_nr_clip", clip="yes")
+    with pytest.raises(ValueError, match="planner.name"):
+        MPNetSettings(name="mpnet_nr", clip=True)

@@ -59,6 +59,7 @@ ABLATIONS = {
     "zeros": "Pnet given a zero workspace code",
     "nodropout": "Pnet deterministic (no dropout) at planning time",
     "rrtc": "RRT-Connect instead of the paper's RRT* as hybrid replanning's classical planner",
+    "clip": "Pnet's proposal clipped into the joint bounds (planner.clip)",
     "dense": "networks trained on the expert paths resampled at a fixed step (planner.networks.waypoint_step)",
 }
 # The mark of a difference that is not significant.

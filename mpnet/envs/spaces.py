@@ -76,6 +76,14 @@ class StateSpace(ABC):
     def bounded_dims(self) -> int:
         """The leading coordinates that are bounded (and land exactly on a segment's end)."""
 
+    def clip(self, q) -> np.ndarray:
+        """q in canonical coordinates with its bounded coordinates clipped into the bounds
+        (the nearest state inside them: a joint past its limit is held at it)."""
+        out = np.array(self.wrap(q), float)
+        k = self.bounded_dims
+        out[..., :k] = np.clip(out[..., :k], self.lower[:k], self.upper[:k])
+        return out
+
     def interpolate(self, a, b, step: float) -> np.ndarray:
         """States along a -> b no farther apart than `step` (motion_length)."""
         a = np.asarray(a, float)

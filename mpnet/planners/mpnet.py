@@ -41,6 +41,7 @@ class MPNetSettings:
     encoding: str = "cloud"
     dropout: bool = True
     replanning: str = "original"
+    clip: bool = False  # named variant (issue 26): Pnet's proposal clipped into the joint bounds
 
     def __post_init__(self):
         check_settings(
@@ -55,6 +56,7 @@ class MPNetSettings:
             encoding=self.encoding,
             dropout=self.dropout,
             replanning=self.replanning,
+            clip=self.clip,
         )
         if self.hybrid and self.fallback not in ALGORITHMS:
             raise ValueError(
@@ -72,9 +74,10 @@ class MPNetSettings:
             code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
             encode, cloud = (lambda _cloud: code), (lambda _ws: None)
         space, dropout = env.space, self.dropout
+        canonical = space.clip if self.clip else space.wrap
 
         def step(z, x, goal, rng):
-            return space.wrap(np.asarray(pnet_step(z, x, goal, rng if dropout else None), float))
+            return canonical(np.asarray(pnet_step(z, x, goal, rng if dropout else None), float))
 
         return MPNetPlanner(
             self.name,

@@ -337,10 +337,15 @@ BASE_NAMES = ("mpnet_nr", "mpnet_hr")
 
 
 def ablation_of(
-    proposal: str = "pnet", encoding: str = "cloud", dropout: bool = True, replanning: str = "original"
+    proposal: str = "pnet",
+    encoding: str = "cloud",
+    dropout: bool = True,
+    replanning: str = "original",
+    clip: bool = False,
 ) -> str:
     """'' for MPNet as the paper, else what differs (e.g. 'proposal=random')."""
     changed = [f"proposal={proposal}"] if proposal != "pnet" else []
+    changed += ["clip=true"] if clip else []
     changed += [f"replanning={replanning}"] if replanning != "original" else []
     changed += [f"encoding={encoding}"] if encoding != "cloud" else []
     changed += ["dropout=false"] if not dropout else []
@@ -369,6 +374,7 @@ def check_settings(
     encoding,
     dropout,
     replanning="original",
+    clip=False,
 ) -> None:
     """Every MPNet setting, checked once: ValueError naming the config key."""
     _count("max_steps", max_steps, 1)
@@ -398,7 +404,9 @@ def check_settings(
         raise ValueError(f"config key planner.dropout: expected true or false, got {dropout!r}")
     if replanning not in REPLANNING:
         raise ValueError(f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}")
-    ablated = ablation_of(proposal, encoding, dropout, replanning)
+    if not isinstance(clip, bool):
+        raise ValueError(f"config key planner.clip: expected true or false, got {clip!r}")
+    ablated = ablation_of(proposal, encoding, dropout, replanning, clip)
     if ablated and name in BASE_NAMES:
         raise ValueError(
             f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
