@@ -43,21 +43,14 @@ class MPNetSettings:
     replanning: str = "original"
     clip: bool = False  # named variant (issue 26): Pnet's proposal clipped into the joint bounds
 
+    def _shared(self) -> dict:
+        """The settings MPNetPlanner takes as they are (and check_settings checks)."""
+        keys = ("max_steps", "replan_steps", "replan_rounds", "steer_steps", "proposal", "straight_step")
+        keys += ("fallback_restart_s", "encoding", "dropout", "replanning")
+        return {k: getattr(self, k) for k in keys}
+
     def __post_init__(self):
-        check_settings(
-            self.name,
-            max_steps=self.max_steps,
-            replan_steps=self.replan_steps,
-            replan_rounds=self.replan_rounds,
-            steer_steps=self.steer_steps,
-            proposal=self.proposal,
-            straight_step=self.straight_step,
-            fallback_restart_s=self.fallback_restart_s,
-            encoding=self.encoding,
-            dropout=self.dropout,
-            replanning=self.replanning,
-            clip=self.clip,
-        )
+        check_settings(self.name, **self._shared(), clip=self.clip)
         if self.hybrid and self.fallback not in ALGORITHMS:
             raise ValueError(
                 f"config key planner.fallback: unknown OMPL algorithm {self.fallback!r}; "
@@ -79,25 +72,10 @@ class MPNetSettings:
         def step(z, x, goal, rng):
             return canonical(np.asarray(pnet_step(z, x, goal, rng if dropout else None), float))
 
+        # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
+        fallback = OmplPlanner(self.fallback, self.fallback, keep_partial=False) if self.hybrid else None
         return MPNetPlanner(
-            self.name,
-            encode,
-            step,
-            cloud,
-            hybrid=self.hybrid,
-            max_steps=self.max_steps,
-            replan_steps=self.replan_steps,
-            replan_rounds=self.replan_rounds,
-            seed=seed,
-            # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
-            fallback=OmplPlanner(self.fallback, self.fallback, keep_partial=False) if self.hybrid else None,
-            steer_steps=self.steer_steps,
-            proposal=self.proposal,
-            straight_step=self.straight_step,
-            fallback_restart_s=self.fallback_restart_s,
-            encoding=self.encoding,
-            dropout=self.dropout,
-            replanning=self.replanning,
+            self.name, encode, step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self._shared()
         )
 
 
