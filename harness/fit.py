@@ -254,8 +254,8 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
     )
     epochs = params["pnet_epochs"]
     if params.get("equal_steps"):  # as many gradient steps as the scale's networks take on the plain pairs
-        plain = waypoint_pairs(data.paths.paths(), data.paths.workspace, space=spec.space)
-        epochs = max(1, round(epochs * len(plain.x_t) / len(pairs.x_t)))
+        plain = sum(2 * (len(p) - 1) for p in data.paths.paths() if len(p) >= 2)  # waypoint_pairs' count
+        epochs = max(1, round(epochs * plain / len(pairs.x_t)))
     pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
     module = PnetModule(
         pnet,

@@ -22,6 +22,7 @@ same from the config text their `/run` holds (the only place that still parses i
 
 from __future__ import annotations
 
+import functools
 import math
 
 FACTS_FORMAT = "mpnet-bench/facts@1"
@@ -107,10 +108,16 @@ def facts_from_config(cfg: dict, workspace_dim: int | None = None, robot: str | 
 def legacy_facts(run: dict) -> dict:
     """The facts of a `/run` message logged before `facts` existed: computed from its config
     text (the run's resolved Hydra config as YAML); every fact None when it is unreadable."""
+    return _facts_of_config_text(str(run.get("config") or ""))
+
+
+@functools.lru_cache(maxsize=256)
+def _facts_of_config_text(text: str) -> dict:
+    """Parsed once per config text: the report asks for an old run's facts from many places."""
     import yaml
 
     try:
-        cfg = yaml.safe_load(str(run.get("config") or "")) or {}
+        cfg = yaml.safe_load(text) or {}
     except yaml.YAMLError:
         cfg = {}
     return facts_from_config(cfg if isinstance(cfg, dict) else {})

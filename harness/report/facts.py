@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from harness.log.facts import run_facts as log_facts
+from harness.log.facts import run_facts as logged_facts  # a run's facts, for the report's modules
 from harness.report.names import (
     ABLATION_BASES,
     ABLATIONS,
@@ -26,12 +26,6 @@ from harness.report.names import (
 )
 
 _LABELLED = re.compile(r"(.+) \[([^\[\]]+)\]")  # names.labelled's `planner [label]`
-
-
-def logged_facts(run: dict) -> dict:
-    """A run's facts (harness.log.facts): budget_s, train_workspaces, train_paths, expert_planner,
-    expert_iterations, reference_bit_star_s, workspace_dim, robot, planner."""
-    return log_facts(run)
 
 
 @dataclass(frozen=True)
@@ -67,7 +61,7 @@ PLAIN = PlannerFacts()
 
 def run_facts(run: dict) -> PlannerFacts | None:
     """The planner facts of one run, None when its config has no `planner` mapping."""
-    p = log_facts(run)["planner"]
+    p = logged_facts(run)["planner"]
     return None if p is None else PlannerFacts(**p)
 
 
