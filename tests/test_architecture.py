@@ -9,6 +9,7 @@ import subprocess
 import sys
 
 import grimp
+import pytest
 
 MAX_LINES = 520
 # The compiled core stays one file: numba caches a kernel by its own file's stamp, so a
@@ -121,3 +122,14 @@ def test_no_package_index_host_in_the_code(repo):
     hosts = ("pypi.org", "pythonhosted.org")
     found = [str(p.relative_to(repo)) for p in _sources(repo) if any(h in p.read_text() for h in hosts)]
     assert found == []
+
+
+def test_no_test_data_is_git_ignored(repo):
+    """A clean clone (CI's) has every fixture file the tests read: `*.mcap` was once ignored
+    and tests/data/old_logs passed here but not there."""
+    files = [str(p.relative_to(repo)) for p in (repo / "tests" / "data").rglob("*") if p.is_file()]
+    if not (repo / ".git").exists():
+        pytest.skip("not a git checkout")
+    cmd = ["git", "check-ignore", "--no-index", "--stdin"]
+    p = subprocess.run(cmd, cwd=repo, input="\n".join(files), capture_output=True, text=True)
+    assert p.stdout.split() == [], p.stdout
