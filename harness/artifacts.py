@@ -10,20 +10,12 @@ import sys
 import time
 from pathlib import Path
 
-from omegaconf import DictConfig
 from tqdm import tqdm
 
 from harness.cli import UsageError
-from harness.config import (
-    data_params,
-    enet_params,
-    env_spec,
-    geometry_params,
-    lightning_params,
-    model_params,
-    reference_params,
-)
+from harness.config import enet_params
 from harness.provenance import artifact_provenance
+from harness.settings import RunSettings
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset, reusable, seed_chunks
 from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
@@ -91,25 +83,22 @@ def _check_models(folder: Path, manifest: dict) -> None:
             raise ArtifactError(str(e)) from None
 
 
-def ensure_dataset(cfg: DictConfig, progress: bool = True, plan: bool = True):
+def ensure_dataset(run: RunSettings, progress: bool = True, plan: bool = True):
     """The env's training dataset at this scale, from the cache or built now: (folder,
     manifest, built); `load_dataset(folder, manifest)` reads it. plan=False: the merge of
     a sharded build, which plans nothing (MissingChunks when a shard has not finished)."""
-    spec = env_spec(cfg.env)
-    params = data_params(cfg)
+    spec, params = run.env.spec, run.data
 
     def build(folder: Path) -> dict:
         bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
         try:
-            resume = partial_dir(cfg.cache_dir, "data", params.key_config())  # a build cut short resumes
-            _reuse_chunks(cfg.cache_dir, params, resume)
-            return build_dataset(
-                spec, params, folder, jobs=int(cfg.jobs), progress=bar.update, resume_dir=resume, plan=plan
-            )
+            resume = partial_dir(run.cache_dir, "data", params.key_config())  # a build cut short resumes
+            _reuse_chunks(run.cache_dir, params, resume)
+            return build_dataset(spec, params, folder, jobs=run.jobs, progress=bar.update, resume_dir=resume, plan=plan)
         finally:
             bar.close()
 
-    return _ensure(cfg.cache_dir, "data", params.key_config(), build, artifact_provenance, _check_dataset)
+    return _ensure(run.cache_dir, "data", params.key_config(), build, artifact_provenance, _check_dataset)
 
 
 def _reuse_chunks(root, params, resume: Path) -> None:
@@ -127,55 +116,51 @@ def _reuse_chunks(root, params, resume: Path) -> None:
                 print(f"expert paths: {n} chunks from the dataset {manifest_path.parent}", file=sys.stderr)
 
 
-def dataset_shard(cfg: DictConfig, shard: int, shards: int, progress: bool = True):
+def dataset_shard(run: RunSettings, shard: int, shards: int, progress: bool = True):
     """Plan shard `shard` of `shards` of the dataset's expert paths into its partial folder
     in the cache (a cluster job; the merge assembles the dataset). Returns (the dataset's
     folder, None) when it is built already, else (the partial folder, the shard's paths)."""
-    spec = env_spec(cfg.env)
-    params = data_params(cfg)
+    spec, params = run.env.spec, run.data
     key_config = params.key_config()
-    folder = Path(cfg.cache_dir) / "data" / content_key({"kind": "data", **key_config})
+    folder = run.cache_dir / "data" / content_key({"kind": "data", **key_config})
     try:
         read_manifest(folder, folder.name)
         return folder, None
     except ArtifactError:
         pass
-    resume = partial_dir(cfg.cache_dir, "data", key_config)
+    resume = partial_dir(run.cache_dir, "data", key_config)
     total = sum(len(c) for c in chunks_of(params.train_workspaces, params.expert_chunk, (shard, shards)).values())
     with _bar(total, f"expert paths {spec.name} shard {shard}/{shards}", progress) as bar:
-        paths = build_expert_shard(spec, params, resume, (shard, shards), jobs=int(cfg.jobs), progress=bar.update)
+        paths = build_expert_shard(spec, params, resume, (shard, shards), jobs=run.jobs, progress=bar.update)
     return resume, paths
 
 
 TESTSET_FORMAT = "mpnet-bench/testset@2"  # @2: reference costs
 
 
-def testset_key_config(cfg: DictConfig) -> dict:
+def testset_key_config(run: RunSettings) -> dict:
     """What the test set artifact's key hashes."""
-    spec = env_spec(cfg.env)
-    sizes = {s: (int(cfg.scale.test[s].workspaces), int(cfg.scale.test[s].queries)) for s in ("seen", "unseen")}
     key_config = {
         "format": TESTSET_FORMAT,
-        "env": spec.name,
-        "data_seed": int(cfg.env.data_seed),
-        "solvable_s": float(cfg.env.solvable_s),
-        "splits": {s: list(v) for s, v in sizes.items()},
-        "reference": reference_params(cfg, spec),
-        **({"geometry": geometry_params(cfg.env)} if geometry_params(cfg.env) else {}),
+        "env": run.env.spec.name,
+        "data_seed": run.env.data_seed,
+        "solvable_s": run.env.solvable_s,
+        "splits": {s: list(v) for s, v in run.test_sizes.items()},
+        "reference": dict(run.reference),
+        **({"geometry": dict(run.env.geometry)} if run.env.geometry else {}),
     }
-    if not bool(cfg.scale.test.get("blocked_only", True)):  # only then in the key: existing sets keep theirs
+    if not run.test_blocked_only:  # only then in the key: existing sets keep theirs
         key_config["blocked_only"] = False
     return key_config
 
 
-def ensure_testset_artifact(cfg: DictConfig, progress: bool = True):
+def ensure_testset_artifact(run: RunSettings, progress: bool = True):
     """The scale's generated test set, both splits, as problem files in the cache: copied
     from the package's shipped set of its key (mpnet.data.shipped), or built now; returns
     (folder, manifest, built)."""
-    spec = env_spec(cfg.env)
-    key_config = testset_key_config(cfg)
-    sizes = {s: tuple(v) for s, v in key_config["splits"].items()}
-    blocked_only = key_config.get("blocked_only", True)
+    spec = run.env.spec
+    key_config = testset_key_config(run)
+    sizes = dict(run.test_sizes)
 
     def build(folder: Path) -> dict:
         from ompl import util as ou
@@ -191,7 +176,7 @@ def ensure_testset_artifact(cfg: DictConfig, progress: bool = True):
         ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
         with _bar(sum(n for n, _ in sizes.values()), f"test set {spec.name}", progress) as bar:
             ts = make_testset(
-                spec, sizes, int(cfg.env.data_seed), float(cfg.env.solvable_s), bar.update, blocked_only=blocked_only
+                spec, sizes, run.env.data_seed, run.env.solvable_s, bar.update, blocked_only=run.test_blocked_only
             )
         t0 = time.perf_counter()
         with _bar(len(ts.workspaces), f"reference costs {spec.name}", progress) as bar:
@@ -200,8 +185,8 @@ def ensure_testset_artifact(cfg: DictConfig, progress: bool = True):
                 ts.workspaces,
                 ts.queries,
                 **key_config["reference"],
-                seed=int(cfg.env.data_seed),
-                jobs=int(cfg.jobs),
+                seed=run.env.data_seed,
+                jobs=run.jobs,
                 progress=bar.update,
             )
         ref_s = time.perf_counter() - t0
@@ -217,15 +202,15 @@ def ensure_testset_artifact(cfg: DictConfig, progress: bool = True):
             },
         }
 
-    return _ensure(cfg.cache_dir, "testset", key_config, build, artifact_provenance, _testset_check(spec))
+    return _ensure(run.cache_dir, "testset", key_config, build, artifact_provenance, _testset_check(spec))
 
 
-def ensure_testset(cfg: DictConfig, progress: bool = True):
-    """The splits cfg.splits asks for of the scale's test set (ensure_testset_artifact), as one TestSet."""
-    spec = env_spec(cfg.env)
-    folder, _, _ = ensure_testset_artifact(cfg, progress)
+def ensure_testset(run: RunSettings, progress: bool = True):
+    """The splits the run asks for of the scale's test set (ensure_testset_artifact), as one TestSet."""
+    spec = run.env.spec
+    folder, _, _ = ensure_testset_artifact(run, progress)
     workspaces, queries = [], []
-    for split in cfg.splits:
+    for split in run.splits:
         part = load_problems(folder / f"{split}.json", spec)
         for item in (*part.workspaces, *part.queries):
             item.split = split
@@ -244,21 +229,21 @@ def _check_enet(folder: Path, manifest: dict) -> None:
         raise ArtifactError(str(e)) from None
 
 
-def models_key_config(cfg: DictConfig) -> dict:
+def models_key_config(run: RunSettings) -> dict:
     """What the models artifact's key hashes: the dataset's key (derived from its params,
     so that a cached or shipped model needs no dataset built) and the training params."""
-    data_key = content_key({"kind": "data", **data_params(cfg).key_config()})
-    return {"data": data_key, **model_params(cfg)}
+    data_key = content_key({"kind": "data", **run.data.key_config()})
+    return {"data": data_key, **run.models}
 
 
-def _shipped_models(cfg: DictConfig, key_config: dict):
+def _shipped_models(run: RunSettings, key_config: dict):
     """The package's pretrained set for these models, as a checkpoint in the cache (kind
     "pretrained"), when the cache has no models artifact of this key; else None."""
     from harness.fit import PNET_FILE
     from mpnet.models.pretrained import find_pretrained, read_meta, write_checkpoint
 
     key = content_key({"kind": "models", **key_config})
-    if (Path(cfg.cache_dir) / "models" / key).exists():
+    if (run.cache_dir / "models" / key).exists():
         return None
     source = find_pretrained(key)
     if source is None:
@@ -276,28 +261,26 @@ def _shipped_models(cfg: DictConfig, key_config: dict):
         print(f"models: the shipped pretrained set {source.name} (key {key})", file=sys.stderr)
         return {"files": [PNET_FILE], "models_key": key, "source": str(source)}
 
-    return _ensure(cfg.cache_dir, "pretrained", {"models": key, "weights": weights}, build, artifact_provenance, None)
+    return _ensure(run.cache_dir, "pretrained", {"models": key, "weights": weights}, build, artifact_provenance, None)
 
 
-def ensure_models(cfg: DictConfig, progress: bool = True, planning: bool = False):
+def ensure_models(run: RunSettings, progress: bool = True, planning: bool = False):
     """The env's trained Enet and Pnet at this scale: from the cache, or trained now
     (building the dataset first if it is missing). Enet's autoencoder is cached on its
     own first, so that Ctrl-C during Pnet keeps it and the same command resumes at Pnet.
     planning: only Pnet's checkpoint is wanted (encoder and Pnet, no decoder), so the
     package's pretrained set for this key serves when the cache lacks the models."""
-    lightning = lightning_params(cfg)  # checked before any work
-    spec = env_spec(cfg.env)
-    params = model_params(cfg)
-    key_config = models_key_config(cfg)
-    if planning and (shipped := _shipped_models(cfg, key_config)) is not None:
+    lightning, spec, params = run.lightning, run.env.spec, run.models
+    key_config = models_key_config(run)
+    if planning and (shipped := _shipped_models(run, key_config)) is not None:
         return shipped
     enet_config = enet_params(params)
-    data_folder = Path(cfg.cache_dir) / "data" / key_config["data"]
+    data_folder = run.cache_dir / "data" / key_config["data"]
 
     def build(folder: Path) -> dict:
         from harness.fit import fit_enet, fit_models
 
-        _, data_manifest, _ = ensure_dataset(cfg, progress)
+        _, data_manifest, _ = ensure_dataset(run, progress)
         try:
             data = load_dataset(data_folder, data_manifest)
         except ArtifactError as e:  # damaged since it was verified: the user's one line, not a traceback
@@ -305,7 +288,7 @@ def ensure_models(cfg: DictConfig, progress: bool = True, planning: bool = False
         if enet_config is None:
             return fit_models(spec, data, params, lightning, folder, progress)
         enet_folder, enet_manifest, built = _ensure(
-            cfg.cache_dir,
+            run.cache_dir,
             "enet",
             {"data": key_config["data"], **enet_config},
             lambda f: fit_enet(spec, data, params, lightning, f, progress),
@@ -320,4 +303,4 @@ def ensure_models(cfg: DictConfig, progress: bool = True, planning: bool = False
             raise KeyboardInterrupt(f"Enet is kept in {enet_folder}; the same command resumes at Pnet") from None
 
     provenance = lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
-    return _ensure(cfg.cache_dir, "models", key_config, build, provenance, _check_models)
+    return _ensure(run.cache_dir, "models", key_config, build, provenance, _check_models)

@@ -1,5 +1,5 @@
-"""From the composed config to what the stages take: the env object, data and model
-parameters (which are also cache keys), and the checks of the app's own keys.
+"""The checks of the app's own keys, and what harness.settings derives from the config with
+them: the env object and the model parameters (which are also cache keys).
 
 A planner's settings are checked where its config's `_target_` makes them (one place: a
 planner's constructor, or MPNet's MPNetSettings); the keys checked here are the app's:
@@ -18,7 +18,6 @@ from dataclasses import replace
 from omegaconf import DictConfig, OmegaConf
 
 from harness.cli import UsageError
-from mpnet.data.dataset import DataParams
 from mpnet.data.expert import EXPERTS
 from mpnet.envs.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
@@ -201,25 +200,11 @@ def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
     _settings(planner_cfg, key, {"env": spec, "seed": seed, "cloud": lambda ws: None})
 
 
-def check_config(cfg: DictConfig) -> None:
-    """The values a user types, checked before any work: UsageError naming the key."""
+def check_run(cfg: DictConfig) -> None:
+    """The run's own values as a user types them (UsageError naming the key): budget, seed,
+    splits, switches, and the counts, sizes and knobs of data and training."""
     _number("budget_s", cfg.budget_s)
     _check_training(cfg)
-    _number("env.validation_step", cfg.env.validation_step)
-    _number("env.solvable_s", cfg.env.solvable_s)
-    if cfg.env.get("motion_step") is not None:
-        _number("env.motion_step", cfg.env.motion_step)
-        if cfg.env.validation_step * 10 > cfg.env.motion_step * (1 + 1e-9):
-            raise UsageError(
-                f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
-                f"({cfg.env.motion_step}), got {cfg.env.validation_step}"
-            )
-    if cfg.env.get("planner_range") is not None:
-        _number("env.planner_range", cfg.env.planner_range)
-    if cfg.env.get("planning_margin") is not None:
-        _number("env.planning_margin", cfg.env.planning_margin, positive=False)
-        if cfg.env.planning_margin < 0:
-            raise UsageError(f"config key env.planning_margin: expected a number >= 0, got {cfg.env.planning_margin}")
     if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
         raise UsageError(f"config key seed: expected an integer >= 0, got {cfg.seed!r}")
     splits = cfg.splits
@@ -233,76 +218,62 @@ def check_config(cfg: DictConfig) -> None:
             f"config key scale: env {cfg.env.name} has its sizes at scales {', '.join(cfg.env.scales)} "
             f"(conf/env_scale/{cfg.env.name}_*.yaml), got {cfg.scale.name!r}"
         )
-    checkers = get_spec(cfg.env.name).robot.checkers
-    if cfg.env.collision not in checkers:
-        raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {cfg.env.collision!r}")
     if not isinstance(cfg.scale.test.get("blocked_only", True), bool):
         raise UsageError(
             f"config key scale.test.blocked_only: expected true or false, got {cfg.scale.test.blocked_only!r}"
         )
-    for key in ("blocked_only", "contract"):
-        if not isinstance(cfg.env.expert.get(key, False), bool):
-            raise UsageError(f"config key env.expert.{key}: expected true or false, got {cfg.env.expert[key]!r}")
-    cloud = cfg.env.get("cloud", "surface")
-    if cloud not in ("surface", "camera") or (cloud == "camera" and not get_spec(cfg.env.name).robot.posed_obstacles):
-        raise UsageError(f"config key env.cloud: expected surface, or camera (envs of posed obstacles), got {cloud!r}")
-    if cfg.env.expert.get("planner", "rrt_star") not in EXPERTS:
-        raise UsageError(
-            f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {cfg.env.expert.planner!r}"
-        )
-    chunk = cfg.env.expert.get("chunk", 1)
-    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-        raise UsageError(f"config key env.expert.chunk: expected an integer >= 1, got {chunk!r}")
     for key in ("rerun", "resume", "progress"):
         if not isinstance(cfg[key], bool):
             raise UsageError(f"config key {key}: expected true or false, got {cfg[key]!r}")
-    if cfg.get("planner") is not None:
-        networks_params(cfg)
-        spec = env_spec(cfg.env)
-        check_planner(cfg.planner, "planner", spec, cfg.seed)
-        if cfg.planner.get("cost_target") is not None:
-            check_planner(cfg.planner.cost_target, "planner.cost_target", spec, cfg.seed)
+    _check_sharding(cfg)
 
 
-def _expert_range(env_cfg) -> dict:
-    """The RRT-Connect expert plans with the env's planner_range: then the data depends on it."""
-    if env_cfg.expert.get("planner", "rrt_star") != "rrt_connect":
-        return {}
-    return {"planner_range": float(env_cfg.planner_range)}
+def _check_sharding(cfg: DictConfig) -> None:
+    """shards, shard and merge (harness.data's): UsageError naming the key."""
+    shards, shard, merge = cfg.get("shards", 1), cfg.get("shard"), cfg.get("merge", False)
+    if isinstance(shards, bool) or not isinstance(shards, int) or shards < 1:
+        raise UsageError(f"config key shards: expected an integer >= 1, got {shards!r}")
+    if shard is not None and (isinstance(shard, bool) or not isinstance(shard, int) or not 0 <= shard < shards):
+        raise UsageError(f"config key shard: expected an integer in [0, shards={shards}), got {shard!r}")
+    if not isinstance(merge, bool):
+        raise UsageError(f"config key merge: expected true or false, got {merge!r}")
+    if merge and shard is not None:
+        raise UsageError(f"config key merge: merge=true assembles every shard; drop shard={shard}")
 
 
-def data_params(cfg: DictConfig) -> DataParams:
-    """Everything that decides the training dataset (its cache key)."""
-    return DataParams(
-        env=str(cfg.env.name),
-        data_seed=int(cfg.env.data_seed),
-        points_per_block=int(cfg.env.points_per_block),
-        train_workspaces=int(cfg.scale.train.workspaces),
-        paths_per_workspace=int(cfg.scale.train.paths),
-        ae_workspaces=int(cfg.scale.train.ae_workspaces),
-        expert_iterations=int(cfg.env.expert.iterations),
-        expert_max_seconds=float(cfg.env.expert.max_seconds),
-        expert_blocked_only=bool(cfg.env.expert.get("blocked_only", True)),
-        expert_contract=bool(cfg.env.expert.get("contract", False)),
-        geometry=geometry_params(cfg.env) | _expert_range(cfg.env),
-        expert_chunk=int(cfg.env.expert.get("chunk", 1)),
-        expert_planner=str(cfg.env.expert.get("planner", "rrt_star")),
-    )
-
-
-def reference_params(cfg: DictConfig, spec: EnvSpec) -> dict:
-    """What decides the test set's reference costs (none for exact ones)."""
-    if spec.exact_reference:
-        return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
-    out = {
-        "iterations": int(cfg.env.expert.iterations),
-        "expert_s": float(cfg.env.expert.max_seconds),
-        "bit_star_s": float(cfg.env.reference.bit_star_s),
-    }
-    expert = str(cfg.env.expert.get("planner", "rrt_star"))
-    if expert != "rrt_star":  # the RRT* expert's test sets keep their keys
-        out["expert"] = expert
-    return out
+def check_env(env_cfg: DictConfig) -> None:
+    """The env's knobs as a user types them (UsageError naming the key)."""
+    _number("env.validation_step", env_cfg.validation_step)
+    _number("env.solvable_s", env_cfg.solvable_s)
+    if env_cfg.get("motion_step") is not None:
+        _number("env.motion_step", env_cfg.motion_step)
+        if env_cfg.validation_step * 10 > env_cfg.motion_step * (1 + 1e-9):
+            raise UsageError(
+                f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
+                f"({env_cfg.motion_step}), got {env_cfg.validation_step}"
+            )
+    if env_cfg.get("planner_range") is not None:
+        _number("env.planner_range", env_cfg.planner_range)
+    if env_cfg.get("planning_margin") is not None:
+        _number("env.planning_margin", env_cfg.planning_margin, positive=False)
+        if env_cfg.planning_margin < 0:
+            raise UsageError(f"config key env.planning_margin: expected a number >= 0, got {env_cfg.planning_margin}")
+    checkers = get_spec(env_cfg.name).robot.checkers
+    if env_cfg.collision not in checkers:
+        raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {env_cfg.collision!r}")
+    for key in ("blocked_only", "contract"):
+        if not isinstance(env_cfg.expert.get(key, False), bool):
+            raise UsageError(f"config key env.expert.{key}: expected true or false, got {env_cfg.expert[key]!r}")
+    cloud = env_cfg.get("cloud", "surface")
+    if cloud not in ("surface", "camera") or (cloud == "camera" and not get_spec(env_cfg.name).robot.posed_obstacles):
+        raise UsageError(f"config key env.cloud: expected surface, or camera (envs of posed obstacles), got {cloud!r}")
+    if env_cfg.expert.get("planner", "rrt_star") not in EXPERTS:
+        raise UsageError(
+            f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {env_cfg.expert.planner!r}"
+        )
+    chunk = env_cfg.expert.get("chunk", 1)
+    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+        raise UsageError(f"config key env.expert.chunk: expected an integer >= 1, got {chunk!r}")
 
 
 def model_params(cfg: DictConfig) -> dict:

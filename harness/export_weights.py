@@ -19,23 +19,23 @@ from harness.cli import run_hydra, user_errors
 @user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_models, ensure_testset_artifact, models_key_config
-    from harness.config import check_config
     from harness.fit import PNET_FILE
+    from harness.settings import settings_of
     from mpnet.data.shipped import SHIPPED as SHIPPED_TESTSETS
     from mpnet.data.shipped import export_testset
     from mpnet.models.pretrained import SHIPPED, export_pretrained
 
-    check_config(cfg)
-    folder, manifest, _ = ensure_models(cfg, progress=bool(cfg.progress))
-    key_config = models_key_config(cfg)
+    run = settings_of(cfg)
+    folder, manifest, _ = ensure_models(run, progress=run.progress)
+    key_config = models_key_config(run)
     if manifest["config"] != key_config:  # by construction; a mismatch would ship weights under a wrong key
         raise AssertionError(f"{folder}: manifest config differs from the current config's")
-    name = f"{cfg.env.name}-{cfg.scale.name}"
+    name = f"{run.env.name}-{run.scale}"
     root = Path(cfg.export_dir) if cfg.export_dir else SHIPPED.parent
     out = root / SHIPPED.name / name
     meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config)
     print(f"exported: {out} ({meta['weights']['bytes'] / 1e6:.1f} MB, key {meta['key']}, from {folder})")
-    ts_folder, ts_manifest, _ = ensure_testset_artifact(cfg, progress=bool(cfg.progress))
+    ts_folder, ts_manifest, _ = ensure_testset_artifact(run, progress=run.progress)
     ts_out = root / SHIPPED_TESTSETS.name / name
     ts_meta = export_testset(ts_folder, ts_manifest, ts_out)
     size = sum(f["bytes"] for f in ts_meta["files"].values())

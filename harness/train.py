@@ -16,12 +16,11 @@ from harness.cli import UsageError, run_hydra, user_errors
 @user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_models
-    from harness.config import check_config
-
-    check_config(cfg)
+    from harness.settings import settings_of
 
     try:
-        folder, manifest, built = ensure_models(cfg, progress=bool(cfg.progress))
+        run = settings_of(cfg)
+        folder, manifest, built = ensure_models(run, progress=run.progress)
     except UsageError as e:
         print(f"error: {e}", file=sys.stderr)
         sys.exit(1)

@@ -36,6 +36,14 @@ def compose_config(repo):
 
 
 @pytest.fixture(scope="session")
+def settings(compose_config):
+    """settings(overrides) -> the run's settings (harness.settings), as a command parses them."""
+    from harness.settings import settings_of
+
+    return lambda overrides: settings_of(compose_config(overrides))
+
+
+@pytest.fixture(scope="session")
 def workdir(tmp_path_factory) -> Path:
     """Where the tests' subprocesses run: a command given no cache_dir or run dir writes its
     cache (.cache/mpnet-bench, shared by the session's tests) and outputs/ here, never into

@@ -126,18 +126,18 @@ def test_unreadable_checkpoint_is_one_line_naming_it(tmp_path, damage):
     assert str(info.value).startswith(f"{path}: ") and "\n" not in str(info.value)
 
 
-def test_hand_edited_cached_test_set_is_rebuilt(tmp_path, compose_config, capsys):
+def test_hand_edited_cached_test_set_is_rebuilt(tmp_path, settings, capsys):
     """The probe's case: a cached test set edited by hand (still a valid problem file) was
     used as is; now it is rebuilt, with a warning naming the file."""
     from harness.artifacts import ensure_testset
 
-    cfg = compose_config(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
-    want = ensure_testset(cfg, progress=False)
+    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
+    want = ensure_testset(run, progress=False)
     (folder,) = (tmp_path / "testset").glob("*/")
     doc = json.loads((folder / "seen.json").read_text())
     doc["workspaces"][0]["queries"][0]["start"][0] += 0.5
     (folder / "seen.json").write_text(json.dumps(doc))
-    got = ensure_testset(cfg, progress=False)
+    got = ensure_testset(run, progress=False)
     assert f"warning: {folder / 'seen.json'}" in capsys.readouterr().err
     assert all(np.array_equal(a.start, b.start) for a, b in zip(got.queries, want.queries))
 

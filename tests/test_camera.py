@@ -74,13 +74,12 @@ def test_a_hidden_obstacle_gives_no_points():
     assert not camera_cloud(empty, 10, np.random.default_rng(0)).any()
 
 
-def test_the_camera_is_another_dataset_and_needs_posed_obstacles(compose_config):
+def test_the_camera_is_another_dataset_and_needs_posed_obstacles(settings):
     from harness.cli import UsageError
-    from harness.config import check_config, data_params, env_spec
 
-    surface = compose_config(["+env=panda_mbm", "scale=tiny"])
-    camera = compose_config(["+env=panda_mbm", "scale=tiny", "env.cloud=camera"])
-    assert data_params(surface).key_config() != data_params(camera).key_config()
-    assert env_spec(camera.env).sample_cloud is camera_cloud
+    surface = settings(["+env=panda_mbm", "scale=tiny"])
+    camera = settings(["+env=panda_mbm", "scale=tiny", "env.cloud=camera"])
+    assert surface.data.key_config() != camera.data.key_config()
+    assert camera.env.spec.sample_cloud is camera_cloud
     with pytest.raises(UsageError, match="env.cloud"):
-        check_config(compose_config(["+env=s2d", "scale=tiny", "+env.cloud=camera"]))
+        settings(["+env=s2d", "scale=tiny", "+env.cloud=camera"])

@@ -13,7 +13,7 @@ from omegaconf import OmegaConf
 
 from harness.cli import UsageError
 from harness.config import lightning_params
-from harness.data import check_sharding
+from harness.settings import settings_of
 from mpnet.data.expert import chunks_of
 
 
@@ -74,8 +74,9 @@ def test_merge_names_the_unfinished_shards(tmp_path, run_cli):
     assert line.startswith("error: config key merge: 1 of 2 chunks") and "shard 0 of shards=3" in line
 
 
-def _cfg(**keys):
-    return OmegaConf.create({"shard": None, "shards": 1, "merge": False, **keys})
+def _with(cfg, keys: dict):
+    """cfg with the sharding keys set as a user would type them (any type)."""
+    return OmegaConf.merge(cfg, OmegaConf.create(keys))
 
 
 @pytest.mark.parametrize(
@@ -91,14 +92,15 @@ def _cfg(**keys):
         ({"shards": 4, "shard": 1, "merge": True}, "merge"),
     ],
 )
-def test_bad_sharding_keys(keys, name):
+def test_bad_sharding_keys(keys, name, compose_config):
     with pytest.raises(UsageError, match=f"^config key {name}:"):
-        check_sharding(_cfg(**keys))
+        settings_of(_with(compose_config(["+env=s2d", "scale=tiny"]), keys))
 
 
-def test_good_sharding_keys():
+def test_good_sharding_keys(compose_config):
     for keys in ({}, {"shards": 100, "shard": 99}, {"shards": 100, "merge": True}):
-        check_sharding(_cfg(**keys))
+        run = settings_of(_with(compose_config(["+env=s2d", "scale=tiny"]), keys))
+        assert (run.shards, run.shard, run.merge) == (keys.get("shards", 1), keys.get("shard"), "merge" in keys)
 
 
 def test_shards_partition_the_chunks():
@@ -108,10 +110,8 @@ def test_shards_partition_the_chunks():
     assert sorted(k for s in shards for k in s) == list(chunks) and shards[0] == {0: chunks[0], 3: chunks[3]}
 
 
-def test_sharding_keys_leave_the_data_key_alone(compose_config):
-    from harness.config import data_params
-
-    keys = [data_params(compose_config(["+env=s2d", "scale=tiny", *o])).key_config() for o in ([], ["shards=9"])]
+def test_sharding_keys_leave_the_data_key_alone(settings):
+    keys = [settings(["+env=s2d", "scale=tiny", *o]).data.key_config() for o in ([], ["shards=9"])]
     assert keys[0] == keys[1]
 
 

@@ -8,9 +8,9 @@ import itertools
 import pytest
 import torch
 
-from harness.bench.run import make_planner, runtime_objects
+from harness.bench.run import runtime_objects
 from harness.cli import UsageError, choices
-from harness.config import check_config, env_spec
+from harness.settings import settings_of
 from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner
 
@@ -37,12 +37,11 @@ def models_dirs(tmp_path_factory):
 
 def build(cfg, models_dirs) -> list[Planner]:
     """What a bench job builds before planning: the checked config, the env, the planners."""
-    check_config(cfg)
-    spec = env_spec(cfg.env)
-    runtime = {**runtime_objects(cfg, spec), "models_dir": models_dirs[spec.state_dim]}
-    planners = [make_planner(cfg.planner, "planner", runtime)]
-    if cfg.planner.get("cost_target") is not None:
-        planners.append(make_planner(cfg.planner.cost_target, "planner.cost_target", runtime))
+    run = settings_of(cfg)
+    runtime = {**runtime_objects(run), "models_dir": models_dirs[run.env.spec.state_dim]}
+    planners = [run.planner.make(runtime)]
+    if run.planner.cost_target is not None:
+        planners.append(run.planner.cost_target.make(runtime))
     for p in planners:
         assert isinstance(p, Planner) and p.name
     return planners
@@ -99,7 +98,7 @@ def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models
             build(cfg, models_dirs)
 
 
-def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(compose_config):
+def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(settings):
     from harness.artifacts import models_key_config
 
     for override, key in (
@@ -108,24 +107,22 @@ def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(co
         ("planner.networks.equal_steps=yes", "planner.networks.equal_steps"),
     ):
         with pytest.raises(UsageError, match=key):
-            check_config(compose_config(["+env=panda_mbm", "+planner=mpnet_nr_dense", override]))
+            settings(["+env=panda_mbm", "+planner=mpnet_nr_dense", override])
     plain, dense = (
-        models_key_config(compose_config(["+env=panda_mbm", f"+planner={p}"])) for p in ("mpnet_nr", "mpnet_nr_dense")
+        models_key_config(settings(["+env=panda_mbm", f"+planner={p}"])) for p in ("mpnet_nr", "mpnet_nr_dense")
     )
     assert dense == {**plain, "waypoint_step": 0.5, "equal_steps": True}
-    assert models_key_config(compose_config(["+env=panda_mbm", "+planner=mpnet_hr_dense"])) == dense
+    assert models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_hr_dense"])) == dense
 
 
 @pytest.mark.parametrize("env", ["s2d", "arm7"])
 def test_the_validation_step_is_in_the_cache_keys_when_changed(env, compose_config):
     """It decides which expert paths are kept and the reference costs: a data set built at
     another step must not be reused."""
-    from harness.config import data_params
-
     default = compose_config([f"+env={env}", "+planner=mpnet_nr"])
     same = compose_config([f"+env={env}", "+planner=mpnet_nr", f"env.validation_step={default.env.validation_step}"])
     finer = compose_config(
         [f"+env={env}", "+planner=mpnet_nr", f"env.validation_step={default.env.validation_step / 2}"]
     )
-    keys = [data_params(c).key_config() for c in (default, same, finer)]
+    keys = [settings_of(c).data.key_config() for c in (default, same, finer)]
     assert keys[0] == keys[1] != keys[2]

@@ -115,16 +115,16 @@ def test_data_cli_builds_once_under_concurrency(tmp_path, repo):
 
 
 @pytest.mark.slow  # builds a c3d test set with planned references
-def test_cached_testset_is_the_generated_one(tmp_path, compose_config):
+def test_cached_testset_is_the_generated_one(tmp_path, settings):
     """The data stage's test set (problem files in the cache) holds exactly the queries the
     generator makes, with their splits; a second call reads the cache."""
     from harness.artifacts import ensure_testset
     from mpnet.data.queries import make_testset
 
-    cfg = compose_config(["+env=c3d", "+planner=bit_star", "scale=tiny", f"cache_dir={tmp_path}"])
+    run = settings(["+env=c3d", "+planner=bit_star", "scale=tiny", f"cache_dir={tmp_path}"])
     spec = get_spec("c3d")
-    got = ensure_testset(cfg, progress=False)
-    want = make_testset(spec, {"seen": (2, 2), "unseen": (2, 2)}, 0, float(cfg.env.solvable_s))
+    got = ensure_testset(run, progress=False)
+    want = make_testset(spec, {"seen": (2, 2), "unseen": (2, 2)}, 0, run.env.solvable_s)
     assert [(w.id, w.split) for w in got.workspaces] == [(w.id, w.split) for w in want.workspaces]
     for a, b in zip(got.workspaces, want.workspaces):
         assert np.array_equal(a.centers, b.centers) and np.array_equal(a.sizes, b.sizes)
@@ -142,7 +142,7 @@ def test_cached_testset_is_the_generated_one(tmp_path, compose_config):
     (folder,) = (tmp_path / "testset").glob("*/")
     assert read_manifest(folder, folder.name)["queries"] == {"seen": 4, "unseen": 4}
     stamp = (folder / "seen.json").stat().st_mtime_ns
-    ensure_testset(cfg, progress=False)
+    ensure_testset(run, progress=False)
     assert (folder / "seen.json").stat().st_mtime_ns == stamp
 
 

@@ -19,13 +19,13 @@ def test_every_env_ships_a_quick_set():
 
 
 @pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])
-def test_shipped_set_loads_and_matches_its_key(folder, tmp_path, compose_config):
+def test_shipped_set_loads_and_matches_its_key(folder, tmp_path, settings):
     from harness.artifacts import models_key_config
     from mpnet.data.store import content_key
 
     meta = read_meta(folder)
     env, scale = folder.name.rsplit("-", 1)
-    key_config = models_key_config(compose_config([f"+env={env}", f"scale={scale}"]))
+    key_config = models_key_config(settings([f"+env={env}", f"scale={scale}"]))
     assert meta["config"] == json.loads(json.dumps(key_config))
     assert meta["key"] == content_key({"kind": "models", **key_config})
     write_checkpoint(folder, tmp_path / "pnet.ckpt")  # verifies the weights' sha256
@@ -48,11 +48,10 @@ def test_damaged_set_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, compose_config):
+def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     """Tiny s2d trained, exported, and both planning the tiny test set: the same paths."""
     from harness.artifacts import ensure_testset
     from harness.bench.run import runtime_objects
-    from harness.config import env_spec
     from mpnet.planners.base import Problem
     from mpnet.planners.mpnet import from_checkpoint
 
@@ -65,10 +64,10 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, compose_config)
     shipped.mkdir()
     write_checkpoint(tmp_path / "sets" / "pretrained" / "s2d-tiny", shipped / "pnet.ckpt")
 
-    cfg = compose_config([*args[:4]])
-    spec = env_spec(cfg.env)
-    testset = ensure_testset(cfg, progress=False)
-    cloud = runtime_objects(cfg, spec)["cloud"]
+    run = settings([*args[:4]])
+    spec = run.env.spec
+    testset = ensure_testset(run, progress=False)
+    cloud = runtime_objects(run)["cloud"]
     problems = [
         Problem(spec, ws, spec.make_checker(ws), q.start, q.goal, seed=i)
         for ws in testset.workspaces

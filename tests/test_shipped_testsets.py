@@ -18,20 +18,19 @@ def test_every_env_ships_a_quick_test_set():
 
 
 @pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])
-def test_shipped_test_set_is_the_artifact_of_its_key(folder, tmp_path, compose_config):
+def test_shipped_test_set_is_the_artifact_of_its_key(folder, tmp_path, settings):
     from harness.artifacts import testset_key_config
-    from harness.config import env_spec
     from mpnet.problems import load_problems
 
     meta = read_meta(folder)
     env, scale = folder.name.rsplit("-", 1)
-    cfg = compose_config([f"+env={env}", f"scale={scale}"])
-    key_config = testset_key_config(cfg)
+    run = settings([f"+env={env}", f"scale={scale}"])
+    key_config = testset_key_config(run)
     assert meta["config"] == json.loads(json.dumps(key_config))
     assert meta["key"] == content_key({"kind": "testset", **key_config}) and find_testset(meta["key"]) == folder
     fields = copy_testset(folder, tmp_path)  # verifies every file's sha256
     for split, name in zip(("seen", "unseen"), fields["files"]):
-        ts = load_problems(tmp_path / name, env_spec(cfg.env))
+        ts = load_problems(tmp_path / name, run.env.spec)
         assert len(ts.queries) == fields["queries"][split] == meta["manifest"]["queries"][split] > 0
 
 

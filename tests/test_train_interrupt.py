@@ -69,17 +69,16 @@ def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli):
     assert pnets[0].keys() == pnets[1].keys() and all(torch.equal(pnets[0][k], pnets[1][k]) for k in pnets[0])
 
 
-def test_enet_artifact_trains_what_one_fit_did(tmp_path, compose_config):
+def test_enet_artifact_trains_what_one_fit_did(tmp_path, settings):
     """Enet cached on its own, then Pnet: the same Pnet as one fit of both with no artifact
     between (Pnet's fit starts from the random state Enet's left, kept in the artifact)."""
     from harness.artifacts import ensure_dataset
-    from harness.config import env_spec, lightning_params, model_params
     from harness.fit import _fit_autoencoder, _fit_pnet, _quiet_lightning, fit_enet, fit_models, load_encoder
     from mpnet.data.dataset import load_dataset
 
-    cfg = compose_config(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
-    spec, params, lightning = env_spec(cfg.env), model_params(cfg), lightning_params(cfg)
-    data = load_dataset(*ensure_dataset(cfg, progress=False)[:2])
+    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
+    spec, params, lightning = run.env.spec, run.models, run.lightning
+    data = load_dataset(*ensure_dataset(run, progress=False)[:2])
     one, enet, models = (tmp_path / n for n in ("one", "enet", "models"))
     for f in (one, enet, models):
         f.mkdir()

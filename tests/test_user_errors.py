@@ -9,7 +9,7 @@ import json
 import pytest
 
 from harness.cli import UsageError, check_keys, check_output_dirs, check_plus
-from harness.config import check_config
+from harness.settings import settings_of
 
 
 @pytest.mark.parametrize(
@@ -35,24 +35,24 @@ from harness.config import check_config
 def test_nonsense_config_value_is_refused_naming_the_key(override, key, compose_config):
     cfg = compose_config(["+env=s2d", "+planner=bit_star", "scale=tiny", override])
     with pytest.raises(UsageError, match=f"config key {key}"):
-        check_config(cfg)
+        settings_of(cfg)
 
 
 @pytest.mark.parametrize(
     "planner,override", [("mpnet_nr", "planner.max_steps=abc"), ("mpnet_hr", "planner.fallback=x")]
 )
 def test_bad_mpnet_setting_is_refused_without_models(planner, override, compose_config, tmp_path):
-    """check_config runs the planner's constructor with a models folder that stops it:
+    """settings_of runs the planner's constructor with a models folder that stops it:
     the settings are refused, and nothing is trained or built."""
     cfg = compose_config(["+env=s2d", f"+planner={planner}", "scale=tiny", override, f"cache_dir={tmp_path}"])
     with pytest.raises(UsageError, match="config key planner"):
-        check_config(cfg)
+        settings_of(cfg)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_good_config_passes_without_building(compose_config, tmp_path):
     cfg = compose_config(["+env=s2d", "+planner=bit_star_to_nr", "scale=tiny", f"cache_dir={tmp_path}"])
-    check_config(cfg)
+    settings_of(cfg)
     assert list(tmp_path.iterdir()) == []
 
 

@@ -10,13 +10,11 @@ from omegaconf import DictConfig, OmegaConf
 
 from harness.artifacts import ensure_models, ensure_testset
 from harness.bench.loop import CostTarget, QueryTiming, run_bench
-from harness.bench.settings import run_settings
 from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
-from harness.config import check_config, env_spec, make_planner
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
-from harness.log.facts import facts_from_config
 from harness.provenance import run_info
+from harness.settings import RunSettings, settings_of
 from mpnet.mbm import is_mbm, load_mbm
 from mpnet.planners.base import sub_seed
 from mpnet.planners.reference import reference_costs
@@ -45,22 +43,22 @@ def seed_everything(seed: int) -> None:
     torch.manual_seed(int(seed) % 2**63)
 
 
-def runtime_objects(cfg: DictConfig, spec) -> dict:
+def runtime_objects(run: RunSettings) -> dict:
     """What the app hands a planner's constructor besides its config: the env, the run's
     seed, the trained networks' folder (built on first use) and the workspace cloud."""
-    points, data_seed = int(cfg.env.points_per_block), int(cfg.env.data_seed)
     return {
-        "env": spec,
-        "seed": int(cfg.seed),
-        "models_dir": lambda: ensure_models(cfg, progress=bool(cfg.progress), planning=True)[0],
-        "cloud": lambda ws: spec.cloud(ws, points, data_seed),
+        "env": run.env.spec,
+        "seed": run.seed,
+        "models_dir": lambda: ensure_models(run, progress=run.progress, planning=True)[0],
+        "cloud": run.env.cloud,
     }
 
 
-def build_testset(cfg: DictConfig, spec):
+def build_testset(run: RunSettings):
     """The problem file's test set, or the scale's generated splits (from the cache)."""
-    if cfg.problems:
-        path = str(cfg.problems)
+    spec = run.env.spec
+    if run.problems:
+        path = run.problems
         testset = load_mbm(path, spec) if is_mbm(path) else load_problems(path, spec)
         if spec.exact_reference:  # exact references cost microseconds: fill the ones the file lacks
             reference_costs(
@@ -72,39 +70,34 @@ def build_testset(cfg: DictConfig, spec):
                 bit_star_s=0.0,
             )
         return testset, "file"
-    return ensure_testset(cfg, bool(cfg.progress)), "+".join(cfg.splits)
+    return ensure_testset(run, run.progress), "+".join(run.splits)
 
 
 def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> Tally:
     """Run one bench job into run_dir and print its summary (of the queries planned now)."""
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
-    check_config(cfg)
-    seed_everything(int(cfg.seed))
-    spec = env_spec(cfg.env)
-    runtime = runtime_objects(cfg, spec)
-    planner = make_planner(cfg.planner, "planner", runtime)
-    target_cfg = cfg.planner.get("cost_target")
-    pre_query = None if target_cfg is None else CostTarget(make_planner(target_cfg, "planner.cost_target", runtime))
-    testset, split = build_testset(cfg, spec)
-    if (
-        pre_query is None
-        and cfg.planner.get("stop") == "cost"
-        and any(q.reference_cost is None for q in testset.queries)
-    ):
+    run = settings_of(cfg)
+    seed_everything(run.seed)
+    spec = run.env.spec
+    runtime = runtime_objects(run)
+    planner = run.planner.make(runtime)
+    target = run.planner.cost_target
+    pre_query = None if target is None else CostTarget(target.make(runtime))
+    testset, split = build_testset(run)
+    if pre_query is None and run.planner.stop == "cost" and any(q.reference_cost is None for q in testset.queries):
         raise UsageError(
             "planner.stop=cost needs a reference cost for every query "
             "(give `reference_cost` per query in a problem file)"
         )
-    info = run_info(cfg.env.name, cfg.planner.name, int(cfg.seed), split, OmegaConf.to_yaml(cfg, resolve=True))
-    info["settings"] = run_settings(cfg)
-    info["facts"] = facts_from_config(
-        OmegaConf.to_container(cfg, resolve=True), workspace_dim=spec.workspace_dim, robot=spec.robot.label
-    )
+    info = run_info(run.env.name, run.planner.name, run.seed, split, run.config_yaml)
+    info["settings"] = run.results
+    info["facts"] = run.facts
     info["queries_expected"] = len(testset.queries)
-    with LogProcess(
-        run_dir, info, spec, validation_step=spec.validation_step, rerun=bool(cfg.rerun), resume=bool(cfg.resume)
-    ) as log:
+    log_process = LogProcess(
+        run_dir, info, spec, validation_step=spec.validation_step, rerun=run.rerun, resume=run.resume
+    )
+    with log_process as log:
         for ws in testset.workspaces:
             logged = log.logged_obstacles.get((ws.split, ws.id))
             if logged is not None and logged != ws.obstacles_json():
@@ -121,10 +114,10 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
                 testset,
                 planner,
                 log,
-                budget_s=float(cfg.budget_s),
-                seed=int(cfg.seed),
-                collision=str(cfg.env.collision),
-                progress=bool(cfg.progress),
+                budget_s=run.budget_s,
+                seed=run.seed,
+                collision=run.env.collision,
+                progress=run.progress,
                 timing=timing,
                 pre_query=pre_query,
             )
@@ -137,7 +130,7 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
         timing.log_cpu_s = log.child_cpu_s
         timing.log_peak_rss_mb = log.child_peak_rss_mb
     if not quiet:
-        print(f"{cfg.env.name} / {cfg.planner.name} / seed {cfg.seed}: {run_dir}")
+        print(f"{run.env.name} / {run.planner.name} / seed {run.seed}: {run_dir}")
         print(format_summary(summarize(tally)) if len(tally) else "no queries to run")
     return tally
 

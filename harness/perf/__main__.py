@@ -39,6 +39,7 @@ def main(cfg: DictConfig) -> None:
     from harness.perf.obstacles import obstacles
     from harness.perf.planners import planners
     from harness.provenance import machine_info
+    from harness.settings import EnvSettings
 
     p = cfg.perf
     t0 = time.perf_counter()
@@ -61,7 +62,8 @@ def main(cfg: DictConfig) -> None:
     rows += sections.checkers(list(p.envs), int(p.checker_workspaces))
     _step("checkers", t0)
     env_cfg = OmegaConf.load(Path(__file__).resolve().parents[2] / "conf" / "env" / f"{p.data.env}.yaml")
-    rows += sections.data_generation(env_cfg, int(p.data.workspaces), int(p.data.paths), tuple(p.data.jobs))
+    env = EnvSettings.of(env_cfg)
+    rows += sections.data_generation(env, int(p.data.workspaces), int(p.data.paths), tuple(p.data.jobs))
     _step("data", t0)
     rows += sections.training(_sizes(p.network_sizes), 2, int(p.training.batch), int(p.training.steps))
     _step("training", t0)

@@ -99,13 +99,14 @@ def checkers(envs: list[str], workspaces: int) -> list[dict]:
     return rows
 
 
-def data_generation(cfg_env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
-    """Expert paths per second of the data stage (RRT* as the env's config says, spawned
-    worker processes, one workspace per task) with each number of workers."""
+def data_generation(env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
+    """Expert paths per second of the data stage (RRT* as the env's settings say, spawned
+    worker processes, one workspace per task) with each number of workers; env is an
+    harness.settings.EnvSettings."""
     from mpnet.data.expert import expert_paths
 
-    spec = get_spec(str(cfg_env.name))
-    wss = [(i, spec.generator.make(i, "train", int(cfg_env.data_seed))) for i in range(workspaces)]
+    spec, expert = env.spec, env.expert
+    wss = [(i, spec.generator.make(i, "train", env.data_seed)) for i in range(workspaces)]
     rows = []
     for j in jobs:
         t = time.perf_counter()
@@ -113,11 +114,11 @@ def data_generation(cfg_env, workspaces: int, paths: int, jobs: tuple[int, ...])
             spec,
             wss,
             paths,
-            int(cfg_env.data_seed),
-            int(cfg_env.expert.iterations),
-            float(cfg_env.expert.max_seconds),
+            env.data_seed,
+            expert.iterations,
+            expert.max_seconds,
             jobs=j,
-            blocked_only=bool(cfg_env.expert.blocked_only),
+            blocked_only=expert.blocked_only,
         )
         dt = time.perf_counter() - t
         n = len(out)

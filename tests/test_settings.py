@@ -1,0 +1,64 @@
+"""harness.settings: the composed config parsed once into frozen settings, and the cache
+keys derived from them exactly as before they existed (tests/data/cache_keys.json: every env x
+scale tiny, quick and paper x {mpnet_nr, mpnet_nr_dense}, computed by revision be8f9e8, which read the DictConfig)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from harness import artifacts
+from harness.cli import UsageError
+from harness.settings import settings_of
+from mpnet.data.store import content_key
+
+
+def test_cache_keys_are_the_ones_the_config_gave(repo):
+    from hydra import compose, initialize_config_dir
+
+    want = json.loads((repo / "tests" / "data" / "cache_keys.json").read_text())
+    got = {}
+    with initialize_config_dir(str(repo / "conf"), version_base="1.3"):  # once: 36 configs
+        runs = {
+            n: settings_of(
+                compose(
+                    "config", [f"+env={n.split('/')[0]}", f"scale={n.split('/')[1]}", f"+planner={n.split('/')[2]}"]
+                )
+            )
+            for n in want
+        }
+    for name, run in runs.items():
+        got[name] = {
+            "data": content_key({"kind": "data", **run.data.key_config()}),
+            "testset": content_key({"kind": "testset", **artifacts.testset_key_config(run)}),
+            "models": content_key({"kind": "models", **artifacts.models_key_config(run)}),
+        }
+    assert got == want
+
+
+def test_settings_are_frozen_and_typed(settings):
+    run = settings(["+env=arm7", "+planner=bit_star_to_nr_x1.1", "seed=3", "splits=[unseen]"])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        run.seed = 4
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        run.env.expert.iterations = 1
+    assert (run.seed, run.splits, run.planner.name, run.planner.stop) == (3, ("unseen",), "bit_star_to_nr_x1.1", "cost")
+    assert run.planner.cost_target.name == "mpnet_nr" and run.planner.cost_target.key == "planner.cost_target"
+    assert run.env.spec.motion_step == run.env.geometry["motion_step"]
+    assert run.facts["planner"]["target"] == "nr" and run.results["seed"] == 3 and "cache_dir" not in run.results
+
+
+def test_data_and_training_need_no_planner(settings):
+    run = settings(["+env=s2d", "scale=tiny"])
+    assert run.planner is None and run.data.train_workspaces > 0
+
+
+@pytest.mark.parametrize(
+    "override,key",
+    [("env.expert.chunk=0", "env.expert.chunk"), ("train.devices=2", "train.strategy"), ("shard=3", "shard")],
+)
+def test_each_part_is_checked_when_parsed(override, key, settings):
+    with pytest.raises(UsageError, match=f"config key {key}"):
+        settings(["+env=s2d", "scale=tiny", override])
