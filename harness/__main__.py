@@ -16,7 +16,7 @@ def main(cfg: DictConfig) -> None:
     from hydra.types import RunMode
 
     from harness.bench import bench_in_child, bench_or_exit
-    from harness.log import spawn_context
+    from harness.log import spawning
 
     hydra_cfg = hydra.core.hydra_config.HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
@@ -27,10 +27,9 @@ def main(cfg: DictConfig) -> None:
         return
     # OMPL's RNG takes its seed once per process: each job of a sweep (several may run in
     # one process: Hydra's basic launcher, a joblib worker) runs in a fresh interpreter.
-    child = spawn_context().Process(
-        target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir))
-    )
-    child.start()
+    with spawning() as ctx:
+        child = ctx.Process(target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir)))
+        child.start()
     child.join()
     if child.exitcode:
         sys.exit(child.exitcode)

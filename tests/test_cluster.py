@@ -168,3 +168,33 @@ def _data_at(folder):
     key = json.loads((folder / "manifest.json").read_text())["key"]
     with np.load(folder / "data.npz") as z:
         return key, {k: (z[k].dtype, z[k].shape, z[k].tobytes()) for k in z.files}
+
+
+SPAWN_UNDER_LOKY = """
+import multiprocessing as mp, os
+from joblib.externals.loky.backend import context  # registers 'loky', as joblib's workers run
+mp.set_start_method("loky", force=True)
+from harness.log.process import spawning
+if __name__ == "__main__":
+    with spawning() as ctx:
+        p = ctx.Process(target=os.getpid)
+        p.start()
+    p.join()
+    print(p.exitcode, mp.get_start_method())
+    q = mp.get_context("spawn").Process(target=os.getpid)  # without spawning(): the child fails
+    q.start()
+    q.join()
+    print(q.exitcode)
+"""
+
+
+@pytest.mark.slow
+def test_a_child_spawned_in_a_loky_worker_starts_and_the_worker_keeps_its_method(tmp_path):
+    """spawning() changes the default start method only while its block starts children."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "spawn.py"
+    script.write_text(SPAWN_UNDER_LOKY)
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120).stdout.split()
+    assert out == ["0", "loky", "1"]

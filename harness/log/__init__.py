@@ -15,7 +15,7 @@ from harness.log.arm_painter import ArmPainter
 from harness.log.csv import CSV_FIXED, CSV_NAME
 from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
-from harness.log.process import LogProcess, LogProcessDied, judge, spawn_context
+from harness.log.process import LogProcess, LogProcessDied, judge, spawning
 from harness.log.rerun import RRD_NAME
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_schema
 from harness.log.tally import Tally
@@ -44,5 +44,5 @@ __all__ = [
     "rect_outlines",
     "register",
     "scene_update_schema",
-    "spawn_context",
+    "spawning",
 ]

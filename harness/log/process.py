@@ -13,6 +13,7 @@ is logged.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import signal
 import time
@@ -96,12 +97,21 @@ def _widen(conn, size: int = 1 << 20) -> None:
         pass
 
 
-def spawn_context():
-    """multiprocessing's spawn context, usable inside joblib's loky workers too: a spawned
-    child re-applies its parent's start method, and 'loky' is unknown to a plain child."""
-    if mp.get_start_method(allow_none=True) not in (None, "spawn", "fork", "forkserver"):
+@contextlib.contextmanager
+def spawning():
+    """multiprocessing's spawn context to start children in, inside joblib's loky workers too.
+    A spawned child re-applies its parent's default start method, which is 'loky' there and
+    unknown to a plain child: while the block starts children the default is spawn, and the
+    parent's own is put back when it ends (nothing outlives the block)."""
+    method = mp.get_start_method(allow_none=True)
+    plain = method in (None, "spawn", "fork", "forkserver")
+    if not plain:
         mp.set_start_method("spawn", force=True)
-    return mp.get_context("spawn")
+    try:
+        yield mp.get_context("spawn")
+    finally:
+        if not plain:
+            mp.set_start_method(method, force=True)
 
 
 # Queries go to the log process in small batches: one pipe send costs ~10 us, more than a
@@ -123,19 +133,19 @@ class LogProcess:
     def __init__(
         self, run_dir: str | Path, run: dict, spec, *, validation_step: float, rerun: bool = True, resume: bool = False
     ):
-        ctx = spawn_context()  # never fork a process that has started OMPL's threads
         # Queries go down a one-way pipe widened to hold hundreds of them, so the loop never
         # waits on a burst of slow writes (a Rerun batch); replies come up a second pipe.
-        inbox, self._outbox = ctx.Pipe(duplex=False)
-        self._conn, reply = ctx.Pipe(duplex=False)
-        _widen(self._outbox)
-        self._proc = ctx.Process(
-            target=_serve,
-            name="trial-log",
-            daemon=True,
-            args=(inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}),
-        )
-        self._proc.start()
+        with spawning() as ctx:  # never fork a process that has started OMPL's threads
+            inbox, self._outbox = ctx.Pipe(duplex=False)
+            self._conn, reply = ctx.Pipe(duplex=False)
+            _widen(self._outbox)
+            self._proc = ctx.Process(
+                target=_serve,
+                name="trial-log",
+                daemon=True,
+                args=(inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}),
+            )
+            self._proc.start()
         inbox.close()
         reply.close()
         self.tally = Tally()
