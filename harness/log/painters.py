@@ -13,6 +13,7 @@ else changes.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 import numpy as np
@@ -52,7 +53,7 @@ def painter_for(robot: dict | str, workspace_dim: int) -> Painter:
     return cls(robot)
 
 
-class Painter:
+class Painter(ABC):
     """Draws one robot kind in one workspace dimension, from the log's JSON messages.
 
     Subclasses set `kind` and `workspace_dim`; the planar and spatial bases below draw the
@@ -111,10 +112,11 @@ class Painter:
         return np.zeros((0, 0, self.workspace_dim))
 
     # --------------------------------------------- the report's example figure (matplotlib)
+    @abstractmethod
     def mpl_workspace(self, ax, msg: dict) -> list[np.ndarray]:
         """Draw a /workspace message's obstacles on axes of `mpl_projection`; return the points
         they span (for mpl_frame's limits)."""
-        raise NotImplementedError
+        ...
 
     def mpl_query(self, ax, msg: dict, color, label: str) -> list[np.ndarray]:
         """Draw a /query's path (and the robot's body along it); return the points drawn."""
@@ -130,21 +132,18 @@ class Painter:
         mpl.endpoints(ax, start, goal)
         return [np.array([start, goal], float)]
 
+    @abstractmethod
     def mpl_frame(self, ax, msg: dict, drawn: list[np.ndarray]) -> None:
         """Axis limits that hold the workspace's bounds and everything drawn (a body whole),
         equal scales, axis labels."""
-        raise NotImplementedError
+        ...
 
     # -------------------------------------------------------------- Foxglove
-    def foxglove_workspace(self, msg: dict) -> tuple[list[dict], list[dict]]:
-        """Cube and line primitives of a /workspace message: its obstacles and bounds."""
-        raise NotImplementedError
-
+    @abstractmethod
     def foxglove_scene(self, msg: dict) -> dict:
         """Foxglove primitive lists by SceneEntity field ("cubes", "lines", ...) of a
         /workspace message (painters with posed obstacles add "cylinders", "spheres")."""
-        cubes, lines = self.foxglove_workspace(msg)
-        return {"cubes": cubes, "lines": lines}
+        ...
 
     def foxglove_bodies(self, msg: dict) -> str:
         """JSON text of the cube primitives (comma-separated) that show the robot's body
@@ -152,17 +151,20 @@ class Painter:
         return ""
 
     # ----------------------------------------------------------------- Rerun
+    @abstractmethod
     def rerun_types(self, rr) -> tuple[Any, Any, Any]:
         """Rerun's box, line-strip and point archetypes of this dimension."""
-        raise NotImplementedError
+        ...
 
+    @abstractmethod
     def rerun_static(self, rr, bounds: list) -> list[tuple[str, Any]]:
         """(entity path, archetype) logged once: the world frame and the state bounds."""
-        raise NotImplementedError
+        ...
 
+    @abstractmethod
     def rerun_view(self, rrb, bounds: list):
         """The blueprint's view of /scene."""
-        raise NotImplementedError
+        ...
 
     def rerun_obstacles(self, rr, msg: dict):
         """A /workspace message's obstacles as boxes."""
@@ -237,7 +239,20 @@ class Painter:
         return out
 
 
-class _Planar(Painter):
+class _Boxes(Painter):
+    """A workspace of axis-aligned boxes: its Foxglove scene is cubes and lines."""
+
+    @abstractmethod
+    def foxglove_workspace(self, msg: dict) -> tuple[list[dict], list[dict]]:
+        """Cube and line primitives of a /workspace message: its obstacles and bounds."""
+        ...
+
+    def foxglove_scene(self, msg: dict) -> dict:
+        cubes, lines = self.foxglove_workspace(msg)
+        return {"cubes": cubes, "lines": lines}
+
+
+class _Planar(_Boxes):
     """A 2D workspace: obstacles as thin boxes below z = 0 in Foxglove, Rerun's 2D view
     with y pointing up."""
 
@@ -294,7 +309,7 @@ class _Planar(Painter):
         )
 
 
-class _Spatial(Painter):
+class _Spatial(_Boxes):
     """A 3D workspace: obstacles as boxes, Rerun's 3D view."""
 
     workspace_dim = 3

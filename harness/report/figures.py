@@ -231,10 +231,7 @@ def fig_example(q: pd.DataFrame, files: list[TrialFile], env: str, facts: Facts)
         return None
     fig = Figure(figsize=(6.0, 6.0), layout="constrained")
     ax = fig.add_subplot(projection=painter.mpl_projection)
-    try:
-        drawn = painter.mpl_workspace(ax, ws)
-    except NotImplementedError:  # a painter that draws no figure
-        return None
+    drawn = painter.mpl_workspace(ax, ws)
     colors = _colors(sorted(chosen, key=facts.rank))
     for p in sorted(chosen, key=facts.rank):
         r = chosen[p]

@@ -15,6 +15,8 @@ methods; everything else uses only the public, counted calls.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from mpnet.envs.workspace import Workspace
@@ -24,7 +26,7 @@ from mpnet.envs.workspace import Workspace
 PLANNING_MARGIN = 1e-6
 
 
-class CollisionChecker:
+class CollisionChecker(ABC):
     """The public interface every planner uses: single and batch state and motion checks,
     each counted. Subclasses implement the geometry (`_state_free`, `_motion_free`,
     `_states_free`, `_motions_free`)."""
@@ -89,11 +91,11 @@ class CollisionChecker:
         self.motions_valid(np.stack([q, r]), np.stack([r, q]))
         self.reset_counts()
 
-    def _state_free(self, q) -> bool:
-        raise NotImplementedError
+    @abstractmethod
+    def _state_free(self, q) -> bool: ...
 
-    def _motion_free(self, a, b) -> bool:
-        raise NotImplementedError
+    @abstractmethod
+    def _motion_free(self, a, b) -> bool: ...
 
     def _states_free(self, qs: np.ndarray) -> np.ndarray:
         return np.array([self._state_free(q) for q in qs.tolist()], bool)
