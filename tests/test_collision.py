@@ -280,6 +280,6 @@ def test_warm_up_checks_each_kind_and_leaves_no_counts(env, backend):
     assert calls == ["is_valid", "motion_valid", "states_valid", "motions_valid"]
     assert set(checker.counts().values()) == {0}
     if backend == "spheres":
-        from mpnet.envs import sphere_kernels as K
+        from mpnet.envs import sphere_checks as C
 
-        assert K.state_free.signatures and K.motions_free.signatures  # compiled (or loaded) now
+        assert C.state_free.signatures and C.motions_free.signatures  # compiled (or loaded) now

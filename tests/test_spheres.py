@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mpnet.envs import sphere_checks as C
 from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import ArmModelError, load_arm_model
 from mpnet.envs.shapes import Primitive
@@ -139,7 +140,7 @@ def test_sphere_against_a_primitive_agrees_with_fcl(kind, dims, quat, centre, ra
     if abs(gap) < 1e-6:  # touching: either answer is within rounding
         return
     ob = pack_obstacles(ws_of(p), 0.0)
-    hit = K.any_hit(np.array([centre], float), np.array([radius]), ob)
+    hit = C.any_hit(np.array([centre], float), np.array([radius]), ob)
     assert hit == (gap < 0)
     # The axis-aligned bounds the kernels reject with first never reject a touching sphere.
     bounds = K.unpack_obstacles(ob)[4]
@@ -278,3 +279,9 @@ def test_pybullet_forgets_the_previous_configurations_contacts(repo):
     assert ch.is_valid(q)
     assert not ch.is_valid(before) and ch.is_valid(q)
     assert list(ch.states_valid([before, q])) == [False, True]
+
+
+def test_the_checks_name_the_kernels_they_were_compiled_from():
+    """numba caches a kernel by its own file's stamp: sphere_checks inlines sphere_kernels, so it
+    names that file's digest, and a change there refuses the import until the digest is updated."""
+    assert C.kernels_digest() == C.KERNELS_SHA256

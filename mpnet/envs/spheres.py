@@ -18,6 +18,7 @@ from importlib import resources
 import numpy as np
 from scipy.cluster.vq import kmeans2
 
+from mpnet.envs import sphere_checks as C
 from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import PRISMATIC, ArmModel, load_arm_model
 from mpnet.envs.collision import SampledConfigurations
@@ -85,7 +86,7 @@ class SphereModel:
         self.pair_table = np.full(len(pairs), -1, np.int64)
         self._tables = (np.zeros((0, 5), np.int64), np.zeros((0, 4)), np.zeros(0, np.int64))
         F, L, G, S, D = len(self.parent), len(links), len(groups), len(self.radius), model.dof
-        self._buffer_size = K.buffer_size(F, L, G, S, D)
+        self._buffer_size = C.buffer_size(F, L, G, S, D)
         self._pack()
         self._build_tables()
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
@@ -284,16 +285,16 @@ class SphereChecker(SampledConfigurations):
         if not m.first:
             return False
         base = m.world_spheres(np.zeros(m.model.dof))[: m.link_sizes[0]]
-        return bool(K.any_hit(np.ascontiguousarray(base[:, :3]), np.ascontiguousarray(base[:, 3]), self._args[2]))
+        return bool(C.any_hit(np.ascontiguousarray(base[:, :3]), np.ascontiguousarray(base[:, 3]), self._args[2]))
 
     def _state_free(self, q) -> bool:
         self.configurations += 1
-        return not self.base_blocked and K.state_free(np.asarray(q, float), *self._args, self._buf)
+        return not self.base_blocked and C.state_free(np.asarray(q, float), *self._args, self._buf)
 
     def _motion_free(self, a, b) -> bool:
         if self.base_blocked:
             return False
-        ok, n = K.motion_free(np.asarray(a, float), np.asarray(b, float), *self._args, CERTIFY_TOL, self._buf)
+        ok, n = C.motion_free(np.asarray(a, float), np.asarray(b, float), *self._args, CERTIFY_TOL, self._buf)
         self.configurations += n
         return bool(ok)
 
@@ -301,11 +302,11 @@ class SphereChecker(SampledConfigurations):
         self.configurations += len(qs)
         if self.base_blocked:
             return np.zeros(len(qs), bool)
-        return K.states_free(np.ascontiguousarray(qs), *self._args, self._buf)
+        return C.states_free(np.ascontiguousarray(qs), *self._args, self._buf)
 
     def _motions_free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         if self.base_blocked:
             return np.zeros(len(a), bool)
-        out, n = K.motions_free(np.ascontiguousarray(a), np.ascontiguousarray(b), *self._args, CERTIFY_TOL, self._buf)
+        out, n = C.motions_free(np.ascontiguousarray(a), np.ascontiguousarray(b), *self._args, CERTIFY_TOL, self._buf)
         self.configurations += int(n)
         return out

@@ -1,0 +1,188 @@
+"""The sphere checker's checks (numba), built on sphere_kernels' verdict: a state in bounds
+and free, a batch of them, and certified straight motions (an interval is cut until every
+sphere's swept reach is free, or a state on it is hit).
+
+Why a second file: the kernels here inline sphere_kernels' (verdict, unpack, ...), and numba
+caches a kernel by its own file's stamp only (numba#1833), so a change there alone would
+leave the cached code here compiled from the old one. This file therefore names that file's
+digest (KERNELS_SHA256): a change there refuses this import until the digest here is updated,
+which changes this file and so recompiles everything below.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from mpnet.envs import sphere_kernels as _kernels
+from mpnet.envs.sphere_kernels import (
+    BRADIUS,
+    DQ,
+    FREE,
+    GB,
+    GLEVER,
+    GRADIUS,
+    HIT,
+    LB,
+    LLEVER,
+    NEAR,
+    QUEUE,
+    QVEC,
+    T0S,
+    T1S,
+    TOP,
+    _dist2,
+    unpack,
+    unpack_buffers,
+    unpack_obstacles,
+    verdict,
+)
+
+KERNELS_SHA256 = "f59eccf088a5a4da062514cba46e4d249759d5d863e140aaee47a2dda04de398"
+
+
+def kernels_digest() -> str:
+    """sha256 of sphere_kernels.py's text (line endings as in the repository)."""
+    return hashlib.sha256(Path(_kernels.__file__).read_text().replace("\r\n", "\n").encode()).hexdigest()
+
+
+if kernels_digest() != KERNELS_SHA256:
+    raise ImportError(
+        f"{_kernels.__file__} changed (sha256 {kernels_digest()}): set KERNELS_SHA256 in {__file__} "
+        f"to it, so that the checks compiled from it here are compiled again"
+    )
+
+
+@njit(cache=True, inline="always")
+def _state_free(q, m, obs, lower, upper, bufs):
+    for d in range(q.shape[0]):
+        if not lower[d] <= q[d] <= upper[d]:
+            return False
+    return verdict(q, m, obs, bufs, False, 0.0, q) != HIT
+
+
+@njit(cache=True)
+def state_free(q, mi, mf, ob, lower, upper, buf):
+    """In bounds and no sphere touching (a plain check)."""
+    return _state_free(q, unpack(mi, mf), unpack_obstacles(ob), lower, upper, unpack_buffers(mi, buf))
+
+
+@njit(cache=True)
+def states_free(qs, mi, mf, ob, lower, upper, buf):
+    """state_free for each row of qs."""
+    m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
+    out = np.empty(qs.shape[0], np.bool_)
+    for i in range(qs.shape[0]):
+        out[i] = _state_free(qs[i], m, obs, lower, upper, bufs)
+    return out
+
+
+@njit(cache=True)
+def _second_order(lever, rad, dq, out):
+    """B = sum_j |dq_j| sum_{k > j} |dq_k| (R_k + rad) per row: how much a point's distance
+    from joint j's axis can change per unit of the interval (joints after j move it)."""
+    D = dq.shape[0]
+    for i in range(lever.shape[0]):
+        later, s = 0.0, 0.0
+        for j in range(D - 1, -1, -1):
+            s += dq[j] * later
+            later += dq[j] * (lever[i, j] + rad[i])
+        out[i] = s
+
+
+@njit(cache=True)
+def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
+    """Is the straight joint motion a -> b free everywhere along it? Returns (free,
+    configurations evaluated).
+
+    Certified, not sampled. Along the motion q(t) = a + t (b - a), a point of a link moves
+    at most sum_j |dq_j| rho_j(t) per unit of t, rho_j its distance from joint j's axis;
+    rho_j changes only through the joints after j, by at most sum_{k>j} |dq_k| R_k per unit
+    of t (R_k: the static lever, the lengths of the fixed offsets from joint k to the point).
+    So within [m - h, m + h] a point moves at most h sum_j |dq_j| rho_j(m) + h^2 / 2 B from
+    where it is at m. An interval is free when its midpoint is free with every sphere (and
+    group and link bounding sphere) grown by that much; intervals that are only NEAR are
+    halved; a HIT at any midpoint, a NEAR interval whose largest growth is below `tol`
+    metres, or more than QUEUE pending intervals, and the motion is called blocked. Joint
+    limits are a box: the motion stays inside when its ends do. (Joint coordinates must
+    run along the chain: SphereModel checks it.)"""
+    D = a.shape[0]
+    for d in range(D):
+        if not (lower[d] <= a[d] <= upper[d] and lower[d] <= b[d] <= upper[d]):
+            return False, 0
+    q, dq, t0s, t1s = bufs[QVEC], bufs[DQ], bufs[T0S], bufs[T1S]
+    for d in range(D):
+        dq[d] = abs(b[d] - a[d])
+    _second_order(m[LLEVER], m[BRADIUS], dq, bufs[LB])
+    _second_order(m[GLEVER], m[GRADIUS], dq, bufs[GB])
+    evaluated = 0
+    for end in (b, a):  # the ends exactly first, where a blocked motion is most often found
+        evaluated += 1
+        if verdict(end, m, obs, bufs, False, 0.0, dq) == HIT:
+            return False, evaluated
+    head, tail = 0, 1
+    t0s[0], t1s[0] = 0.0, 1.0
+    while head != tail:
+        t0, t1 = t0s[head % QUEUE], t1s[head % QUEUE]
+        head += 1
+        half = (t1 - t0) / 2
+        mid = t0 + half
+        for d in range(D):
+            q[d] = a[d] + mid * (b[d] - a[d])
+        evaluated += 1
+        v = verdict(q, m, obs, bufs, True, half, dq)
+        if v == FREE:
+            continue
+        top = bufs[TOP][0]
+        if v == NEAR:  # a grown sphere touches: is the midpoint itself hit? (ends blocked motions early)
+            evaluated += 1
+            v = verdict(q, m, obs, bufs, False, 0.0, dq)
+        if v == HIT or top < tol or tail - head + 2 > QUEUE:
+            return False, evaluated
+        t0s[tail % QUEUE], t1s[tail % QUEUE] = t0, mid
+        tail += 1
+        t0s[tail % QUEUE], t1s[tail % QUEUE] = mid, t1
+        tail += 1
+    return True, evaluated
+
+
+@njit(cache=True)
+def motion_free(a, b, mi, mf, ob, lower, upper, tol, buf):
+    """Is the straight joint motion a -> b free everywhere along it? (free, configurations
+    evaluated); see _motion_free."""
+    return _motion_free(a, b, unpack(mi, mf), unpack_obstacles(ob), lower, upper, tol, unpack_buffers(mi, buf))
+
+
+@njit(cache=True)
+def motions_free(A, B, mi, mf, ob, lower, upper, tol, buf):
+    """motion_free for each row pair (A[i], B[i]); also the configurations evaluated in all."""
+    m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
+    out = np.empty(A.shape[0], np.bool_)
+    total = 0
+    for i in range(A.shape[0]):
+        ok, n = _motion_free(A[i], B[i], m, obs, lower, upper, tol, bufs)
+        total += n
+        out[i] = ok
+    return out, total
+
+
+@njit(cache=True)
+def any_hit(centres, radii, ob):
+    """Does any sphere (centres, radii) touch an obstacle?"""
+    boxes, cyls, balls, margin, _ = unpack_obstacles(ob)
+    counts = (boxes.shape[0], cyls.shape[0], balls.shape[0])
+    for k in range(centres.shape[0]):
+        for kind in range(3):
+            for j in range(counts[kind]):
+                r = radii[k] + margin
+                if _dist2(centres, k, boxes, cyls, balls, kind, j) <= r * r:
+                    return True
+    return False
+
+
+def buffer_size(F: int, L: int, G: int, S: int, D: int) -> int:
+    """The scratch array's length for a model of these sizes (sphere_kernels.unpack_buffers lays it out)."""
+    return 12 * (F + 1) + 3 * (S + L + G) + 3 * (L + G) + 9 * D + 1 + 2 * QUEUE + G
