@@ -1205,3 +1205,27 @@ def test_problem_sets_count_valid_and_solved_per_scene_with_published_figures(tm
     assert ps.loc["cage_panda", "timeout_cpu_share"] == pytest.approx(0.95)
     md = (out / "problem_sets.md").read_text()
     assert "1 (95.0)" in md and "VAMP" in md and "cuRobo" in md
+
+
+def test_a_run_from_a_dirty_tree_is_marked_in_every_table(tmp_path):
+    """Uncommitted code made MPNet's run: its label carries the mark in every table, each table
+    says what the mark means, and results.csv flags its rows; BIT*'s clean run is unmarked."""
+    runs = tmp_path / "runs"
+    qs = [Q("seen", "0", 0, True, 1.0, cost=40.0), Q("seen", "0", 1, True, 2.0, cost=45.0)]
+    write_log(runs / "bit", "s2d", "bit_star", 0, qs)
+    write_log(runs / "nr", "s2d", "mpnet_nr", 0, qs, git_rev="abc1234-dirty")
+    out = tmp_path / "out"
+    assert main([str(runs), "--out", str(out)]) == 0
+    r = pd.read_csv(out / "results.csv").set_index("planner")
+    assert r["dirty"].to_dict() == {"bit_star": False, "mpnet_nr": True}
+    tables = sorted(p for p in out.glob("*.md") if p.name != "README.md")
+    assert {p.name for p in tables} >= {"table1.md", "success_cost.md"}
+    for p in tables:
+        text = p.read_text()
+        assert "MPNet (NR) †" in text and "BIT* †" not in text, p.name
+        assert "† Some runs of this planner come from a dirty tree" in text and "abc1234-dirty" in text, p.name
+    assert "% † Some runs" in (out / "table1.tex").read_text()
+    clean = tmp_path / "clean"
+    write_log(clean / "nr", "s2d", "mpnet_nr", 0, qs)
+    assert main([str(clean), "--out", str(tmp_path / "out2")]) == 0
+    assert "†" not in (tmp_path / "out2" / "table1.md").read_text()

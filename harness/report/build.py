@@ -69,6 +69,12 @@ def claim_out(out: Path) -> None:
     )
 
 
+def _noted(text: str, facts, prefix: str = "") -> str:
+    """A table's text with the dirty-tree note under it when a planner it may show is marked."""
+    note = facts.dirty_note()
+    return text if not note else f"{text.rstrip()}\n\n{prefix}{note}\n"
+
+
 def write_report(
     dirs: Iterable[str | Path],
     out: str | Path | None = None,
@@ -96,20 +102,20 @@ def write_report(
     claim_out(out)
     res = results_table(q, facts)
     warns += loaded_warnings(res)
-    res.to_csv(out / "results.csv", index=False)
+    res.assign(dirty=res["planner"].map(lambda p: p in facts.dirty)).to_csv(out / "results.csv", index=False)
     written = [out / "results.csv"]
     main_res = main_planners(res, facts)
     paper_df = load_paper() if paper else None
     t, layout = table1(main_res, facts, paper_df)
     t.to_csv(out / "table1.csv", index=False)
     md, tex = render_table1(t, layout, paper, facts, main_res, paper_df)
-    (out / "table1.md").write_text(md)
-    (out / "table1.tex").write_text(tex)
+    (out / "table1.md").write_text(_noted(md, facts))
+    (out / "table1.tex").write_text(_noted(tex, facts, "% "))
     sc = success_cost(main_res)
     sc.to_csv(out / "success_cost.csv", index=False)
     md, tex = render_success_cost(sc, paper, facts)
-    (out / "success_cost.md").write_text(md)
-    (out / "success_cost.tex").write_text(tex)
+    (out / "success_cost.md").write_text(_noted(md, facts))
+    (out / "success_cost.tex").write_text(_noted(tex, facts, "% "))
     written += [
         out / n
         for n in ("table1.md", "table1.tex", "table1.csv", "success_cost.md", "success_cost.tex", "success_cost.csv")
@@ -126,7 +132,7 @@ def write_report(
         ),
         "ablations": (ablation_table(res, facts), lambda d: render_ablations(d, facts)),
         "equal_quality": (eq, lambda d: render_equal_quality(d, facts)),
-        "diagnostics": (diagnostics_table(files), render_diagnostics),
+        "diagnostics": (diagnostics_table(files), lambda d: render_diagnostics(d, facts)),
         "problem_sets": (problem_set_table(q, facts), lambda d: render_problem_sets(d, facts)),
     }
     extra = {"reference_notes": refs}
@@ -137,7 +143,7 @@ def write_report(
         if df.empty:
             continue
         df.to_csv(out / f"{name}.csv", index=False)
-        (out / f"{name}.md").write_text(render(df))
+        (out / f"{name}.md").write_text(_noted(render(df), facts))
         written += [out / f"{name}.md", out / f"{name}.csv"]
     shown = set(main_res["planner"])
     summary["figures"], fig_warns = write_figures(main_res, q[q["planner"].isin(shown)], files, out / "figures", facts)

@@ -106,7 +106,8 @@ def _g(x) -> str:
     return "–" if x != x else f"{x:.3g}"
 
 
-def render_diagnostics(df: pd.DataFrame) -> str:
+def render_diagnostics(df: pd.DataFrame, facts=None) -> str:
+    """The table as Markdown; facts (harness.report.facts.Facts) marks the planners from a dirty tree."""
     head = [
         "env",
         "split",
@@ -143,7 +144,7 @@ def render_diagnostics(df: pd.DataFrame) -> str:
         cells = [
             r.env,
             r.split,
-            r.planner,
+            r.planner + (facts.mark(r.planner) if facts is not None else ""),
             str(r.queries),
             _pct(r.success),
             calls,

@@ -26,6 +26,7 @@ from harness.report.names import (
 )
 
 _LABELLED = re.compile(r"(.+) \[([^\[\]]+)\]")  # names.labelled's `planner [label]`
+DIRTY_MARK = "†"  # after the label of a planner some of whose runs came from a dirty tree
 
 
 @dataclass(frozen=True)
@@ -74,9 +75,25 @@ class Facts:
         self,
         by_planner: Mapping[str, PlannerFacts] | None = None,
         tags: Mapping[str, tuple[str, str | None]] | None = None,
+        dirty: Mapping[str, list[str]] | None = None,
     ):
         self.by_planner = dict(by_planner or {})
         self.tags = dict(tags or {})
+        self.dirty = dict(dirty or {})  # planner -> the dirty revisions some of its runs came from
+
+    def mark(self, planner: str) -> str:
+        """DIRTY_MARK after a planner any of whose runs came from a dirty tree, else ""."""
+        return f" {DIRTY_MARK}" if planner in self.dirty else ""
+
+    def dirty_note(self) -> str:
+        """The line under every table that shows a marked planner ("" when none is)."""
+        if not self.dirty:
+            return ""
+        revs = sorted({r for rs in self.dirty.values() for r in rs})
+        return (
+            f"{DIRTY_MARK} Some runs of this planner come from a dirty tree (uncommitted code: "
+            f"{', '.join(revs)}): no revision reproduces them."
+        )
 
     def of(self, planner: str) -> PlannerFacts:
         return self.by_planner.get(planner, PLAIN)
@@ -132,7 +149,7 @@ class Facts:
 
     def label(self, planner: str) -> str:
         plain, label = self.tag(planner)
-        return self._label(plain, self.of(planner)) + (f" [{label}]" if label else "")
+        return self._label(plain, self.of(planner)) + (f" [{label}]" if label else "") + self.mark(planner)
 
     @staticmethod
     def _label(plain: str, pf: PlannerFacts) -> str:
@@ -161,10 +178,13 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     `planner` section; plus one warning line per file whose config has none, or makes the planner
     another ablation or time-to-equal-quality run than that first file does."""
     by: dict[str, PlannerFacts] = {}
-    first, no_config, warns, tags = {}, [], [], {}
+    first, no_config, warns, tags, dirty = {}, [], [], {}, {}
     for tf in files:
         name = tf.planner
         tags[name] = (str(tf.run["planner"]), tf.label)
+        rev = str(tf.run.get("git_rev") or "")
+        if rev.endswith("-dirty") and rev not in dirty.setdefault(name, []):
+            dirty[name].append(rev)
         f = run_facts(tf.run)
         if f is None:
             no_config.append((tf.path, name))
@@ -178,4 +198,4 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     for path, name in no_config:
         how = f"taken as {first[name]} says ({by[name].describe()})" if name in by else "counted as a plain planner"
         warns.append(f"warning: {path}: its /run has no readable config with a planner section: {name} {how}")
-    return Facts(by, tags), warns
+    return Facts(by, tags, {k: v for k, v in dirty.items() if v}), warns
