@@ -14,6 +14,7 @@ from mpnet.envs.generators import make_workspace
 from mpnet.motion import verify_path
 
 
+@pytest.mark.slow  # spawned expert processes, one per chunk
 @pytest.mark.parametrize("env", ["s2d", "rigid"])
 def test_expert_paths_valid_and_reproducible(env):
     spec = get_spec(env)
@@ -146,6 +147,7 @@ def test_cached_testset_is_the_generated_one(tmp_path, settings):
     assert (folder / "seen.json").stat().st_mtime_ns == stamp
 
 
+@pytest.mark.slow  # spawned expert processes, one per chunk
 def test_expert_build_cut_short_resumes_from_its_finished_chunks(tmp_path):
     """Finished chunks are kept; a rerun plans only the missing ones; a damaged one is redone."""
     spec = get_spec("s2d")

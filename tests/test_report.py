@@ -340,6 +340,7 @@ def test_bad_files_are_skipped_with_one_warning_each(tmp_path, known, capsys):
     assert 24 <= bit["queries"] < 44 and bit["seeds"] == 2
 
 
+@pytest.mark.slow  # subprocesses
 def test_no_readable_files_exit_1(tmp_path, repo):
     (tmp_path / "empty").mkdir()
     (tmp_path / "junk" / "x").mkdir(parents=True)
