@@ -1,0 +1,129 @@
+"""Pnet's step compiled (numba), for the compiled planner: the same operations as
+NumpyPnet's one-state step, in the same order and precision, so the same bits.
+
+Why numba: a batch-1 step is a handful of small matrix-vector products; numpy's ~25 calls
+per step cost more than the products themselves (perf.md: a quick step at 2.1x its matmul
+floor). Compiled, the step is the products (np.dot: the same BLAS sgemv numpy calls, so the
+same sums) plus a few loops, and the compiled planner calls it without Python between.
+
+The dropout masks are drawn from the query's own np.random.Generator inside the kernel
+(numba draws PCG64's stream as numpy does): one draw of all masks per step, as NumpyPnet.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+class PnetKernel:
+    """A NumpyPnet's arrays as the kernel takes them (`args`), and `step(z, x, goal, rng)`
+    with NumpyPnet's meaning: rng None is dropout off; x and goal raw states when the net
+    has a normaliser."""
+
+    def __init__(self, net):
+        if net.normalizer is None:
+            raise ValueError("the compiled step takes raw states: export the Pnet with its normaliser")
+        if any(w.shape[1] == 1 for w in net.weights):  # numpy takes a dot product there: other sums
+            raise ValueError("the compiled step needs every layer at least 2 wide (numpy sums a 1-wide one otherwise)")
+        self.args = (
+            tuple(np.ascontiguousarray(w, np.float32) for w in net.weights),
+            tuple(np.ascontiguousarray(w, np.float32) for w in (net._dropout_weights if net._fold else net.weights)),
+            tuple(np.asarray(b, np.float32) for b in net.biases),
+            np.asarray(net.alphas, np.float32),
+            np.float32(net.p),
+            np.float32(1.0 if net._fold else net.keep_scale),  # the masks' scale (1: folded into weights)
+            np.asarray(net._offsets, np.int64),
+            np.asarray(net._inv2, np.float32),
+            np.asarray(net._out, np.float64),
+            bool(net._prelu_max),
+        )
+        self.zdim, self.state_dim = net._zdim, net.state_dim
+        self._scratch = scratch(self.args[0])
+        self._off = np.random.default_rng(0)  # never drawn from: stands in for "no rng"
+
+    def step(self, z, x, goal, rng: np.random.Generator | None = None) -> np.ndarray:
+        z = np.asarray(z, np.float32)
+        x, goal = np.asarray(x, np.float64), np.asarray(goal, np.float64)
+        if z.shape != (self.zdim,) or x.shape != (self.state_dim,) or goal.shape != (self.state_dim,):
+            raise ValueError(
+                f"expected z ({self.zdim},), x and goal ({self.state_dim},); got {z.shape}, {x.shape}, {goal.shape}"
+            )
+        out = np.empty(self.state_dim, np.float64)
+        pnet_step(z, x, goal, *self.args, rng if rng is not None else self._off, rng is not None, self._scratch, out)
+        return out
+
+    __call__ = step
+
+
+def scratch(weights) -> tuple:
+    """The step's buffers: the input and each layer's output (float32), and the masks."""
+    n_in = weights[0].shape[0]
+    layers = tuple(np.empty(w.shape[1], np.float32) for w in weights)
+    masks = np.empty(sum(w.shape[1] for w in weights[:-1]), np.float32)
+    return (np.empty(n_in, np.float32), layers, masks)
+
+
+@njit(cache=True)
+def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
+    z,
+    x,
+    goal,
+    plain,
+    dropped,
+    biases,
+    alphas,
+    p,
+    mask_scale,
+    offsets,
+    inv2,
+    out_scale,
+    prelu_max,
+    rng,
+    dropout,
+    buf,
+    out,
+):
+    """out = Pnet(z, x, goal), as NumpyPnet._step1 computes it (see the module docstring):
+    `dropped` are the weights used with dropout on (with its 1/(1-p) folded in where exact)."""
+    h, layers, masks = buf
+    zd, d = z.shape[0], x.shape[0]
+    for i in range(zd):
+        h[i] = z[i]
+    for i in range(d):
+        h[zd + i] = np.float32(x[i]) * inv2[i]
+        h[zd + d + i] = np.float32(goal[i]) * inv2[d + i]
+    n_dropout = offsets.shape[0] - 1
+    n_mask = offsets[n_dropout]
+    weights = dropped if dropout and n_mask > 0 else plain
+    if dropout and n_mask > 0:
+        one = np.float32(1.0) * mask_scale  # NumpyPnet: a 1.0 mask times keep_scale, unless folded
+        u = rng.random(n_mask, dtype=np.float32)
+        for i in range(n_mask):
+            masks[i] = one if u[i] >= p else np.float32(0.0)
+    last = len(weights) - 1
+    src = h
+    for k in range(last + 1):
+        o = layers[k]
+        o[:] = np.dot(src, weights[k])
+        b = biases[k]
+        for j in range(o.shape[0]):
+            o[j] += b[j]
+        if k == last:
+            break
+        a = alphas[k]
+        for j in range(o.shape[0]):
+            v = o[j]
+            if prelu_max:
+                t = v * a
+                o[j] = v if v >= t else t
+            else:
+                o[j] = v * ((np.float32(1.0) if v < 0 else np.float32(0.0)) * (a - np.float32(1.0)) + np.float32(1.0))
+        if dropout and k < n_dropout and n_mask > 0:
+            base = offsets[k]
+            for j in range(o.shape[0]):
+                o[j] *= masks[base + j]
+        src = o
+    o = layers[last]
+    for i in range(d):
+        out[i] = np.float64(o[i]) * out_scale[i % out_scale.shape[0]]

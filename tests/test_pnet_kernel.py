@@ -1,0 +1,63 @@
+"""The compiled Pnet step (mpnet.models.pnet_kernel) against NumpyPnet's: the same bits, the
+same dropout draws from the query's generator, on random networks of every shape the
+export handles and on the shipped networks of every env."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpnet.models import load_pnet_checkpoint
+from mpnet.models.networks import Normalizer, NumpyPnet, Pnet
+from mpnet.models.pnet_kernel import PnetKernel
+from mpnet.models.pretrained import SHIPPED, write_checkpoint
+
+
+def _same_steps(net: NumpyPnet, rng: np.random.Generator, n: int = 30) -> None:
+    kernel = PnetKernel(net)
+    lo, hi = -2.0 * net.normalizer.scale, 2.0 * net.normalizer.scale
+    z = rng.standard_normal(net._zdim).astype(np.float32)
+    for i in range(n):
+        x, goal = rng.uniform(lo, hi, net.state_dim), rng.uniform(lo, hi, net.state_dim)
+        a, b = np.random.default_rng(i), np.random.default_rng(i)
+        assert np.array_equal(net.step(z, x, goal, a), kernel.step(z, x, goal, b))
+        assert a.random() == b.random()  # the same draws taken from the query's generator
+        assert np.array_equal(net.step(z, x, goal, None), kernel.step(z, x, goal, None))  # dropout off
+
+
+@settings(deadline=None, max_examples=25)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    dim=st.sampled_from([2, 3, 7]),
+    hidden=st.lists(st.integers(2, 40), min_size=1, max_size=4),
+    dropout=st.sampled_from([0.0, 0.25, 0.3, 0.5]),  # 0.5 folds its scale into the weights
+    alpha=st.sampled_from([0.25, -0.3, 1.5]),  # outside [0, 1]: PReLU as a select, not a max
+)
+def test_the_compiled_step_is_numpys_bit_for_bit(seed, dim, hidden, dropout, alpha):
+    torch.manual_seed(seed % 2**31)
+    net = Pnet(8 + 2 * dim, dim, hidden, dropout=dropout).eval()
+    for act in net.acts:
+        torch.nn.init.constant_(act.weight, alpha)
+    scale = np.random.default_rng(seed).uniform(0.5, 20.0, dim)
+    _same_steps(NumpyPnet(net, Normalizer(scale)), np.random.default_rng(seed))
+
+
+@pytest.mark.parametrize("folder", sorted(SHIPPED.iterdir()), ids=lambda p: p.name)
+def test_the_shipped_networks_step_the_same(folder, tmp_path):
+    write_checkpoint(folder, tmp_path / "pnet.ckpt")
+    _, step = load_pnet_checkpoint(tmp_path / "pnet.ckpt").to_numpy()
+    _same_steps(step, np.random.default_rng(0), n=10)
+
+
+def test_a_step_without_a_normaliser_or_of_the_wrong_shape_is_refused():
+    net = Pnet(12, 2, (8,))
+    with pytest.raises(ValueError, match="normaliser"):
+        PnetKernel(NumpyPnet(net))
+    with pytest.raises(ValueError, match="2 wide"):
+        PnetKernel(NumpyPnet(Pnet(12, 2, (8, 1)), Normalizer(np.ones(2))))
+    kernel = PnetKernel(NumpyPnet(net, Normalizer(np.ones(2))))
+    with pytest.raises(ValueError, match="expected z"):
+        kernel.step(np.zeros(8, np.float32), np.zeros(3), np.zeros(3))
