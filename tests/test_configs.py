@@ -13,8 +13,10 @@ from omegaconf import open_dict
 from harness.bench.run import runtime_objects
 from harness.cli import UsageError, choices
 from harness.settings import settings_of
+from mpnet.envs.specs import get_spec
 from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner
+from mpnet.planners.compiled import supports
 
 ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "scale", "experiment"))
 
@@ -70,6 +72,10 @@ def test_every_env_and_planner_builds(env, planner, env_configs, planner_configs
     cfg = copy.deepcopy(env_configs[env])
     with open_dict(cfg):
         cfg.planner = copy.deepcopy(planner_configs[planner])
+    if cfg.planner.get("compiled") and not supports(get_spec(env)):  # refused, naming the key
+        with pytest.raises(UsageError, match="config key planner.compiled: env"):
+            build(cfg, models_dirs)
+        return
     (main, *_) = build(cfg, models_dirs)
     assert main.name == cfg.planner.name
 

@@ -42,6 +42,7 @@ class MPNetSettings:
     dropout: bool = True
     replanning: str = "original"
     clip: bool = False  # named variant (issue 26): Pnet's proposal clipped into the joint bounds
+    compiled: bool = False  # the loop compiled (mpnet.planners.compiled): the same method and answers
 
     def _shared(self) -> dict:
         """The settings MPNetPlanner takes as they are (and check_settings checks)."""
@@ -58,10 +59,25 @@ class MPNetSettings:
             )
         if self.steer_steps is not None:
             object.__setattr__(self, "steer_steps", tuple(self.steer_steps))
+        if not isinstance(self.compiled, bool):
+            raise ValueError(f"config key planner.compiled: expected true or false, got {self.compiled!r}")
+        if self.compiled and (self.proposal != "pnet" or self.steer_steps is not None or self.clip):
+            raise ValueError(
+                "config key planner.compiled: the compiled planner runs Pnet's proposals with continuous "
+                "steerTo (no proposal ablation, steer_steps or clip)"
+            )
 
     def build(self, models_dir: Path, env: EnvSpec, seed: int, cloud: Callable) -> MPNetPlanner:
         """The planner on the networks in models_dir; cloud(workspace) is the workspace's
         point cloud as training drew it."""
+        if self.compiled:
+            from mpnet.planners.compiled import supports
+
+            if not supports(env):
+                raise ValueError(
+                    f"config key planner.compiled: env {env.name}'s checkers have no compiled kernels yet "
+                    f"(point robots' envs: s2d, c2d, c3d)"
+                )
         encode, pnet_step = load_pnet_checkpoint(Path(models_dir) / PNET_FILE).to_numpy()
         if self.encoding == "zeros":
             code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
@@ -74,6 +90,12 @@ class MPNetSettings:
 
         # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
         fallback = OmplPlanner(self.fallback, self.fallback, keep_partial=False) if self.hybrid else None
+        if self.compiled:
+            from mpnet.planners.compiled import CompiledMPNetPlanner
+
+            return CompiledMPNetPlanner(
+                self.name, encode, pnet_step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self._shared()
+            )
         return MPNetPlanner(
             self.name, encode, step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self._shared()
         )

@@ -1,0 +1,131 @@
+"""MPNet's planner with its loop compiled (mpnet.planners.compiled_kernels): the numpy planner's
+method and decisions, call for call, so the same paths; Algorithm 1's few rounds and HR's
+classical planner stay in Python around the compiled pieces.
+
+The budget is checked between compiled calls (one NeuralPlanner run of at most max_steps
+steps, one contraction, one feasibility check), not inside them: a call's steps are bounded.
+The stats' `pnet_s` holds each NeuralPlanner run's whole time (Pnet and its steerTo checks,
+which run together in compiled code), `steer_s` stays 0.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from mpnet.envs.collision import PointChecker
+from mpnet.models.pnet_kernel import PnetKernel
+from mpnet.planners import compiled_kernels as K
+from mpnet.planners.base import Problem, Result
+from mpnet.planners.neural import MPNetPlanner
+
+COMPILED_CHECKERS = (PointChecker,)  # the checkers compiled_kernels has kernels for
+
+
+def supports(spec) -> bool:
+    """Whether every checker of the env's robot has compiled kernels."""
+    return all(cls in COMPILED_CHECKERS for cls in spec.robot.checkers.values())
+
+
+def kernel_env(checker) -> tuple:
+    """The checker's geometry as the compiled planner's `env` tuple (compiled_kernels)."""
+    if type(checker) is not PointChecker:
+        raise ValueError(f"the compiled planner has no kernels for {type(checker).__name__} yet")
+    d = checker.spec.state_dim
+    lower, upper = (np.ascontiguousarray(v, float) for v in (checker.spec.space.lower, checker.spec.space.upper))
+    lo, hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (checker.lo, checker.hi))
+    return (K.POINT, np.zeros(0, np.int64), np.zeros(0), lo, hi, lower, upper, np.empty(d))
+
+
+class CompiledMPNetPlanner(MPNetPlanner):
+    """MPNetPlanner with NeuralPlanner, steerTo, contraction and the feasibility check compiled.
+    Takes the numpy export of Pnet (`net`, a NumpyPnet with its normaliser) besides the settings;
+    Pnet's proposals only (the ablations' proposals are the numpy planner's), continuous
+    steerTo only."""
+
+    def __init__(self, name, encode, net, cloud, **settings):
+        if settings.get("proposal", "pnet") != "pnet" or settings.get("steer_steps"):
+            raise ValueError("config key planner.compiled: Pnet's proposals and continuous steerTo only")
+        self.kernel = PnetKernel(net)
+        super().__init__(name, encode, self.kernel.step, cloud, **settings)
+        self.compiled_dropout = bool(settings.get("dropout", True))
+        self._envs: dict[int, tuple] = {}
+        self._memo = K.new_memo(net.state_dim)
+        self._counts = np.zeros(2, np.int64)
+        self._buf = self.kernel._scratch
+        steps = max(self.max_steps, self.replan_steps)
+        self._trees = None
+        self._tree_buf = np.empty((2, steps + 1, net.state_dim))
+        self._trace_buf = np.empty((steps, 2, net.state_dim))
+
+    def solve(self, problem: Problem, budget_s: float) -> Result:
+        raw = problem.checker
+        self._env = self._envs.get(id(raw))
+        if self._env is None or self._env[-1] is not raw:
+            self._env = (*kernel_env(raw), raw)
+            self._envs[id(raw)] = self._env
+        self._memo[1].fill(-1)
+        self._memo[2][0] = 0
+        self._counts[:] = 0
+        try:
+            return super().solve(problem, budget_s)
+        finally:
+            raw.state_checks += int(self._counts[0])
+            raw.motion_checks += int(self._counts[1])
+
+    @property
+    def env(self) -> tuple:
+        return self._env[:-1]
+
+    def neural_planner(self, problem, z, start, goal, max_steps, stats, deadline, step=None, stage=0, precheck=False):
+        if time.perf_counter() > deadline:
+            return None
+        t = time.perf_counter()
+        rng = self.rng
+        connected, n0, n1, steps = K.neural_planner(
+            np.asarray(z, np.float32), np.asarray(start, float), np.asarray(goal, float), max_steps, precheck,
+            self.env, self._memo, self._counts, self.kernel.args, rng, self.compiled_dropout, self._buf,
+            self._tree_buf, self._trace_buf,
+        )  # fmt: skip
+        stats["pnet_s"] += time.perf_counter() - t
+        stats["pnet_calls"] += steps
+        self.trace.extend((stage, self._trace_buf[s, 0].copy(), self._trace_buf[s, 1].copy()) for s in range(steps))
+        a = [start, *(self._tree_buf[0, i].copy() for i in range(1, n0))]
+        b = [goal, *(self._tree_buf[1, i].copy() for i in range(1, n1))]
+        if connected:
+            return a + b[::-1]
+        self._trees = (a, b)
+        return None
+
+    def replan(self, problem, z, path, stats: dict, deadline: float, step=None):
+        """Algorithm 3 (neural), as MPNetPlanner.replan (mpnet.planners.neural._repair), its
+        checks on the compiled memo."""
+        stage, env, memo, counts = stats["replans"], self.env, self._memo, self._counts
+        inner = [q for q in path[1:-1] if K.is_valid(env, counts, np.asarray(q, float))]
+        states = [path[0], *inner, path[-1]]
+        out, stuck = [states[0]], False
+        for k, (x, y) in enumerate(zip(states[:-1], states[1:])):
+            x, y = np.asarray(x, float), np.asarray(y, float)
+            if not K.motion_valid(env, memo, counts, x, y):
+                mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step, stage)
+                if mini is None:
+                    stuck = True
+                    if self.replanning == "original":
+                        return out + states[k + 1 :], True
+                else:
+                    out.extend(mini[1:-1])
+            out.append(states[k + 1])
+        return out, stuck
+
+    def contract(self, checker, path, step, stats: dict) -> list:
+        t = time.perf_counter()
+        keep = K.contract(self.env, self._memo, self._counts, np.asarray(path, float))
+        stats["contract_s"] += time.perf_counter() - t
+        return [path[i] for i in keep]
+
+    def feasible(self, checker, path, stats: dict) -> bool:
+        t = time.perf_counter()
+        ok = K.is_feasible(self.env, self._memo, self._counts, np.asarray(path, float).reshape(len(path), -1))
+        stats["feasible_s"] += time.perf_counter() - t
+        return bool(ok)

@@ -1,0 +1,67 @@
+"""The compiled planner (mpnet.planners.compiled) against the numpy planner it compiles: on every
+query of the shipped quick test set (400 per env), the same status, path, check counts, Pnet
+calls, partial trees and Pnet trace, with the shipped networks and each query's seed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpnet.data.shipped import SHIPPED as TESTSETS
+from mpnet.envs.specs import get_spec
+from mpnet.models.pretrained import SHIPPED, write_checkpoint
+from mpnet.planners.base import Problem
+from mpnet.planners.mpnet import MPNetSettings, from_checkpoint
+from mpnet.problems import load_problems
+
+
+def _queries(spec):
+    out = []
+    for split in ("seen", "unseen"):
+        ts = load_problems(TESTSETS / f"{spec.name}-quick" / f"{split}.json", spec)
+        by_id = {w.id: w for w in ts.workspaces}
+        out += [(by_id[q.workspace_id], q) for q in ts.queries]
+    return out
+
+
+def _run(planner, spec, queries):
+    checkers, out = {}, []
+    for i, (ws, q) in enumerate(queries):
+        checker = checkers.setdefault(id(ws), spec.make_checker(ws))
+        checker.reset_counts()
+        r = planner.solve(Problem(spec, ws, checker, q.start, q.goal, seed=i), 10.0)
+        trace = [(s, a.tolist(), b.tolist()) for s, a, b in planner.trace]
+        out.append((r.status, r.path, checker.counts(), r.stats["pnet_calls"], r.partial, trace))
+    return out
+
+
+@pytest.mark.parametrize(
+    "env,replanning",
+    [("s2d", "original"), pytest.param("c2d", "original", marks=pytest.mark.slow),
+     pytest.param("c3d", "forgiving", marks=pytest.mark.slow)],
+)  # fmt: skip
+def test_the_compiled_planner_decides_as_the_numpy_planner(env, replanning, tmp_path):
+    spec = get_spec(env)
+    write_checkpoint(SHIPPED / f"{env}-quick", tmp_path / "pnet.ckpt")
+    cloud = lambda ws: spec.cloud(ws, 200, 0)  # noqa: E731 - the env configs' points_per_block and data_seed
+    queries = _queries(spec)
+    assert len(queries) >= 400
+    name = "mpnet_nr" if replanning == "original" else "mpnet_nr_forgiving"
+    numpy_planner = from_checkpoint(tmp_path, spec, 0, cloud, name=name, replanning=replanning)
+    compiled = from_checkpoint(tmp_path, spec, 0, cloud, name=name, replanning=replanning, compiled=True)
+    want, got = _run(numpy_planner, spec, queries), _run(compiled, spec, queries)
+    for i, (w, g) in enumerate(zip(want, got)):
+        assert w[:4] == g[:4], i
+        assert (w[4] is None) == (g[4] is None) and (w[4] or {}) == (g[4] or {}), i
+        assert w[5] == g[5], i
+    assert sum(w[0] == "exact" for w in want) > 0.7 * len(want)
+
+
+def test_what_the_compiled_planner_does_not_run_is_refused():
+    with pytest.raises(ValueError, match="config key planner.compiled"):
+        MPNetSettings(name="mpnet_nr_random", proposal="random", compiled=True)
+    with pytest.raises(ValueError, match="config key planner.compiled"):
+        MPNetSettings(name="mpnet_nr", compiled="yes")
+    settings = MPNetSettings(name="mpnet_nr", compiled=True)
+    with pytest.raises(ValueError, match="env rigid's checkers have no compiled kernels"):
+        settings.build(None, get_spec("rigid"), 0, lambda ws: np.zeros((1, 2)))

@@ -1,0 +1,59 @@
+"""The point robot's compiled checks (mpnet.envs.point_kernels) against PointChecker: the same
+answer for every state and motion, on segments that graze faces, run along them, or stand
+still in a coordinate, where the one-motion and batch tests' arithmetic matter."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpnet.envs import point_kernels as P
+from mpnet.envs.generators import make_workspace
+from mpnet.envs.specs import get_spec
+
+
+def _points(rng, checker, n):
+    """Uniform states, and states on the boxes' faces and corners (grown by the margin)."""
+    spec, lo, hi = checker.spec, checker.lo, checker.hi
+    q = rng.uniform(spec.space.lower, spec.space.upper, (n, spec.state_dim))
+    j = rng.integers(0, len(lo), n)
+    face = np.where(rng.random((n, spec.state_dim)) < 0.5, lo[j], hi[j])
+    pick = rng.random((n, spec.state_dim))
+    q = np.where(pick < 0.3, face, q)
+    return np.where(pick > 0.97, spec.space.upper, q)  # some on the bounds
+
+
+@settings(deadline=None, max_examples=15)
+@given(env=st.sampled_from(["s2d", "c2d", "c3d"]), index=st.integers(0, 109), seed=st.integers(0, 2**31 - 1))
+def test_the_kernels_answer_as_the_checker(env, index, seed):
+    spec = get_spec(env)
+    checker = spec.make_checker(make_workspace(spec, index, "train" if index < 100 else "unseen"))
+    rng = np.random.default_rng(seed)
+    a, b = _points(rng, checker, 400), _points(rng, checker, 400)
+    still = rng.random(a.shape) < 0.2  # a coordinate that does not move
+    b = np.where(still, a, b)
+    args = (checker.lo, checker.hi, spec.space.lower, spec.space.upper)
+    d = np.empty(spec.state_dim)
+    for x, y in zip(a, b):
+        assert P.state_free(x, *args) == checker.is_valid(x.tolist())
+        assert P.motion_free(x, y, *args, d) == checker.motion_valid(x.tolist(), y.tolist())
+    out = np.empty(len(a), np.bool_)
+    P.motions_free(a, b, *args, out)
+    assert np.array_equal(out, checker.motions_valid(a, b))
+
+
+@pytest.mark.parametrize("env", ["s2d", "c3d"])
+def test_a_segment_along_a_face_and_a_point_on_a_corner_collide(env):
+    spec = get_spec(env)
+    checker = spec.make_checker(make_workspace(spec, 0, "train"))
+    lo, hi = checker.lo[0], checker.hi[0]
+    args = (checker.lo, checker.hi, spec.space.lower, spec.space.upper)
+    assert not P.state_free(lo.copy(), *args)
+    end = lo.copy()
+    end[0] = hi[0]
+    assert not P.motion_free(lo.copy(), end, *args, np.empty(spec.state_dim))
+    out = np.empty(1, np.bool_)
+    P.motions_free(lo[None], end[None], *args, out)
+    assert not out[0]
