@@ -215,3 +215,12 @@ def test_run_bench_warms_the_checker_up_before_the_first_query(monkeypatch):
     queries = [Query(f"q{i}", ws.id, "seen", [-19.0, -19.0 + i], [19.0, 19.0]) for i in range(2)]
     run_bench(TestSet(spec, [ws], queries), Recorder(), Log(), budget_s=1.0, progress=False)
     assert events == ["warm_up", ("solve", 0), ("logged", 0), ("solve", 0), ("logged", 0)]
+
+    class Warming(Recorder):  # a planner's own warm-up (the compiled planner's kernels) comes first too
+        def warm_up(self, problem):
+            problem.checker.is_valid(problem.start.tolist())
+            events.append("planner warm_up")
+
+    events.clear()
+    run_bench(TestSet(spec, [ws], queries), Warming(), Log(), budget_s=1.0, progress=False)
+    assert events == ["warm_up", "planner warm_up", ("solve", 0), ("logged", 0), ("solve", 0), ("logged", 0)]

@@ -155,6 +155,13 @@ class CostTarget:
 PreQuery = Callable[[Problem, float], tuple[Problem | None, dict]]
 
 
+def _warm_up(planner, problem: Problem) -> None:
+    """The planner's warm_up (Planner), if it has one (a cost target's planner is untimed)."""
+    warm_up = getattr(planner, "warm_up", None)
+    if warm_up is not None:
+        warm_up(problem)
+
+
 def run_bench(
     testset: TestSet,
     planner: Planner,
@@ -201,6 +208,8 @@ def run_bench(
             checker = spec.make_checker(ws, backend=collision)
             if not warm:  # a fresh clone compiles the checker's kernels here, not in query 1's time
                 checker.warm_up(queries[0].start)
+                _warm_up(planner, Problem(spec, ws, checker, queries[0].start, queries[0].goal, seed=0))
+                checker.reset_counts()
                 warm = True
             for q in queries:
                 t0 = time.perf_counter()

@@ -71,6 +71,10 @@ class Result:
 
 @runtime_checkable
 class Planner(Protocol):
+    """solve(problem, budget) -> Result. A planner may also have `warm_up(problem)`: what its
+    first call would pay (a compilation, a cache load), paid before the first timed query;
+    the bench calls it once per run with the first query, then resets the checker's counts."""
+
     name: str
 
     def solve(self, problem: Problem, budget_s: float) -> Result: ...

@@ -74,6 +74,11 @@ class CompiledMPNetPlanner(MPNetPlanner):
             raw.state_checks += int(self._counts[0])
             raw.motion_checks += int(self._counts[1])
 
+    def warm_up(self, problem: Problem) -> None:
+        """One short solve of the problem: the kernels compiled, or loaded from numba's on-disk
+        cache, before the first timed query (Planner.warm_up)."""
+        self.solve(problem, 1.0)
+
     @property
     def env(self) -> tuple:
         return self._env[:-1]
