@@ -11,6 +11,7 @@ which run together in compiled code), `steer_s` stays 0.
 from __future__ import annotations
 
 import time
+from itertools import repeat
 
 import numpy as np
 
@@ -95,9 +96,10 @@ class CompiledMPNetPlanner(MPNetPlanner):
         )  # fmt: skip
         stats["pnet_s"] += time.perf_counter() - t
         stats["pnet_calls"] += steps
-        self.trace.extend((stage, self._trace_buf[s, 0].copy(), self._trace_buf[s, 1].copy()) for s in range(steps))
-        a = [start, *(self._tree_buf[0, i].copy() for i in range(1, n0))]
-        b = [goal, *(self._tree_buf[1, i].copy() for i in range(1, n1))]
+        trace = self._trace_buf[:steps].copy()  # rows of one copy: the diagnostics read them after the query
+        self.trace.extend(zip(repeat(stage, steps), trace[:, 0], trace[:, 1]))
+        a = [start, *self._tree_buf[0, 1:n0].copy()]
+        b = [goal, *self._tree_buf[1, 1:n1].copy()]
         if connected:
             return a + b[::-1]
         self._trees = (a, b)
