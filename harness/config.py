@@ -188,16 +188,21 @@ def make_planner(planner_cfg, key: str, runtime: dict):
     return made if build is None else _call(build, (), {}, runtime, key)
 
 
-def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int) -> None:
+def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int, collision: str | None = None) -> None:
     """The planner config's settings checked before any set-up (UsageError naming the key):
-    MPNet's settings object is made (its networks are not needed); a planner without a
-    `build` is constructed, unless it asks for the networks' folder (that would train)."""
+    MPNet's settings object is made (its networks are not needed) and, where it has a
+    `check_env`, checked against the run's env; a planner without a `build` is constructed,
+    unless it asks for the networks' folder (that would train)."""
     import hydra
 
     target = hydra.utils.get_method(planner_cfg["_target_"]) if "_target_" in planner_cfg else None
     if target is not None and "models_dir" in inspect.signature(target).parameters:
         return
-    _settings(planner_cfg, key, {"env": spec, "seed": seed, "cloud": lambda ws: None})
+    runtime = {"env": spec, "seed": seed, "cloud": lambda ws: None, "collision": collision}
+    made = _settings(planner_cfg, key, runtime)
+    check_env = getattr(made, "check_env", None)
+    if check_env is not None:
+        _call(check_env, (), {}, runtime, key)
 
 
 def check_run(cfg: DictConfig) -> None:

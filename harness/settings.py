@@ -117,7 +117,7 @@ class PlannerSettings:
     @classmethod
     def of(cls, cfg: DictConfig, key: str, spec: EnvSpec, seed: int, networks: dict) -> PlannerSettings:
         section = OmegaConf.select(cfg, key)
-        check_planner(section, key, spec, seed)
+        check_planner(section, key, spec, seed, str(cfg.env.collision))
         target = section.get("cost_target")
         return cls(
             name=str(section.get("name") or key),

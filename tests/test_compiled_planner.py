@@ -1,5 +1,5 @@
 """The compiled planner (mpnet.planners.compiled) against the numpy planner it compiles: on every
-query of the shipped quick test set (400 per env), the same status, path, check counts, Pnet
+query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid), the same status, path, check counts, Pnet
 calls, partial trees and Pnet trace, with the shipped networks and each query's seed."""
 
 from __future__ import annotations
@@ -38,7 +38,8 @@ def _run(planner, spec, queries):
 @pytest.mark.parametrize(
     "env,replanning",
     [("s2d", "original"), pytest.param("c2d", "original", marks=pytest.mark.slow),
-     pytest.param("c3d", "forgiving", marks=pytest.mark.slow)],
+     pytest.param("c3d", "forgiving", marks=pytest.mark.slow),
+     pytest.param("rigid", "original", marks=pytest.mark.slow)],
 )  # fmt: skip
 def test_the_compiled_planner_decides_as_the_numpy_planner(env, replanning, tmp_path):
     spec = get_spec(env)
@@ -63,5 +64,8 @@ def test_what_the_compiled_planner_does_not_run_is_refused():
     with pytest.raises(ValueError, match="config key planner.compiled"):
         MPNetSettings(name="mpnet_nr", compiled="yes")
     settings = MPNetSettings(name="mpnet_nr", compiled=True)
-    with pytest.raises(ValueError, match="env rigid's checkers have no compiled kernels"):
-        settings.build(None, get_spec("rigid"), 0, lambda ws: np.zeros((1, 2)))
+    settings.check_env(get_spec("rigid"), "native")
+    with pytest.raises(ValueError, match="env rigid's fcl checker has no compiled kernels"):
+        settings.check_env(get_spec("rigid"), "fcl")
+    with pytest.raises(ValueError, match="env arm7's default checker has no compiled kernels"):
+        settings.build(None, get_spec("arm7"), 0, lambda ws: np.zeros((1, 3)))

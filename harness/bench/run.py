@@ -45,10 +45,12 @@ def seed_everything(seed: int) -> None:
 
 def runtime_objects(run: RunSettings) -> dict:
     """What the app hands a planner's constructor besides its config: the env, the run's
-    seed, the trained networks' folder (built on first use) and the workspace cloud."""
+    seed, the trained networks' folder (built on first use), the workspace cloud and the
+    collision backend."""
     return {
         "env": run.env.spec,
         "seed": run.seed,
+        "collision": run.env.collision,
         "models_dir": lambda: ensure_models(run, progress=run.progress, planning=True)[0],
         "cloud": run.env.cloud,
     }

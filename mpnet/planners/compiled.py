@@ -16,27 +16,36 @@ from itertools import repeat
 import numpy as np
 
 from mpnet.envs.collision import PointChecker
+from mpnet.envs.rigid import RigidChecker
 from mpnet.models.pnet_kernel import PnetKernel
 from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result
 from mpnet.planners.neural import MPNetPlanner
 
-COMPILED_CHECKERS = (PointChecker,)  # the checkers compiled_kernels has kernels for
+COMPILED_CHECKERS = (PointChecker, RigidChecker)  # the checkers compiled_kernels has kernels for
 
 
-def supports(spec) -> bool:
-    """Whether every checker of the env's robot has compiled kernels."""
-    return all(cls in COMPILED_CHECKERS for cls in spec.robot.checkers.values())
+def supports(spec, backend: str | None = None) -> bool:
+    """Whether the env's checker of this collision backend (None: the robot's default) has
+    compiled kernels."""
+    robot = spec.robot
+    return robot.checkers.get(backend or robot.default_backend) in COMPILED_CHECKERS
 
 
 def kernel_env(checker) -> tuple:
     """The checker's geometry as the compiled planner's `env` tuple (compiled_kernels)."""
-    if type(checker) is not PointChecker:
-        raise ValueError(f"the compiled planner has no kernels for {type(checker).__name__} yet")
     d = checker.spec.state_dim
     lower, upper = (np.ascontiguousarray(v, float) for v in (checker.spec.space.lower, checker.spec.space.upper))
-    lo, hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (checker.lo, checker.hi))
-    return (K.POINT, np.zeros(0, np.int64), np.zeros(0), lo, hi, lower, upper, np.empty(d))
+    if type(checker) is PointChecker:
+        lo, hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (checker.lo, checker.hi))
+        return (K.POINT, np.zeros(0, np.int64), np.zeros(0), lo, hi, lower, upper, np.empty(d))
+    if type(checker) is RigidChecker:
+        c = checker
+        floats = np.array([c.hx, c.hy, c.radius, c.margin, c._x0, c._x1, c._y0, c._y1], float)
+        centres = np.array([b[:2] for b in c._boxes], float).reshape(-1, 2)
+        halves = np.array([b[2:] for b in c._boxes], float).reshape(-1, 2)
+        return (K.RIGID, np.empty(len(centres), np.int64), floats, centres, halves, lower, upper, np.empty(d))
+    raise ValueError(f"the compiled planner has no kernels for {type(checker).__name__}")
 
 
 class CompiledMPNetPlanner(MPNetPlanner):

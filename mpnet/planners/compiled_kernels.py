@@ -9,7 +9,9 @@ same paths and the same check counts.
 
 An env's checks come as one tuple of arrays of one type for every env (`env`: kind, ints,
 floats, lo, hi, lower, upper, scratch), so that one compiled planner, cached on disk, serves
-them all: kind POINT is the point robot's boxes (mpnet.envs.point_kernels).
+them all: kind POINT is the point robot's boxes (lo, hi; mpnet.envs.point_kernels), RIGID the
+rectangle's (box centres and halves in lo, hi, the body and bounds in floats, ints scratch;
+mpnet.envs.rigid_kernels).
 
 The memo is an open-addressing table (keys (cap, 2d), verdicts int8: -1 empty, 0, 1) keyed
 by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of tuples).
@@ -21,9 +23,10 @@ import numpy as np
 from numba import njit
 
 from mpnet.envs import point_kernels as P
+from mpnet.envs import rigid_kernels as R
 from mpnet.models.pnet_kernel import pnet_step
 
-POINT = 0
+POINT, RIGID = 0, 1
 MEMO_BITS = 15  # 32768 motions per query; past 70% full, new verdicts are not remembered
 
 
@@ -33,17 +36,21 @@ def new_memo(state_dim: int, bits: int = MEMO_BITS):
 
 @njit(cache=True)
 def _state(env, q):
-    kind, _, _, lo, hi, lower, upper, _ = env
+    kind, ints, floats, lo, hi, lower, upper, _ = env
     if kind == POINT:
         return P.state_free(q, lo, hi, lower, upper)
+    if kind == RIGID:
+        return R.state_free(q, lo, hi, floats)
     return False
 
 
 @njit(cache=True)
 def _motion(env, a, b):
-    kind, _, _, lo, hi, lower, upper, scratch = env
+    kind, ints, floats, lo, hi, lower, upper, scratch = env
     if kind == POINT:
         return P.motion_free(a, b, lo, hi, lower, upper, scratch)
+    if kind == RIGID:
+        return R.motion_free(a, b, lo, hi, floats, ints)
     return False
 
 
@@ -52,8 +59,16 @@ def _motions(env, A, B, out):
     kind, _, _, lo, hi, lower, upper, _ = env
     if kind == POINT:
         P.motions_free(A, B, lo, hi, lower, upper, out)
-    else:
-        out[:] = False
+    else:  # the other checkers' batch is their one-motion test in a loop (CollisionChecker)
+        for i in range(A.shape[0]):
+            out[i] = _motion(env, A[i], B[i])
+
+
+@njit(cache=True)
+def _canonical(env, q):
+    """The state space's wrap of a Pnet proposal (SE2: the angle into [-pi, pi))."""
+    if env[0] == RIGID:
+        q[2] = R.wrap_angle(q[2])
 
 
 @njit(cache=True)
@@ -200,6 +215,7 @@ def neural_planner(z, start, goal, max_steps, precheck, env, memo, counts, net, 
             z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max,
             rng, dropout, buf, new,
         )  # fmt: skip
+        _canonical(env, new)
         trace[s, 0], trace[s, 1] = x, new
         n[a] += 1
         if motion_valid(env, memo, counts, new, trees[b, n[b] - 1]):

@@ -67,17 +67,25 @@ class MPNetSettings:
                 "steerTo (no proposal ablation, steer_steps or clip)"
             )
 
-    def build(self, models_dir: Path, env: EnvSpec, seed: int, cloud: Callable) -> MPNetPlanner:
-        """The planner on the networks in models_dir; cloud(workspace) is the workspace's
-        point cloud as training drew it."""
+    def check_env(self, env: EnvSpec, collision: str | None = None) -> None:
+        """What these settings need of the env (ValueError naming the key): the compiled loop,
+        kernels for the env's checker."""
         if self.compiled:
             from mpnet.planners.compiled import supports
 
-            if not supports(env):
+            if not supports(env, collision):
                 raise ValueError(
-                    f"config key planner.compiled: env {env.name}'s checkers have no compiled kernels yet "
-                    f"(point robots' envs: s2d, c2d, c3d)"
+                    f"config key planner.compiled: env {env.name}'s {collision or 'default'} checker has no "
+                    f"compiled kernels yet (s2d, c2d, c3d; rigid with env.collision=native)"
                 )
+
+    def build(
+        self, models_dir: Path, env: EnvSpec, seed: int, cloud: Callable, collision: str | None = None
+    ) -> MPNetPlanner:
+        """The planner on the networks in models_dir; cloud(workspace) is the workspace's
+        point cloud as training drew it; collision the checkers' backend (None: the robot's
+        default)."""
+        self.check_env(env, collision)
         encode, pnet_step = load_pnet_checkpoint(Path(models_dir) / PNET_FILE).to_numpy()
         if self.encoding == "zeros":
             code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
@@ -101,6 +109,8 @@ class MPNetSettings:
         )
 
 
-def from_checkpoint(models_dir: Path, env: EnvSpec, seed: int, cloud: Callable, **settings) -> MPNetPlanner:
+def from_checkpoint(
+    models_dir: Path, env: EnvSpec, seed: int, cloud: Callable, collision: str | None = None, **settings
+) -> MPNetPlanner:
     """MPNet on the networks in models_dir, its settings as MPNetSettings takes them."""
-    return MPNetSettings(**settings).build(models_dir, env, seed, cloud)
+    return MPNetSettings(**settings).build(models_dir, env, seed, cloud, collision)

@@ -1,6 +1,7 @@
-"""The point robot's compiled checks (mpnet.envs.point_kernels) against PointChecker: the same
-answer for every state and motion, on segments that graze faces, run along them, or stand
-still in a coordinate, where the one-motion and batch tests' arithmetic matter."""
+"""The compiled checks against the checkers they port: the point robot's (mpnet.envs.point_kernels)
+against PointChecker on segments that graze faces, run along them, or stand still in a
+coordinate, where the one-motion and batch tests' arithmetic matter; the rigid body's
+(mpnet.envs.rigid_kernels) against RigidChecker, short and long motions, turning both ways."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs import point_kernels as P
+from mpnet.envs import rigid_kernels as R
 from mpnet.envs.generators import make_workspace
 from mpnet.envs.specs import get_spec
 
@@ -57,3 +59,20 @@ def test_a_segment_along_a_face_and_a_point_on_a_corner_collide(env):
     out = np.empty(1, np.bool_)
     P.motions_free(lo[None], end[None], *args, out)
     assert not out[0]
+
+
+@settings(deadline=None, max_examples=10)
+@given(index=st.integers(0, 109), seed=st.integers(0, 2**31 - 1))
+def test_the_rigid_kernels_answer_as_the_checker(index, seed):
+    spec = get_spec("rigid")
+    c = spec.make_checker(make_workspace(spec, index, "train" if index < 100 else "unseen"))
+    floats = np.array([c.hx, c.hy, c.radius, c.margin, c._x0, c._x1, c._y0, c._y1])
+    centres, halves = np.array([b[:2] for b in c._boxes]), np.array([b[2:] for b in c._boxes])
+    near = np.empty(len(centres), np.int64)
+    rng = np.random.default_rng(seed)
+    for _ in range(300):
+        a = spec.space.sample(rng)
+        b = a + rng.normal(0, 3, 3) if rng.random() < 0.7 else spec.space.sample(rng)
+        b[2] = rng.uniform(-np.pi, np.pi)
+        assert R.state_free(a, centres, halves, floats) == c.is_valid(a.tolist())
+        assert R.motion_free(a, b, centres, halves, floats, near) == c.motion_valid(a.tolist(), b.tolist())
