@@ -1,5 +1,6 @@
 """The compiled planner (mpnet.planners.compiled) against the numpy planner it compiles: on every
-query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid), the same status, path, check counts, Pnet
+query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid; the arms' 100 and 138),
+the same status, path, check counts, Pnet
 calls, partial trees and Pnet trace, with the shipped networks and each query's seed."""
 
 from __future__ import annotations
@@ -26,6 +27,9 @@ def _queries(spec):
 
 def _run(planner, spec, queries):
     checkers, out = {}, []
+    if hasattr(planner, "warm_up"):  # compiled before the first query's budget runs (as the bench does)
+        ws, q = queries[0]
+        planner.warm_up(Problem(spec, ws, spec.make_checker(ws), q.start, q.goal, seed=0))
     for i, (ws, q) in enumerate(queries):
         checker = checkers.setdefault(id(ws), spec.make_checker(ws))
         checker.reset_counts()
@@ -39,14 +43,16 @@ def _run(planner, spec, queries):
     "env,replanning",
     [("s2d", "original"), pytest.param("c2d", "original", marks=pytest.mark.slow),
      pytest.param("c3d", "forgiving", marks=pytest.mark.slow),
-     pytest.param("rigid", "original", marks=pytest.mark.slow)],
+     pytest.param("rigid", "original", marks=pytest.mark.slow),
+     pytest.param("arm7", "original", marks=pytest.mark.slow),
+     pytest.param("panda_mbm", "original", marks=pytest.mark.slow)],
 )  # fmt: skip
 def test_the_compiled_planner_decides_as_the_numpy_planner(env, replanning, tmp_path):
     spec = get_spec(env)
     write_checkpoint(SHIPPED / f"{env}-quick", tmp_path / "pnet.ckpt")
     cloud = lambda ws: spec.cloud(ws, 200, 0)  # noqa: E731 - the env configs' points_per_block and data_seed
     queries = _queries(spec)
-    assert len(queries) >= 400
+    assert len(queries) >= (400 if spec.state_dim < 7 else 100)  # the arms' quick sets: 100 and 138
     name = "mpnet_nr" if replanning == "original" else "mpnet_nr_forgiving"
     numpy_planner = from_checkpoint(tmp_path, spec, 0, cloud, name=name, replanning=replanning)
     compiled = from_checkpoint(tmp_path, spec, 0, cloud, name=name, replanning=replanning, compiled=True)
@@ -55,7 +61,7 @@ def test_the_compiled_planner_decides_as_the_numpy_planner(env, replanning, tmp_
         assert w[:4] == g[:4], i
         assert (w[4] is None) == (g[4] is None) and (w[4] or {}) == (g[4] or {}), i
         assert w[5] == g[5], i
-    assert sum(w[0] == "exact" for w in want) > 0.7 * len(want)
+    assert sum(w[0] == "exact" for w in want) > 0.2 * len(want)  # successes compared too (panda_mbm: 33 of 138)
 
 
 def test_what_the_compiled_planner_does_not_run_is_refused():
@@ -67,5 +73,5 @@ def test_what_the_compiled_planner_does_not_run_is_refused():
     settings.check_env(get_spec("rigid"), "native")
     with pytest.raises(ValueError, match="env rigid's fcl checker has no compiled kernels"):
         settings.check_env(get_spec("rigid"), "fcl")
-    with pytest.raises(ValueError, match="env arm7's default checker has no compiled kernels"):
-        settings.build(None, get_spec("arm7"), 0, lambda ws: np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="env arm7's pybullet checker has no compiled kernels"):
+        settings.build(None, get_spec("arm7"), 0, lambda ws: np.zeros((1, 3)), "pybullet")

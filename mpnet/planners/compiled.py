@@ -17,12 +17,13 @@ import numpy as np
 
 from mpnet.envs.collision import PointChecker
 from mpnet.envs.rigid import RigidChecker
+from mpnet.envs.spheres import CERTIFY_TOL, SphereChecker
 from mpnet.models.pnet_kernel import PnetKernel
 from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result
 from mpnet.planners.neural import MPNetPlanner
 
-COMPILED_CHECKERS = (PointChecker, RigidChecker)  # the checkers compiled_kernels has kernels for
+COMPILED_CHECKERS = (PointChecker, RigidChecker, SphereChecker)  # the checkers compiled_kernels has kernels for
 
 
 def supports(spec, backend: str | None = None) -> bool:
@@ -45,6 +46,10 @@ def kernel_env(checker) -> tuple:
         centres = np.array([b[:2] for b in c._boxes], float).reshape(-1, 2)
         halves = np.array([b[2:] for b in c._boxes], float).reshape(-1, 2)
         return (K.RIGID, np.empty(len(centres), np.int64), floats, centres, halves, lower, upper, np.empty(d))
+    if type(checker) is SphereChecker:
+        mi, mf, ob, lo_, up_ = checker._args
+        status = np.array([[CERTIFY_TOL, 1.0 if checker.base_blocked else 0.0]])
+        return (K.ARM, mi, mf, np.ascontiguousarray(ob, float)[None], status, lo_, up_, checker._buf)
     raise ValueError(f"the compiled planner has no kernels for {type(checker).__name__}")
 
 
@@ -62,7 +67,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
         self.compiled_dropout = bool(settings.get("dropout", True))
         self._envs: dict[int, tuple] = {}
         self._memo = K.new_memo(net.state_dim)
-        self._counts = np.zeros(2, np.int64)
+        self._counts = np.zeros(3, np.int64)  # states, motions, configurations (SampledConfigurations)
         self._buf = self.kernel._scratch
         steps = max(self.max_steps, self.replan_steps)
         self._trees = None
@@ -83,6 +88,8 @@ class CompiledMPNetPlanner(MPNetPlanner):
         finally:
             raw.state_checks += int(self._counts[0])
             raw.motion_checks += int(self._counts[1])
+            if hasattr(raw, "configurations"):
+                raw.configurations += int(self._counts[2])
 
     def warm_up(self, problem: Problem) -> None:
         """One short solve of the problem: the kernels compiled, or loaded from numba's on-disk

@@ -11,7 +11,9 @@ An env's checks come as one tuple of arrays of one type for every env (`env`: ki
 floats, lo, hi, lower, upper, scratch), so that one compiled planner, cached on disk, serves
 them all: kind POINT is the point robot's boxes (lo, hi; mpnet.envs.point_kernels), RIGID the
 rectangle's (box centres and halves in lo, hi, the body and bounds in floats, ints scratch;
-mpnet.envs.rigid_kernels).
+mpnet.envs.rigid_kernels), ARM the sphere model's (its packed ints and floats, the packed
+obstacles as lo's one row, hi's one row (certify tolerance, base blocked), its scratch;
+mpnet.envs.sphere_checks, which counts the configurations it evaluates in counts[2]).
 
 The memo is an open-addressing table (keys (cap, 2d), verdicts int8: -1 empty, 0, 1) keyed
 by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of tuples).
@@ -24,9 +26,10 @@ from numba import njit
 
 from mpnet.envs import point_kernels as P
 from mpnet.envs import rigid_kernels as R
+from mpnet.envs import sphere_checks as S
 from mpnet.models.pnet_kernel import pnet_step
 
-POINT, RIGID = 0, 1
+POINT, RIGID, ARM = 0, 1, 2
 MEMO_BITS = 15  # 32768 motions per query; past 70% full, new verdicts are not remembered
 
 
@@ -35,33 +38,49 @@ def new_memo(state_dim: int, bits: int = MEMO_BITS):
 
 
 @njit(cache=True)
-def _state(env, q):
-    kind, ints, floats, lo, hi, lower, upper, _ = env
+def _state(env, counts, q):
+    kind, ints, floats, lo, hi, lower, upper, scratch = env
     if kind == POINT:
         return P.state_free(q, lo, hi, lower, upper)
     if kind == RIGID:
         return R.state_free(q, lo, hi, floats)
+    if kind == ARM:  # SphereChecker._state_free
+        counts[2] += 1
+        return hi[0, 1] == 0.0 and S.state_free(q, ints, floats, lo[0], lower, upper, scratch)
     return False
 
 
 @njit(cache=True)
-def _motion(env, a, b):
+def _motion(env, counts, a, b):
     kind, ints, floats, lo, hi, lower, upper, scratch = env
     if kind == POINT:
         return P.motion_free(a, b, lo, hi, lower, upper, scratch)
     if kind == RIGID:
         return R.motion_free(a, b, lo, hi, floats, ints)
+    if kind == ARM:  # SphereChecker._motion_free
+        if hi[0, 1] != 0.0:
+            return False
+        ok, n = S.motion_free(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
+        counts[2] += n
+        return ok
     return False
 
 
 @njit(cache=True)
-def _motions(env, A, B, out):
-    kind, _, _, lo, hi, lower, upper, _ = env
+def _motions(env, counts, A, B, out):
+    kind, ints, floats, lo, hi, lower, upper, scratch = env
     if kind == POINT:
         P.motions_free(A, B, lo, hi, lower, upper, out)
+    elif kind == ARM:  # SphereChecker._motions_free
+        if hi[0, 1] != 0.0:
+            out[:] = False
+            return
+        res, n = S.motions_free(A, B, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
+        out[:] = res
+        counts[2] += n
     else:  # the other checkers' batch is their one-motion test in a loop (CollisionChecker)
         for i in range(A.shape[0]):
-            out[i] = _motion(env, A[i], B[i])
+            out[i] = _motion(env, counts, A[i], B[i])
 
 
 @njit(cache=True)
@@ -118,7 +137,7 @@ def _remember(memo, slot, a, b, ok):
 @njit(cache=True)
 def is_valid(env, counts, q):
     counts[0] += 1
-    return _state(env, q)
+    return _state(env, counts, q)
 
 
 @njit(cache=True)
@@ -128,7 +147,7 @@ def motion_valid(env, memo, counts, a, b):
     if v != -1:
         return v == 1
     counts[1] += 1
-    ok = _motion(env, a, b)
+    ok = _motion(env, counts, a, b)
     _remember(memo, slot, a, b, ok)
     return ok
 
@@ -151,7 +170,7 @@ def motions_valid(env, memo, counts, A, B, out):
     for r in range(m):
         TA[r], TB[r] = A[todo[r]], B[todo[r]]
     counts[1] += m
-    _motions(env, TA, TB, fresh)
+    _motions(env, counts, TA, TB, fresh)
     for r in range(m):
         i = todo[r]
         out[i] = fresh[r]

@@ -76,7 +76,7 @@ class MPNetSettings:
             if not supports(env, collision):
                 raise ValueError(
                     f"config key planner.compiled: env {env.name}'s {collision or 'default'} checker has no "
-                    f"compiled kernels yet (s2d, c2d, c3d; rigid with env.collision=native)"
+                    f"compiled kernels (each env's default checker has: env.collision=native, spheres)"
                 )
 
     def build(
