@@ -121,24 +121,23 @@ class CompiledMPNetPlanner(MPNetPlanner):
         self._trees = (a, b)
         return None
 
-    def replan(self, problem, z, path, stats: dict, deadline: float, step=None):
-        """Algorithm 3 (neural), as MPNetPlanner.replan (mpnet.planners.neural._repair), its
-        checks on the compiled memo."""
-        stage, env, memo, counts = stats["replans"], self.env, self._memo, self._counts
+    def repair(self, checker, path, connect, step=None, stop_on_fail: bool = False):
+        """mpnet.planners.neural._repair (continuous steerTo) on the compiled memo: neural
+        replanning's and HR's segments checked as MPNetPlanner checks them."""
+        env, memo, counts = self.env, self._memo, self._counts
         inner = [q for q in path[1:-1] if K.is_valid(env, counts, np.asarray(q, float))]
         states = [path[0], *inner, path[-1]]
         out, stuck = [states[0]], False
         for k, (x, y) in enumerate(zip(states[:-1], states[1:])):
-            x, y = np.asarray(x, float), np.asarray(y, float)
-            if not K.motion_valid(env, memo, counts, x, y):
-                mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step, stage)
-                if mini is None:
+            if not K.motion_valid(env, memo, counts, np.asarray(x, float), np.asarray(y, float)):
+                mid = connect(np.asarray(x, float), np.asarray(y, float))
+                if mid is None:
                     stuck = True
-                    if self.replanning == "original":
+                    if stop_on_fail:
                         return out + states[k + 1 :], True
                 else:
-                    out.extend(mini[1:-1])
-            out.append(states[k + 1])
+                    out.extend(mid)
+            out.append(y)
         return out, stuck
 
     def contract(self, checker, path, step, stats: dict) -> list:

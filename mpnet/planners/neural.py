@@ -282,7 +282,7 @@ class MPNetPlanner:
             mini = self.neural_planner(problem, z, x, y, self.replan_steps, stats, deadline, step, stage)
             return None if mini is None else mini[1:-1]
 
-        return _repair(problem.checker, path, connect, step, stop_on_fail=self.replanning == "original")
+        return self.repair(problem.checker, path, connect, step, stop_on_fail=self.replanning == "original")
 
     def classical_replan(self, problem: Problem, path, deadline: float, stats: dict, checker):
         """HR: RRT* on every segment that is still unconnectable, within the budget left;
@@ -310,8 +310,13 @@ class MPNetPlanner:
                 slice_s *= 2
             return None
 
-        path, stuck = _repair(problem.checker, path, connect, stop_on_fail=True)
+        path, stuck = self.repair(problem.checker, path, connect, stop_on_fail=True)
         return None if stuck else path
+
+    def repair(self, checker, path, connect, step: float | None = None, stop_on_fail: bool = False):
+        """_repair with this planner's checks (a subclass may check elsewhere: the compiled
+        planner, on its compiled memo)."""
+        return _repair(checker, path, connect, step, stop_on_fail)
 
     def diagnose(self, problem: Problem, result: Result) -> dict:
         """What Pnet proposed in the last solve and how good it was (not timed: the harness
