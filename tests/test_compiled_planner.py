@@ -2,7 +2,8 @@
 query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid; the arms' 100 and 138),
 the same status, path, check counts, Pnet
 calls, partial trees and Pnet trace, with the shipped networks and each query's seed (HR's
-classical planner runs in time slices: its check counts are compared where it did not run)."""
+classical planner runs in time slices: where it ran, the path and checks after it depend on the
+machine's load, so there the status, the Pnet trace and that it ran are compared)."""
 
 from __future__ import annotations
 
@@ -36,8 +37,10 @@ def _run(planner, spec, queries):
         checker.reset_counts()
         r = planner.solve(Problem(spec, ws, checker, q.start, q.goal, seed=i), 10.0)
         trace = [(s, a.tolist(), b.tolist()) for s, a, b in planner.trace]
-        fallback = r.stats.get("fallback_calls", 0) > 0  # OMPL's RRT*, timed in slices: its checks vary
-        out.append((r.status, r.path, None if fallback else checker.counts(), r.stats["pnet_calls"], r.partial, trace))
+        # HR's RRT* runs in time slices: where it ran, its path and checks depend on the machine's load
+        fallback = r.stats.get("fallback_calls", 0) > 0
+        path, counts, partial = (None, None, None) if fallback else (r.path, checker.counts(), r.partial)
+        out.append((r.status, path, counts, r.stats["pnet_calls"], partial, trace, fallback))
     return out
 
 
@@ -62,7 +65,7 @@ def test_the_compiled_planner_decides_as_the_numpy_planner(env, name, settings, 
     compiled = from_checkpoint(tmp_path, spec, 0, cloud, name=name, compiled=True, **settings)
     want, got = _run(numpy_planner, spec, queries), _run(compiled, spec, queries)
     for i, (w, g) in enumerate(zip(want, got)):
-        assert w[:4] == g[:4], i
+        assert w[:4] == g[:4] and w[6] == g[6], i  # status, path, counts, Pnet calls; the same queries fall back
         assert (w[4] is None) == (g[4] is None) and (w[4] or {}) == (g[4] or {}), i
         assert w[5] == g[5], i
     assert sum(w[0] == "exact" for w in want) > 0.2 * len(want)  # successes compared too (panda_mbm: 33 of 138)
