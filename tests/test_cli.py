@@ -342,52 +342,76 @@ def test_a_planner_of_ones_own_runs_beside_bit_star_and_in_the_report(tmp_path, 
     assert "batch_prm" in (tmp_path / "report" / "table1.md").read_text()
 
 
-def test_every_env_and_planner_config_runs(tmp_path, run_cli):
-    """Each conf/env × base planner, and s2d × every conf/planner (ablations and time to
-    equal quality), at the smallest size."""
+def _base_and_variants():
     from harness.cli import choices
 
-    envs, planners = choices("env"), choices("planner")
+    planners = choices("planner")
     base = [
         p for p in planners if not any(p.startswith(b + "_") for b in ("mpnet_nr", "mpnet_hr")) and "_to_nr" not in p
     ]
-    variants = sorted(set(planners) - set(base))
+    return base, sorted(set(planners) - set(base))
+
+
+# One sweep per env (the base planners) and two of s2d's variants: pieces that the suite's
+# workers share (as one test, the sweeps took 7 of the suite's 14 minutes on one worker).
+SWEEPS = [(env, "base") for env in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")]
+SWEEPS += [("s2d", "variants0"), ("s2d", "variants1")]
+
+
+@pytest.fixture(scope="session")
+def sweeps_cache(tmp_path_factory) -> Path:
+    """One cache for the sweeps below, shared by the suite's workers (pytest-xdist gives each
+    worker its own base folder under one parent): each network trains once, the artifact
+    store's lock making the others wait."""
+    base = tmp_path_factory.getbasetemp()
+    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "sweeps-cache"
+
+
+@pytest.mark.parametrize("env,which", SWEEPS, ids=[f"{e}-{w}" for e, w in SWEEPS])
+def test_every_env_and_planner_config_runs(env, which, tmp_path, run_cli, sweeps_cache):
+    """Each conf/env × base planner, and s2d × every conf/planner (ablations and time to
+    equal quality, in two halves), at the smallest size."""
+    from harness.cli import choices
+
+    base, variants = _base_and_variants()
     assert {"mpnet_nr_random", "mpnet_hr_zeros", "bit_star_to_nr_x1.1"} <= set(variants)
-    for name, env_list, planner_list in (("base", envs, base), ("variants", ["s2d"], variants)):
-        run_cli(
-            "harness",
-            "-m",
-            f"+env={','.join(env_list)}",
-            f"+planner={','.join(planner_list)}",
-            "scale=tiny",
-            "splits=[unseen]",
-            "rerun=false",
-            "progress=false",
-            f"hydra.sweep.dir={tmp_path / name}",
-            f"cache_dir={tmp_path / 'cache'}",
-        )
-        files = sorted((tmp_path / name).rglob("trials.mcap"))
-        assert len(files) == len(env_list) * len(planner_list)
-        for f in files:
-            _, msgs = read_mcap(f)
-            queries = [m for t, m in msgs if t == "/query"]
-            verified = recheck(msgs)
-            assert len(queries) == 4 and verified == sum(q["success"] for q in queries)
-            planner = f.parent.parent.name
-            assert all(m["planner"] == planner for t, m in msgs if t == "/run")
-            if "_to_nr" in planner:  # every query carries NR's target; no target, no planning
-                assert all("target_cost" in q and q["target_planner"] == "mpnet_nr" for q in queries)
-                assert all(q["failure"] == "no_target" for q in queries if q["target_cost"] is None)
-            elif not planner.startswith("mpnet_") or planner == "mpnet_hr_forgiving":
-                # a 2-epoch tiny Pnet plans what it can; the rest always solve, but for
-                # panda_mbm's goals deep in shelves and cages only RRT-Connect does in 10 s
-                if f.parent.parent.parent.name != "panda_mbm" or planner == "rrt_connect":
-                    assert verified >= 3
-            if planner.startswith("mpnet_") and f.parent.parent.parent.name == "s2d":
-                assert_diagnostics_recompute(msgs)
-            if f.parent.parent.parent.name in ("s2d", "c2d"):  # exact reference costs, a lower bound
-                assert all(q["reference_cost"] > 0 for q in queries)
-                assert all(q["path_cost"] >= q["reference_cost"] - 1e-9 for q in queries if q["success"])
+    assert {e for e, _ in SWEEPS} == set(choices("env"))
+    planner_list = base if which == "base" else variants[int(which[-1]) :: 2]
+    env_list, name = [env], which
+    run_cli(
+        "harness",
+        "-m",
+        f"+env={env}",
+        f"+planner={','.join(planner_list)}",
+        "scale=tiny",
+        "splits=[unseen]",
+        "rerun=false",
+        "progress=false",
+        f"hydra.sweep.dir={tmp_path / name}",
+        f"cache_dir={sweeps_cache}",
+    )
+    files = sorted((tmp_path / name).rglob("trials.mcap"))
+    assert len(files) == len(env_list) * len(planner_list)
+    for f in files:
+        _, msgs = read_mcap(f)
+        queries = [m for t, m in msgs if t == "/query"]
+        verified = recheck(msgs)
+        assert len(queries) == 4 and verified == sum(q["success"] for q in queries)
+        planner = f.parent.parent.name
+        assert all(m["planner"] == planner for t, m in msgs if t == "/run")
+        if "_to_nr" in planner:  # every query carries NR's target; no target, no planning
+            assert all("target_cost" in q and q["target_planner"] == "mpnet_nr" for q in queries)
+            assert all(q["failure"] == "no_target" for q in queries if q["target_cost"] is None)
+        elif not planner.startswith("mpnet_") or planner == "mpnet_hr_forgiving":
+            # a 2-epoch tiny Pnet plans what it can; the rest always solve, but for
+            # panda_mbm's goals deep in shelves and cages only RRT-Connect does in 10 s
+            if f.parent.parent.parent.name != "panda_mbm" or planner == "rrt_connect":
+                assert verified >= 3
+        if planner.startswith("mpnet_") and f.parent.parent.parent.name == "s2d":
+            assert_diagnostics_recompute(msgs)
+        if f.parent.parent.parent.name in ("s2d", "c2d"):  # exact reference costs, a lower bound
+            assert all(q["reference_cost"] > 0 for q in queries)
+            assert all(q["path_cost"] >= q["reference_cost"] - 1e-9 for q in queries if q["success"])
 
 
 def test_ablation_under_mpnet_name_is_refused(tmp_path, run_cli):
