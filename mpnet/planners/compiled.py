@@ -21,7 +21,7 @@ from mpnet.envs.spheres import CERTIFY_TOL, SphereChecker
 from mpnet.models.pnet_kernel import PnetKernel
 from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result
-from mpnet.planners.neural import MPNetPlanner
+from mpnet.planners.neural import MPNetPlanner, repair_path
 
 COMPILED_CHECKERS = (PointChecker, RigidChecker, SphereChecker)  # the checkers compiled_kernels has kernels for
 
@@ -122,23 +122,16 @@ class CompiledMPNetPlanner(MPNetPlanner):
         return None
 
     def repair(self, checker, path, connect, step=None, stop_on_fail: bool = False):
-        """mpnet.planners.neural._repair (continuous steerTo) on the compiled memo: neural
-        replanning's and HR's segments checked as MPNetPlanner checks them."""
+        """neural.repair_path on the compiled memo (continuous steerTo): neural replanning's and
+        HR's segments checked as MPNetPlanner checks them."""
         env, memo, counts = self.env, self._memo, self._counts
-        inner = [q for q in path[1:-1] if K.is_valid(env, counts, np.asarray(q, float))]
-        states = [path[0], *inner, path[-1]]
-        out, stuck = [states[0]], False
-        for k, (x, y) in enumerate(zip(states[:-1], states[1:])):
-            if not K.motion_valid(env, memo, counts, np.asarray(x, float), np.asarray(y, float)):
-                mid = connect(np.asarray(x, float), np.asarray(y, float))
-                if mid is None:
-                    stuck = True
-                    if stop_on_fail:
-                        return out + states[k + 1 :], True
-                else:
-                    out.extend(mid)
-            out.append(y)
-        return out, stuck
+        return repair_path(
+            lambda q: K.is_valid(env, counts, np.asarray(q, float)),
+            lambda x, y: K.motion_valid(env, memo, counts, np.asarray(x, float), np.asarray(y, float)),
+            path,
+            connect,
+            stop_on_fail,
+        )
 
     def contract(self, checker, path, step, stats: dict) -> list:
         t = time.perf_counter()

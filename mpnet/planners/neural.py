@@ -445,15 +445,26 @@ def _states(path) -> list[list[float]]:
 
 
 def _repair(checker, path, connect, step: float | None = None, stop_on_fail: bool = False):
+    """repair_path with the checker's is_valid and steer_to."""
+    return repair_path(
+        lambda q: checker.is_valid(np.asarray(q).tolist()),
+        lambda x, y: steer_to(checker, np.asarray(x).tolist(), np.asarray(y).tolist(), step),
+        path,
+        connect,
+        stop_on_fail,
+    )
+
+
+def repair_path(is_valid, steer, path, connect, stop_on_fail: bool = False):
     """Drop interior states in collision (start and goal are valid), keep neighbours
-    steer_to connects, and put connect(x, y)'s states between the others. Returns
+    steer(x, y) connects, and put connect(x, y)'s states between the others. Returns
     (path, stuck): stuck when connect gave None for a pair, which stays as it was; with
     stop_on_fail the rest of the path is then kept unchanged."""
-    states = [path[0], *[q for q in path[1:-1] if checker.is_valid(np.asarray(q).tolist())], path[-1]]
+    states = [path[0], *[q for q in path[1:-1] if is_valid(q)], path[-1]]
     out = [states[0]]
     stuck = False
     for k, (x, y) in enumerate(zip(states[:-1], states[1:])):
-        if not steer_to(checker, np.asarray(x).tolist(), np.asarray(y).tolist(), step):
+        if not steer(x, y):
             mid = connect(np.asarray(x, float), np.asarray(y, float))
             if mid is None:
                 stuck = True
