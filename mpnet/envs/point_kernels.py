@@ -76,11 +76,7 @@ def motions_free(A, B, lo, hi, lower, upper, out):
     segments_hit_boxes' arithmetic (division; a still coordinate inside its slab or not)."""
     n, dim = A.shape
     for i in range(n):
-        ok = True
-        for k in range(dim):
-            if not (A[i, k] >= lower[k] and A[i, k] <= upper[k] and B[i, k] >= lower[k] and B[i, k] <= upper[k]):
-                ok = False
-                break
+        ok = in_bounds(A[i], lower, upper) and in_bounds(B[i], lower, upper)
         if ok:
             for j in range(lo.shape[0]):
                 tmin_max, tmax_min = -np.inf, np.inf

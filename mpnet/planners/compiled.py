@@ -65,21 +65,20 @@ class CompiledMPNetPlanner(MPNetPlanner):
         self.kernel = PnetKernel(net)
         super().__init__(name, encode, self.kernel.step, cloud, **settings)
         self.compiled_dropout = bool(settings.get("dropout", True))
-        self._envs: dict[int, tuple] = {}
+        self._envs: dict[int, tuple] = {}  # id(checker) -> (checker, its kernel env)
         self._memo = K.new_memo(net.state_dim)
         self._counts = np.zeros(3, np.int64)  # states, motions, configurations (SampledConfigurations)
         self._buf = self.kernel._scratch
         steps = max(self.max_steps, self.replan_steps)
-        self._trees = None
         self._tree_buf = np.empty((2, steps + 1, net.state_dim))
         self._trace_buf = np.empty((steps, 2, net.state_dim))
 
     def solve(self, problem: Problem, budget_s: float) -> Result:
         raw = problem.checker
-        self._env = self._envs.get(id(raw))
-        if self._env is None or self._env[-1] is not raw:
-            self._env = (*kernel_env(raw), raw)
-            self._envs[id(raw)] = self._env
+        known = self._envs.get(id(raw))
+        if known is None or known[0] is not raw:  # a new checker (an id may be reused)
+            known = self._envs[id(raw)] = (raw, kernel_env(raw))
+        self.env = known[1]
         self._memo[1].fill(-1)
         self._memo[2][0] = 0
         self._counts[:] = 0
@@ -95,10 +94,6 @@ class CompiledMPNetPlanner(MPNetPlanner):
         """One short solve of the problem: the kernels compiled, or loaded from numba's on-disk
         cache, before the first timed query (Planner.warm_up)."""
         self.solve(problem, 1.0)
-
-    @property
-    def env(self) -> tuple:
-        return self._env[:-1]
 
     def neural_planner(self, problem, z, start, goal, max_steps, stats, deadline, step=None, stage=0, precheck=False):
         if time.perf_counter() > deadline:
