@@ -23,6 +23,7 @@ from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result
 from mpnet.planners.neural import MPNetPlanner, repair_path
 
+PROPOSAL_KINDS = {"pnet": K.PNET, "random": K.RANDOM, "random_any": K.RANDOM_ANY, "straight": K.STRAIGHT}
 COMPILED_CHECKERS = (PointChecker, RigidChecker, SphereChecker)  # the checkers compiled_kernels has kernels for
 
 
@@ -55,15 +56,17 @@ def kernel_env(checker) -> tuple:
 
 class CompiledMPNetPlanner(MPNetPlanner):
     """MPNetPlanner with NeuralPlanner, steerTo, contraction and the feasibility check compiled.
-    Takes the numpy export of Pnet (`net`, a NumpyPnet with its normaliser) besides the settings;
-    Pnet's proposals only (the ablations' proposals are the numpy planner's), continuous
-    steerTo only."""
+    Takes the numpy export of Pnet (`net`, a NumpyPnet with its normaliser) besides the settings,
+    and `clip` (Pnet's proposals clipped into the bounds, as MPNetSettings.clip); every proposal
+    (Pnet's and the ablations'), continuous steerTo only."""
 
-    def __init__(self, name, encode, net, cloud, **settings):
-        if settings.get("proposal", "pnet") != "pnet" or settings.get("steer_steps"):
-            raise ValueError("config key planner.compiled: Pnet's proposals and continuous steerTo only")
+    def __init__(self, name, encode, net, cloud, clip: bool = False, **settings):
+        if settings.get("steer_steps"):
+            raise ValueError("config key planner.compiled: continuous steerTo only (steer_steps: null)")
         self.kernel = PnetKernel(net)
         super().__init__(name, encode, self.kernel.step, cloud, **settings)
+        self.clip = bool(clip)
+        self._props: dict[int, tuple] = {}  # id(spec) -> (spec, the kernel's proposal tuple)
         self.compiled_dropout = bool(settings.get("dropout", True))
         self._envs: dict[int, tuple] = {}  # id(checker) -> (checker, its kernel env)
         self._memo = K.new_memo(net.state_dim)
@@ -79,6 +82,11 @@ class CompiledMPNetPlanner(MPNetPlanner):
         if known is None or known[0] is not raw:  # a new checker (an id may be reused)
             known = self._envs[id(raw)] = (raw, kernel_env(raw))
         self.env = known[1]
+        spec = problem.spec
+        prop = self._props.get(id(spec))
+        if prop is None or prop[0] is not spec:
+            prop = self._props[id(spec)] = (spec, self._proposal(spec))
+        self.prop = prop[1]
         self._memo[1].fill(-1)
         self._memo[2][0] = 0
         self._counts[:] = 0
@@ -89,6 +97,12 @@ class CompiledMPNetPlanner(MPNetPlanner):
             raw.motion_checks += int(self._counts[1])
             if hasattr(raw, "configurations"):
                 raw.configurations += int(self._counts[2])
+
+    def _proposal(self, spec) -> tuple:
+        """The kernel's `prop`: kind, clip, straight step, the space's lower, upper, half-widths."""
+        space = spec.space
+        lower, upper, half = (np.ascontiguousarray(v, float) for v in (space.lower, space.upper, space.half_widths()))
+        return (PROPOSAL_KINDS[self.proposal], self.clip, self.straight_step, lower, upper, half)
 
     def warm_up(self, problem: Problem) -> None:
         """One short solve of the problem: the kernels compiled, or loaded from numba's on-disk
@@ -102,7 +116,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
         rng = self.rng
         connected, n0, n1, steps = K.neural_planner(
             np.asarray(z, np.float32), np.asarray(start, float), np.asarray(goal, float), max_steps, precheck,
-            self.env, self._memo, self._counts, self.kernel.args, rng, self.compiled_dropout, self._buf,
+            self.env, self._memo, self._counts, self.prop, self.kernel.args, rng, self.compiled_dropout, self._buf,
             self._tree_buf, self._trace_buf,
         )  # fmt: skip
         stats["pnet_s"] += time.perf_counter() - t

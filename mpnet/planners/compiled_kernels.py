@@ -30,6 +30,8 @@ from mpnet.envs import sphere_checks as S
 from mpnet.models.pnet_kernel import pnet_step
 
 POINT, RIGID, ARM = 0, 1, 2
+PNET, RANDOM, RANDOM_ANY, STRAIGHT = 0, 1, 2, 3  # mpnet.planners.neural.PROPOSALS, in order
+RANDOM_TRIES = 1000  # neural.random_valid_state's tries
 MEMO_BITS = 15  # 32768 motions per query; past 70% full, new verdicts are not remembered
 
 
@@ -214,12 +216,57 @@ def contract(env, memo, counts, path):
 
 
 @njit(cache=True)
-def neural_planner(z, start, goal, max_steps, precheck, env, memo, counts, net, rng, dropout, buf, trees, trace):
-    """Algorithm 2 (MPNetPlanner.neural_planner): grow a path from each end by Pnet, alternating,
-    until steerTo connects their tips. trees: (2, max_steps + 1, d) scratch; trace: (max_steps,
-    2, d), each step's tree end and proposal. Returns (connected, states of the start's tree,
-    of the goal's tree, steps taken); connected: the path is start's tree + goal's reversed."""
-    plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max = net
+def _sample(rng, lower, upper, q):
+    """StateSpace.sample: rng.uniform(lower, upper), one draw per coordinate in order."""
+    for k in range(q.shape[0]):
+        q[k] = rng.uniform(lower[k], upper[k])
+
+
+@njit(cache=True)
+def _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new):
+    """MPNetPlanner.propose into `new`: Pnet's step, wrapped or clipped into the bounds (clip),
+    or an ablation's proposal (mpnet.planners.neural: random_valid_state, space.sample,
+    straight_step)."""
+    kind, clip, length, lower, upper, half = prop
+    if kind == PNET:
+        plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max = net
+        pnet_step(
+            z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max,
+            rng, dropout, buf, new,
+        )  # fmt: skip
+        _canonical(env, new)
+        if clip:
+            bounded = 2 if env[0] == RIGID else new.shape[0]
+            for k in range(bounded):
+                new[k] = min(max(new[k], lower[k]), upper[k])
+    elif kind == RANDOM:
+        for _ in range(RANDOM_TRIES):
+            _sample(rng, lower, upper, new)
+            if is_valid(env, counts, new):
+                break
+    elif kind == RANDOM_ANY:
+        _sample(rng, lower, upper, new)
+    else:  # STRAIGHT
+        d = target - x
+        if env[0] == RIGID:
+            d[2] = R.wrap_angle(d[2])
+        v = d / half
+        norm = np.sqrt(np.dot(v, v))
+        if norm <= length:
+            new[:] = x + d
+        else:
+            new[:] = x + d * (length / norm)
+        _canonical(env, new)
+
+
+@njit(cache=True)
+def neural_planner(z, start, goal, max_steps, precheck, env, memo, counts, prop, net, rng, dropout, buf, trees, trace):
+    """Algorithm 2 (MPNetPlanner.neural_planner): grow a path from each end by Pnet (or the
+    ablation's proposals, `prop`: kind, clip, straight step, the space's lower, upper and
+    half-widths), alternating, until steerTo connects their tips. trees: (2, max_steps + 1, d)
+    scratch; trace: (max_steps, 2, d), each step's tree end and proposal. Returns (connected,
+    states of the start's tree, of the goal's tree, steps taken); connected: the path is start's
+    tree + goal's reversed."""
     trees[0, 0], trees[1, 0] = start, goal
     n = np.zeros(2, np.int64)
     n[0], n[1] = 1, 1
@@ -230,11 +277,7 @@ def neural_planner(z, start, goal, max_steps, precheck, env, memo, counts, net, 
         b = 1 - a
         x, target = trees[a, n[a] - 1], trees[b, n[b] - 1]
         new = trees[a, n[a]]
-        pnet_step(
-            z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max,
-            rng, dropout, buf, new,
-        )  # fmt: skip
-        _canonical(env, new)
+        _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new)
         trace[s, 0], trace[s, 1] = x, new
         n[a] += 1
         if motion_valid(env, memo, counts, new, trees[b, n[b] - 1]):

@@ -61,10 +61,10 @@ class MPNetSettings:
             object.__setattr__(self, "steer_steps", tuple(self.steer_steps))
         if not isinstance(self.compiled, bool):
             raise ValueError(f"config key planner.compiled: expected true or false, got {self.compiled!r}")
-        if self.compiled and (self.proposal != "pnet" or self.steer_steps is not None or self.clip):
+        if self.compiled and self.steer_steps is not None:
             raise ValueError(
-                "config key planner.compiled: the compiled planner runs Pnet's proposals with continuous "
-                "steerTo (no proposal ablation, steer_steps or clip)"
+                "config key planner.compiled: the compiled planner runs continuous steerTo "
+                "(steer_steps: null), or set planner.compiled=false"
             )
 
     def check_env(self, env: EnvSpec, collision: str | None = None) -> None:
@@ -102,7 +102,15 @@ class MPNetSettings:
             from mpnet.planners.compiled import CompiledMPNetPlanner
 
             return CompiledMPNetPlanner(
-                self.name, encode, pnet_step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self._shared()
+                self.name,
+                encode,
+                pnet_step,
+                cloud,
+                self.clip,
+                hybrid=self.hybrid,
+                seed=seed,
+                fallback=fallback,
+                **self._shared(),
             )
         return MPNetPlanner(
             self.name, encode, step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self._shared()
