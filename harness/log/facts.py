@@ -9,7 +9,7 @@ same from the config text their `/run` holds (the only place that still parses i
   present, an MPNet run, base mpnet_hr if it is true, else mpnet_nr, and an ablation of that
   base when `proposal` is not pnet, `encoding` is zeros, `dropout` is false, `replanning` is
   not original (a config without the key predates it: its runs replanned the forgiving way),
-  its proposals are clipped into the bounds (`clip`), its loop is compiled (`compiled`), HR's
+  its proposals are clipped into the bounds (`clip`), its loop is numpy's (`compiled` false), HR's
   `fallback` is not RRT*, or its `networks` were trained on resampled expert paths;
   `algorithm`, a classical run; else a plain planner (a planner of one's own). None when
   the config has no `planner` mapping.
@@ -72,8 +72,8 @@ def planner_facts(p) -> dict | None:
             variant.append("nodropout")
         if p.get("clip") is True:
             variant.append("clip")
-        if p.get("compiled") is True:
-            variant.append("compiled")
+        if p.get("compiled") is False:  # the numpy reference (a config without the key predates the choice)
+            variant.append("numpy")
         networks = p.get("networks")
         if isinstance(networks, dict) and networks.get("waypoint_step") is not None:
             variant.append("dense")

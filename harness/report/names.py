@@ -61,7 +61,8 @@ ABLATIONS = {
     "rrtc": "RRT-Connect instead of the paper's RRT* as hybrid replanning's classical planner",
     "clip": "Pnet's proposal clipped into the joint bounds (planner.clip)",
     "dense": "networks trained on the expert paths resampled at a fixed step (planner.networks.waypoint_step)",
-    "compiled": "the planning loop compiled (planner.compiled): the same method and answers, its time compared",
+    "numpy": "the planning loop in numpy (planner.compiled=false), the reference the compiled default is tested "
+    "against: the same method and answers, its time compared",
 }
 # The mark of a difference that is not significant.
 APPROX = "≈"

@@ -42,7 +42,7 @@ class MPNetSettings:
     dropout: bool = True
     replanning: str = "original"
     clip: bool = False  # named variant (issue 26): Pnet's proposal clipped into the joint bounds
-    compiled: bool = False  # the loop compiled (mpnet.planners.compiled): the same method and answers
+    compiled: bool = False  # the loop compiled (mpnet.planners.compiled; the configs' default): the same answers
 
     def _shared(self) -> dict:
         """The settings MPNetPlanner takes as they are (and check_settings checks)."""
@@ -76,7 +76,7 @@ class MPNetSettings:
             if not supports(env, collision):
                 raise ValueError(
                     f"config key planner.compiled: env {env.name}'s {collision or 'default'} checker has no "
-                    f"compiled kernels (each env's default checker has: env.collision=native, spheres)"
+                    f"compiled kernels (each env's default checker has): set planner.compiled=false for the numpy loop"
                 )
 
     def build(
