@@ -7,6 +7,7 @@ from __future__ import annotations
 import zlib
 
 import numpy as np
+from numba import njit
 
 from mpnet.envs.workspace import Workspace
 
@@ -14,15 +15,30 @@ from mpnet.envs.workspace import Workspace
 def point_cloud(ws: Workspace, total: int, rng: np.random.Generator) -> np.ndarray:
     """`total` points drawn uniformly inside the obstacles, (total, dim): an equal share
     per block (the first blocks take the remainder), so every workspace of an env gives
-    Enet an input of the same size. No obstacles: all points at the origin."""
+    Enet an input of the same size. No obstacles: all points at the origin.
+
+    Compiled (planning draws it per query, inside the query's time): numpy's
+    `lo[idx] + rng.uniform(size=(total, dim)) * (hi - lo)[idx]`, draw for draw."""
     n = len(ws.centers)
     if n == 0:
         return np.zeros((total, ws.dim))
-    counts = np.full(n, total // n)
-    counts[: total % n] += 1
-    idx = np.repeat(np.arange(n), counts)
-    u = rng.uniform(size=(total, ws.dim))
-    return ws.lo[idx] + u * (ws.hi - ws.lo)[idx]
+    out = np.empty((total, ws.dim))
+    _point_cloud(np.ascontiguousarray(ws.lo, float), np.ascontiguousarray(ws.hi, float), rng, out)
+    return out
+
+
+@njit(cache=True)
+def _point_cloud(lo, hi, rng, out):
+    """Block i takes total // n points (the first total % n one more), each coordinate
+    lo + U * (hi - lo) with U the Generator's next double: uniform(0, 1)'s draw, in row order."""
+    n, dim = lo.shape
+    total = out.shape[0]
+    r = 0
+    for i in range(n):
+        for _ in range(total // n + (1 if i < total % n else 0)):
+            for k in range(dim):
+                out[r, k] = lo[i, k] + rng.random() * (hi[i, k] - lo[i, k])
+            r += 1
 
 
 def cloud_rng(seed: int, ws_id: str) -> np.random.Generator:

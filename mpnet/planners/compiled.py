@@ -1,6 +1,8 @@
-"""MPNet's planner with its loop compiled (mpnet.planners.compiled_kernels): the numpy planner's
-method and decisions, call for call, so the same paths; Algorithm 1's few rounds and HR's
-classical planner stay in Python around the compiled pieces.
+"""MPNet's planner with its loop compiled (mpnet.planners.compiled_kernels) and Enet's encoding
+(mpnet.models.enet_kernel): the numpy planner's method and decisions, call for call, so the
+same paths; Algorithm 1's few rounds and HR's classical planner stay in Python around the
+compiled pieces. (The point robots' clouds are drawn compiled for every planner:
+mpnet.envs.clouds.)
 
 The budget is checked between compiled calls (one NeuralPlanner run of at most max_steps
 steps, one contraction, one feasibility check), not inside them: a call's steps are bounded.
@@ -18,6 +20,8 @@ import numpy as np
 from mpnet.envs.collision import PointChecker
 from mpnet.envs.rigid import RigidChecker
 from mpnet.envs.spheres import CERTIFY_TOL, SphereChecker
+from mpnet.models.enet_kernel import EnetKernel
+from mpnet.models.networks import NumpyEnet
 from mpnet.models.pnet_kernel import PnetKernel
 from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result
@@ -64,6 +68,8 @@ class CompiledMPNetPlanner(MPNetPlanner):
         if settings.get("steer_steps"):
             raise ValueError("config key planner.compiled: continuous steerTo only (steer_steps: null)")
         self.kernel = PnetKernel(net)
+        if isinstance(encode, NumpyEnet):  # Enet's encoding compiled too (a zero code stays as given)
+            encode = EnetKernel(encode)
         super().__init__(name, encode, self.kernel.step, cloud, **settings)
         self.clip = bool(clip)
         self._props: dict[int, tuple] = {}  # id(spec) -> (spec, the kernel's proposal tuple)
