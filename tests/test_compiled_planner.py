@@ -1,6 +1,6 @@
 """The compiled planner (mpnet.planners.compiled) against the numpy planner it compiles: on every
-query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid; the arms' 100 and 138),
-the same status, path, check counts, Pnet
+query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid; the arms' 100 and 138
+reversed and with other seeds: 400 and 552), the same status, path, check counts, Pnet
 calls, partial trees and Pnet trace, with the shipped networks and each query's seed (HR's
 classical planner runs in time slices: where it ran, the path and checks after it depend on the
 machine's load, so there the status, the Pnet trace and that it ran are compared)."""
@@ -19,23 +19,29 @@ from mpnet.problems import load_problems
 
 
 def _queries(spec):
+    """(workspace, start, goal, seed): the shipped quick set's queries with their index as the
+    seed; the arms' sets (100, 138) also reversed, and all of them again with other seeds
+    (other dropout masks, so other decisions): >= 400 runs per env."""
     out = []
     for split in ("seen", "unseen"):
         ts = load_problems(TESTSETS / f"{spec.name}-quick" / f"{split}.json", spec)
         by_id = {w.id: w for w in ts.workspaces}
-        out += [(by_id[q.workspace_id], q) for q in ts.queries]
-    return out
+        out += [(by_id[q.workspace_id], q.start, q.goal) for q in ts.queries]
+    if len(out) < 400:
+        out += [(ws, goal, start) for ws, start, goal in out]
+        out += out
+    return [(*q, i) for i, q in enumerate(out)]
 
 
 def _run(planner, spec, queries):
     checkers, out = {}, []
     if hasattr(planner, "warm_up"):  # compiled before the first query's budget runs (as the bench does)
-        ws, q = queries[0]
-        planner.warm_up(Problem(spec, ws, spec.make_checker(ws), q.start, q.goal, seed=0))
-    for i, (ws, q) in enumerate(queries):
+        ws, start, goal, _ = queries[0]
+        planner.warm_up(Problem(spec, ws, spec.make_checker(ws), start, goal, seed=0))
+    for ws, start, goal, seed in queries:
         checker = checkers.setdefault(id(ws), spec.make_checker(ws))
         checker.reset_counts()
-        r = planner.solve(Problem(spec, ws, checker, q.start, q.goal, seed=i), 10.0)
+        r = planner.solve(Problem(spec, ws, checker, start, goal, seed=seed), 10.0)
         trace = [(s, a.tolist(), b.tolist()) for s, a, b in planner.trace]
         # HR's RRT* runs in time slices: where it ran, its path and checks depend on the machine's load
         fallback = r.stats.get("fallback_calls", 0) > 0
@@ -68,7 +74,7 @@ def test_the_compiled_planner_decides_as_the_numpy_planner(env, name, settings, 
     write_checkpoint(SHIPPED / f"{env}-quick", tmp_path / "pnet.ckpt")
     cloud = lambda ws: spec.cloud(ws, 200, 0)  # noqa: E731 - the env configs' points_per_block and data_seed
     queries = _queries(spec)
-    assert len(queries) >= (400 if spec.state_dim < 7 else 100)  # the arms' quick sets: 100 and 138
+    assert len(queries) >= 400
     numpy_planner = from_checkpoint(tmp_path, spec, 0, cloud, name=name, **settings)
     compiled = from_checkpoint(tmp_path, spec, 0, cloud, name=name, compiled=True, **settings)
     want, got = _run(numpy_planner, spec, queries), _run(compiled, spec, queries)

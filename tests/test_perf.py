@@ -23,6 +23,7 @@ def test_perf_writes_every_section(run_cli, tmp_path):
         "## Harness overhead and memory",
         "## How cost grows with dimension",
         "## How cost grows with the number of obstacles",
+        "## Batched planning: throughput and latency",
         "## Networks against their floor",
         "## Collision checking throughput",
         "## Data generation",
@@ -45,7 +46,11 @@ def test_perf_writes_every_section(run_cli, tmp_path):
     assert sorted(set(ob["blocks"])) == [4, 14] and (ob["queries"] == 2).all()
     assert (out / "figures" / "perf_obstacles.png").stat().st_size > 0
     nets = df[df["section"] == "networks"]
-    assert set(nets["what"]) == {"pnet_step", "enet_encode"} and (nets["ratio_to_floor"] > 0).all()
+    assert set(nets["what"]) == {"pnet_step", "pnet_step_compiled", "enet_encode", "enet_encode_compiled"}
+    assert (nets["ratio_to_floor"] > 0).all()
+    bt = df[df["section"] == "batched"].set_index("mode")
+    assert set(bt.index) == {"one", "batched"} and (bt["queries"] == bt["queries"].iloc[0]).all()
+    assert bt.loc["batched", "batch_mean"] > 1 and (bt["queries_per_s"] > 0).all()
     data = df[df["section"] == "data"]
     assert sorted(data["jobs"]) == [1, 2] and (data["paths"] > 0).all()
 

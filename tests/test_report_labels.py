@@ -159,7 +159,7 @@ def test_labelled_report_from_tiny_runs(tmp_path, run_cli):
         for k in "AB":
             bit, nr = (res.loc[(r["split"], f"{p} [{k}]"), "time_mean_s"] for p in ("bit_star", "mpnet_nr"))
             assert r[f"bit_star_over_mpnet_nr [{k}]"] == pytest.approx(bit / nr, nan_ok=True)
-    header = (out / "table1.md").read_text().splitlines()[2]
+    header = (out / "table1.md").read_text().splitlines()[2].replace(" †", "")  # † marks a dirty tree's runs
     assert header.endswith("| BIT* [A] | BIT*/MPNet (NR) [A] | MPNet (NR) [B] | BIT* [B] | BIT*/MPNet (NR) [B] |")
     eq = pd.read_csv(out / "equal_quality.csv")
     assert list(zip(eq["split"], eq["label"], eq["target_planner"])) == [

@@ -36,6 +36,7 @@ def _step(name: str, t0: float) -> None:
 @hydra.main(version_base="1.3", config_path="../../conf", config_name="perf_main")
 def main(cfg: DictConfig) -> None:
     from harness.perf import render, sections
+    from harness.perf.batched import batched
     from harness.perf.obstacles import obstacles
     from harness.perf.planners import planners
     from harness.provenance import machine_info
@@ -53,6 +54,9 @@ def main(cfg: DictConfig) -> None:
     ]
     rows, errors = planners(list(p.envs), list(p.planners), common)
     _step("planners", t0)
+    more, bad = batched(list(p.envs), str(p.batched.planner), common)
+    rows, errors = rows + more, errors + bad
+    _step("batched", t0)
     o = p.obstacles
     more, bad = obstacles(list(o.counts), list(o.planners), common, int(o.workspaces), int(o.queries), int(p.seed))
     rows, errors = rows + more, errors + bad

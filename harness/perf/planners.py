@@ -48,11 +48,12 @@ def _child(overrides: list[str], conn) -> None:
         conn.close()
 
 
-def run_one(overrides: list[str]) -> dict:
-    """A bench run in a spawned process (a fresh OMPL RNG, a clean peak-memory count)."""
+def run_one(overrides: list[str], child=_child) -> dict:
+    """A bench run (or another measurement, `child(overrides, conn)`) in a spawned process (a
+    fresh OMPL RNG, a clean peak-memory count)."""
     ctx = mp.get_context("spawn")
     recv, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(overrides, send))
+    proc = ctx.Process(target=child, args=(overrides, send))
     proc.start()
     send.close()
     try:

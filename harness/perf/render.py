@@ -44,8 +44,15 @@ def _share(r: pd.Series, col) -> float:
     return r[col]
 
 
+PERF_LABELS = {
+    **PLANNER_LABELS,
+    "mpnet_nr_numpy": "MPNet (NR), numpy loop",
+    "mpnet_hr_numpy": "MPNet (HR), numpy loop",
+}
+
+
 def planner_label(p: str) -> str:
-    return PLANNER_LABELS.get(p, p)
+    return PERF_LABELS.get(p, p)
 
 
 def planners_md(pl: pd.DataFrame) -> str:
@@ -277,6 +284,28 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "![median time and checks against the number of blocks](figures/perf_obstacles.png)",
         ]
+    if "batched" in sec:
+        bt = sec["batched"]
+        rows_ = [
+            [env_label(r.env), planner_label(r.planner), r.mode, str(int(r.queries)), _g(r.batch_mean),
+             _pct(r.success_rate), _g(r.queries_per_s), _ms(r.latency_median_s), _ms(r.latency_p90_s)]
+            for r in bt.itertuples()
+        ]  # fmt: skip
+        head = ["Env", "Planner", "Mode", "Queries", "Queries per batch", "Success [%]", "Queries/s"]
+        parts += [
+            "",
+            "## Batched planning: throughput and latency",
+            "",
+            _md_table([*head, "Latency median [ms]", "Latency p90 [ms]"], rows_),
+            "",
+            "The same queries (the runs' test set, each with its bench seed) planned by the compiled planner "
+            "in one process: `one`, a query at a time (each samples and encodes its cloud); `batched`, a "
+            "workspace's queries together (`mpnet.planners.batched`: one encoding per workspace, the first "
+            "NeuralPlanner runs in lockstep with one Pnet product per step for all of them, then each query "
+            "alone). A batched query's latency runs from its batch's start to its answer. Success: the "
+            "planner's own feasibility check (the bench runs above are the ones re-checked); batched "
+            "queries draw other dropout masks, so their success is measured, not assumed equal.",
+        ]
     if "networks" in sec:
         nw = sec["networks"]
         rows_ = [
@@ -290,9 +319,10 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             _md_table(["What", "Size", "Input", "Median [µs]", "p90 [µs]", "Floor [µs]", "Ratio"], rows_),
             "",
-            "Pnet step: the planner's numpy export with dropout on (as MPNet plans), s2D-shaped input. Floor: "
-            "the same weights as plain chained BLAS matmuls (no bias, activation or dropout). Enet: one cloud "
-            "of 1400 2-D points.",
+            "Pnet step: the planner's numpy export and the compiled step (`_compiled`, what the default "
+            "planner runs) with dropout on (as MPNet plans), raw s2D states in and out. Floor: the same "
+            "weights as plain chained BLAS matmuls (no bias, activation, dropout or scaling). Enet: one "
+            "cloud of 1400 2-D points, numpy and compiled.",
         ]
     if "checkers" in sec:
         ck = sec["checkers"]

@@ -11,7 +11,9 @@ import numpy as np
 
 from harness.bench_checkers import bench_checker
 from mpnet.envs.specs import get_spec
-from mpnet.models.networks import Enet, Pnet, enet_numpy, pnet_numpy
+from mpnet.models.enet_kernel import EnetKernel
+from mpnet.models.networks import Enet, Normalizer, Pnet, enet_numpy, pnet_numpy
+from mpnet.models.pnet_kernel import PnetKernel
 
 
 def _best_per_call(fn, repeats: int, inner: int) -> tuple[float, float]:
@@ -40,8 +42,9 @@ def _floor(weights: list[np.ndarray], h0: np.ndarray):
 
 
 def networks(sizes: dict, state_dim: int, cloud_dim: int, repeats: int, inner: int) -> list[dict]:
-    """Pnet's step at batch 1 (dropout on, as MPNet plans; the planner's numpy export) and
-    Enet's encoding of one cloud, each against its floor, at every size of `sizes`
+    """Pnet's step at batch 1 (dropout on, as MPNet plans; the numpy export and the compiled
+    step) and Enet's encoding of one cloud (numpy, compiled), each against its floor, at every
+    size of `sizes`
     ({name: {"latent", "pnet_hidden", "enet_hidden"}})."""
     import torch
 
@@ -50,16 +53,20 @@ def networks(sizes: dict, state_dim: int, cloud_dim: int, repeats: int, inner: i
     for name, s in sizes.items():
         torch.manual_seed(0)
         latent = int(s["latent"])
-        pnet = pnet_numpy(Pnet(latent + 2 * state_dim, state_dim, list(s["pnet_hidden"])).eval())
+        pnet = Pnet(latent + 2 * state_dim, state_dim, list(s["pnet_hidden"])).eval()
+        pnet = pnet_numpy(pnet, Normalizer.points(state_dim))  # raw states in and out, as MPNet plans
+        kernel = PnetKernel(pnet)
         z, x, g = np.zeros(latent, np.float32), np.zeros(state_dim), np.ones(state_dim)
-        step = _best_per_call(lambda pnet=pnet, z=z, x=x, g=g: pnet.step(z, x, g, rng), repeats, inner)
         floor = _best_per_call(_floor(pnet.weights, np.zeros(pnet.in_dim, np.float32)), repeats, inner)
-        rows.append(_net_row("pnet_step", name, pnet.in_dim, step, floor))
-        enet = enet_numpy(Enet(cloud_dim, list(s["enet_hidden"]), latent).eval())
+        for what, f in (("pnet_step", pnet.step), ("pnet_step_compiled", kernel.step)):
+            step = _best_per_call(lambda f=f, z=z, x=x, g=g: f(z, x, g, rng), repeats, inner)
+            rows.append(_net_row(what, name, pnet.in_dim, step, floor))
+        enet = enet_numpy(Enet(cloud_dim, list(s["enet_hidden"]), latent).eval(), Normalizer.points(2))
         cloud = rng.random(cloud_dim).astype(np.float32)
-        enc = _best_per_call(lambda enet=enet, cloud=cloud: enet.encode(cloud), repeats, max(1, inner // 10))
         floor = _best_per_call(_floor(enet.weights, cloud), repeats, max(1, inner // 10))
-        rows.append(_net_row("enet_encode", name, cloud_dim, enc, floor))
+        for what, f in (("enet_encode", enet.encode), ("enet_encode_compiled", EnetKernel(enet).encode)):
+            enc = _best_per_call(lambda f=f, cloud=cloud: f(cloud), repeats, max(1, inner // 10))
+            rows.append(_net_row(what, name, cloud_dim, enc, floor))
     return rows
 
 

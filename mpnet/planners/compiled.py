@@ -67,7 +67,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
     def __init__(self, name, encode, net, cloud, clip: bool = False, **settings):
         if settings.get("steer_steps"):
             raise ValueError("config key planner.compiled: continuous steerTo only (steer_steps: null)")
-        self.kernel = PnetKernel(net)
+        self.net, self.kernel = net, PnetKernel(net)
         if isinstance(encode, NumpyEnet):  # Enet's encoding compiled too (a zero code stays as given)
             encode = EnetKernel(encode)
         super().__init__(name, encode, self.kernel.step, cloud, **settings)
@@ -82,12 +82,17 @@ class CompiledMPNetPlanner(MPNetPlanner):
         self._tree_buf = np.empty((2, steps + 1, net.state_dim))
         self._trace_buf = np.empty((steps, 2, net.state_dim))
 
-    def solve(self, problem: Problem, budget_s: float) -> Result:
+    def env_of(self, checker) -> tuple:
+        """The checker's kernel env, made once per checker."""
+        known = self._envs.get(id(checker))
+        if known is None or known[0] is not checker:  # a new checker (an id may be reused)
+            known = self._envs[id(checker)] = (checker, kernel_env(checker))
+        return known[1]
+
+    def solve(self, problem: Problem, budget_s: float, **given) -> Result:
+        """MPNetPlanner.solve (`given`: batched planning's code and first run)."""
         raw = problem.checker
-        known = self._envs.get(id(raw))
-        if known is None or known[0] is not raw:  # a new checker (an id may be reused)
-            known = self._envs[id(raw)] = (raw, kernel_env(raw))
-        self.env = known[1]
+        self.env = self.env_of(raw)
         spec = problem.spec
         prop = self._props.get(id(spec))
         if prop is None or prop[0] is not spec:
@@ -97,7 +102,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
         self._memo[2][0] = 0
         self._counts[:] = 0
         try:
-            return super().solve(problem, budget_s)
+            return super().solve(problem, budget_s, **given)
         finally:
             raw.state_checks += int(self._counts[0])
             raw.motion_checks += int(self._counts[1])

@@ -131,7 +131,10 @@ class MPNetPlanner:
         """steerTo's step at stage 0 (first NeuralPlanner run) or replanning round `stage`."""
         return self.steer_steps[min(stage, len(self.steer_steps) - 1)]
 
-    def solve(self, problem: Problem, budget_s: float) -> Result:
+    def solve(self, problem: Problem, budget_s: float, *, code=None, first: Callable | None = None) -> Result:
+        """The Planner protocol's solve. Batched planning (mpnet.planners.batched) gives the
+        workspace's `code` (encoded once for the batch: no cloud or Enet here) and `first`,
+        first(self, stats) -> the first NeuralPlanner run's path or None, run elsewhere."""
         t0 = time.perf_counter()
         deadline = t0 + budget_s
         self.trace, self.last_code, self._trees = [], None, None
@@ -146,19 +149,23 @@ class MPNetPlanner:
             "fallback_used": False,
             **dict.fromkeys(SPLIT_KEYS, 0.0),
         }
-        t = time.perf_counter()
-        cloud = self.cloud(problem.workspace)
-        stats["cloud_s"] = time.perf_counter() - t
-        z = self.encode(cloud)
-        stats["encode_s"] = time.perf_counter() - t  # the cloud and Enet: what plan_s leaves out
-        self.last_code = z
+        if code is None:
+            t = time.perf_counter()
+            cloud = self.cloud(problem.workspace)
+            stats["cloud_s"] = time.perf_counter() - t
+            code = self.encode(cloud)
+            stats["encode_s"] = time.perf_counter() - t  # the cloud and Enet: what plan_s leaves out
+        z = self.last_code = code
         raw = problem.checker  # HR's classical planner checks on it directly
         problem = replace(problem, checker=MotionMemo(raw))
         checker = problem.checker
         forgiving = self.replanning == "forgiving"
         start, goal = problem.start.astype(float), problem.goal.astype(float)
         step = self.steer_step(0)
-        path = self.neural_planner(problem, z, start, goal, self.max_steps, stats, deadline, step, 0, forgiving)
+        if first is None:
+            path = self.neural_planner(problem, z, start, goal, self.max_steps, stats, deadline, step, 0, forgiving)
+        else:
+            path = first(self, stats)
         if path is None:
             if not forgiving:  # Algorithm 1: no coarse path, no replanning
                 return self.failed(deadline, stats)
