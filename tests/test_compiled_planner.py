@@ -7,6 +7,8 @@ machine's load, so there the status, the Pnet trace and that it ran are compared
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -97,3 +99,22 @@ def test_what_the_compiled_planner_does_not_run_is_refused():
         settings.check_env(get_spec("rigid"), "fcl")
     with pytest.raises(ValueError, match="env arm7's pybullet checker has no compiled kernels"):
         settings.build(None, get_spec("arm7"), 0, lambda ws: np.zeros((1, 3)), "pybullet")
+
+
+def test_the_warm_up_calls_every_kernel_whatever_the_clock_says(tmp_path, monkeypatch):
+    """A cold cache compiles the cloud and Enet for longer than any short solve's budget: the
+    warm-up must not be a solve, or the loop's kernels compile inside the first timed query."""
+    from mpnet.planners import compiled as C
+
+    spec = get_spec("s2d")
+    write_checkpoint(SHIPPED / "s2d-quick", tmp_path / "pnet.ckpt")
+    planner = from_checkpoint(tmp_path, spec, 0, lambda ws: spec.cloud(ws, 200, 0), name="mpnet_nr", compiled=True)
+    ws, start, goal, _ = _queries(spec)[0]
+    called = []
+    for name in ("neural_planner", "contract", "is_feasible", "is_valid", "motion_valid"):
+        kernel = getattr(C.K, name)
+        monkeypatch.setattr(C.K, name, lambda *a, _k=kernel, _n=name: called.append(_n) or _k(*a))
+    clock = itertools.count(0.0, 10.0)
+    monkeypatch.setattr(C.time, "perf_counter", lambda: next(clock))  # 10 s pass between any two readings
+    planner.warm_up(Problem(spec, ws, spec.make_checker(ws), start, goal, seed=0))
+    assert set(called) == {"neural_planner", "contract", "is_feasible", "is_valid", "motion_valid"}

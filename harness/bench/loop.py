@@ -207,8 +207,15 @@ def run_bench(
                 continue
             checker = spec.make_checker(ws, backend=collision)
             if not warm:  # a fresh clone compiles the checker's kernels here, not in query 1's time
+                t0 = time.perf_counter()
                 checker.warm_up(queries[0].start)
                 _warm_up(planner, Problem(spec, ws, checker, queries[0].start, queries[0].goal, seed=0))
+                if (took := time.perf_counter() - t0) > 5.0:
+                    print(
+                        f"warm-up: the kernels compiled in {took:.0f} s, before the first query (once: numba keeps "
+                        "them on disk)",
+                        file=sys.stderr,
+                    )
                 checker.reset_counts()
                 warm = True
             for q in queries:
