@@ -54,7 +54,8 @@ def kernel_env(checker) -> tuple:
     if type(checker) is SphereChecker:
         mi, mf, ob, lo_, up_ = checker._args
         status = np.array([[CERTIFY_TOL, 1.0 if checker.base_blocked else 0.0]])
-        return (K.ARM, mi, mf, np.ascontiguousarray(ob, float)[None], status, lo_, up_, checker._buf)
+        arm = np.zeros(0, np.int8)  # K.ARM_FIELDS: the arm's kernels compile apart from the box robots'
+        return (K.ARM, mi, mf, np.ascontiguousarray(ob, float)[None], status, lo_, up_, checker._buf, arm)
     raise ValueError(f"the compiled planner has no kernels for {type(checker).__name__}")
 
 

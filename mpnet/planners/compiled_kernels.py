@@ -7,13 +7,13 @@ same checks in the same order through the same memo (a motion's verdict is remem
 first time it is computed, by the one-motion or the batch test, as MotionMemo does), so the
 same paths and the same check counts.
 
-An env's checks come as one tuple of arrays of one type for every env (`env`: kind, ints,
-floats, lo, hi, lower, upper, scratch), so that one compiled planner, cached on disk, serves
-them all: kind POINT is the point robot's boxes (lo, hi; mpnet.envs.point_kernels), RIGID the
+An env's checks come as one tuple of arrays (`env`: kind, ints, floats, lo, hi, lower, upper,
+scratch): kind POINT is the point robot's boxes (lo, hi; mpnet.envs.point_kernels), RIGID the
 rectangle's (box centres and halves in lo, hi, the body and bounds in floats, ints scratch;
-mpnet.envs.rigid_kernels), ARM the sphere model's (its packed ints and floats, the packed
-obstacles as lo's one row, hi's one row (certify tolerance, base blocked), its scratch;
-mpnet.envs.sphere_checks, which counts the configurations it evaluates in counts[2]).
+mpnet.envs.rigid_kernels): one compilation, cached on disk, serves both. ARM is the sphere
+model's (its packed ints and floats, the packed obstacles as lo's one row, hi's one row (certify
+tolerance, base blocked), its scratch, and one field more, so that the kernels compile apart for
+it; mpnet.envs.sphere_checks, which counts the configurations it evaluates in counts[2]).
 
 The memo is an open-addressing table (keys (cap, 2d), verdicts int8: -1 empty, 0, 1) keyed
 by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of tuples).
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from mpnet.envs import point_kernels as P
 from mpnet.envs import rigid_kernels as R
@@ -39,50 +40,100 @@ def new_memo(state_dim: int, bits: int = MEMO_BITS):
     return np.empty((1 << bits, 2 * state_dim)), np.full(1 << bits, -1, np.int8), np.zeros(1, np.int64)
 
 
-@njit(cache=True)
+# The env's checks, one implementation per env layout, chosen when a kernel is compiled (typing
+# time): the arm's env has one field more (ARM_FIELDS), so every kernel compiles apart for the
+# box robots (point, rigid: a kind test between two small checks) and for the arm (the sphere
+# model). A cold cache then compiles only what the env planned on needs: the sphere model's
+# checks inlined into every kernel tripled a point robot's first compilation.
+BOX_FIELDS, ARM_FIELDS = 8, 9
+
+
 def _state(env, counts, q):
-    kind, ints, floats, lo, hi, lower, upper, scratch = env
-    if kind == POINT:
-        return P.state_free(q, lo, hi, lower, upper)
-    if kind == RIGID:
-        return R.state_free(q, lo, hi, floats)
-    if kind == ARM:  # SphereChecker._state_free
-        counts[2] += 1
-        return hi[0, 1] == 0.0 and S.state_free(q, ints, floats, lo[0], lower, upper, scratch)
-    return False
+    """Whether the state is free (the env's checker's _state_free); typed by the overload below."""
+    raise NotImplementedError("compiled only")
 
 
-@njit(cache=True)
 def _motion(env, counts, a, b):
-    kind, ints, floats, lo, hi, lower, upper, scratch = env
-    if kind == POINT:
-        return P.motion_free(a, b, lo, hi, lower, upper, scratch)
-    if kind == RIGID:
-        return R.motion_free(a, b, lo, hi, floats, ints)
-    if kind == ARM:  # SphereChecker._motion_free
-        if hi[0, 1] != 0.0:
-            return False
-        ok, n = S.motion_free(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-        counts[2] += n
-        return ok
-    return False
+    """Whether the motion is free (the env's checker's _motion_free); typed by the overload below."""
+    raise NotImplementedError("compiled only")
 
 
-@njit(cache=True)
 def _motions(env, counts, A, B, out):
-    kind, ints, floats, lo, hi, lower, upper, scratch = env
-    if kind == POINT:
-        P.motions_free(A, B, lo, hi, lower, upper, out)
-    elif kind == ARM:  # SphereChecker._motions_free
-        if hi[0, 1] != 0.0:
-            out[:] = False
-            return
-        res, n = S.motions_free(A, B, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-        out[:] = res
-        counts[2] += n
-    else:  # the other checkers' batch is their one-motion test in a loop (CollisionChecker)
-        for i in range(A.shape[0]):
-            out[i] = _motion(env, counts, A[i], B[i])
+    """out[i]: whether motion i is free (the env's checker's _motions_free); typed by the overload."""
+    raise NotImplementedError("compiled only")
+
+
+def _is_arm(env) -> bool:
+    return len(env.types) == ARM_FIELDS
+
+
+@overload(_state)
+def _state_typed(env, counts, q):
+    if _is_arm(env):
+
+        def arm(env, counts, q):  # SphereChecker._state_free
+            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
+            counts[2] += 1
+            return hi[0, 1] == 0.0 and S.state_free(q, ints, floats, lo[0], lower, upper, scratch)
+
+        return arm
+
+    def boxes(env, counts, q):
+        kind, ints, floats, lo, hi, lower, upper, scratch = env
+        if kind == POINT:
+            return P.state_free(q, lo, hi, lower, upper)
+        return R.state_free(q, lo, hi, floats)
+
+    return boxes
+
+
+@overload(_motion)
+def _motion_typed(env, counts, a, b):
+    if _is_arm(env):
+
+        def arm(env, counts, a, b):  # SphereChecker._motion_free
+            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
+            if hi[0, 1] != 0.0:
+                return False
+            ok, n = S.motion_free(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
+            counts[2] += n
+            return ok
+
+        return arm
+
+    def boxes(env, counts, a, b):
+        kind, ints, floats, lo, hi, lower, upper, scratch = env
+        if kind == POINT:
+            return P.motion_free(a, b, lo, hi, lower, upper, scratch)
+        return R.motion_free(a, b, lo, hi, floats, ints)
+
+    return boxes
+
+
+@overload(_motions)
+def _motions_typed(env, counts, A, B, out):
+    if _is_arm(env):
+
+        def arm(env, counts, A, B, out):  # SphereChecker._motions_free
+            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
+            if hi[0, 1] != 0.0:
+                out[:] = False
+                return
+            res, n = S.motions_free(A, B, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
+            out[:] = res
+            counts[2] += n
+
+        return arm
+
+    def boxes(env, counts, A, B, out):
+        kind, ints, floats, lo, hi, lower, upper, scratch = env
+        if kind == POINT:
+            P.motions_free(A, B, lo, hi, lower, upper, out)
+        else:  # the rigid checker's batch is its one-motion test in a loop (CollisionChecker)
+            for i in range(A.shape[0]):
+                out[i] = R.motion_free(A[i], B[i], lo, hi, floats, ints)
+
+    return boxes
 
 
 @njit(cache=True)
