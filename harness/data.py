@@ -1,6 +1,6 @@
 """`python -m harness.data +env=ENV [scale=S]`: build (or find) the env's training dataset.
 
-Sharded over a cluster (README, "Running on a cluster"): `shards=N -m shard=range(0,N)`
+Sharded over a cluster (docs/cluster.md): `shards=N -m shard=range(0,N)`
 plans each shard's expert paths into the cache's partial folder of the dataset's content
 key; then `merge=true` assembles the one dataset from them, planning nothing.
 """
@@ -51,7 +51,7 @@ def _build(run: RunSettings) -> None:
             f"config key merge: {len(e.missing)} of {e.chunks} chunks of expert paths missing "
             f"({_missing_shards(e, run.shards)}); run them, or drop merge=true to plan them here"
         ) from None
-    testset = ensure_testset(run, progress=run.progress)  # not sharded: see the README
+    testset = ensure_testset(run, progress=run.progress)  # not sharded: see docs/cluster.md
     print(f"{'built' if built else 'cached'}: {folder}")
     print(f"test set: {len(testset.workspaces)} workspaces, {len(testset.queries)} queries ({', '.join(run.splits)})")
     print(
