@@ -46,7 +46,13 @@ def test_perf_writes_every_section(run_cli, tmp_path):
     assert sorted(set(ob["blocks"])) == [4, 14] and (ob["queries"] == 2).all()
     assert (out / "figures" / "perf_obstacles.png").stat().st_size > 0
     nets = df[df["section"] == "networks"]
-    assert set(nets["what"]) == {"pnet_step", "pnet_step_compiled", "enet_encode", "enet_encode_compiled"}
+    assert set(nets["what"]) == {
+        "pnet_step",
+        "pnet_step_compiled",
+        "pnet_step_in_loop",
+        "enet_encode",
+        "enet_encode_compiled",
+    }
     assert (nets["ratio_to_floor"] > 0).all()
     bt = df[df["section"] == "batched"].set_index("mode")
     assert set(bt.index) == {"one", "batched"} and (bt["queries"] == bt["queries"].iloc[0]).all()

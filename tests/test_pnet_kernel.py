@@ -61,3 +61,26 @@ def test_a_step_without_a_normaliser_or_of_the_wrong_shape_is_refused():
     kernel = PnetKernel(NumpyPnet(net, Normalizer(np.ones(2))))
     with pytest.raises(ValueError, match="expected z"):
         kernel.step(np.zeros(8, np.float32), np.zeros(3), np.zeros(3))
+
+
+def test_a_batch_of_rows_steps_as_one_state_does(tmp_path):
+    """pnet_rows (batched planning): with dropout off each row is pnet_step's result (one matrix
+    product instead of a vector product: equal up to float32 summation order); with dropout on,
+    each row draws its own mask."""
+    from mpnet.models.pnet_kernel import batch_scratch, pnet_rows
+
+    write_checkpoint(SHIPPED / "s2d-quick", tmp_path / "pnet.ckpt")
+    _, net = load_pnet_checkpoint(tmp_path / "pnet.ckpt").to_numpy()
+    kernel = PnetKernel(net)
+    rng = np.random.default_rng(0)
+    z = rng.standard_normal(kernel.zdim).astype(np.float32)
+    X, T = rng.uniform(-20, 20, (6, 2)), rng.uniform(-20, 20, (6, 2))
+    out = np.empty((6, 2))
+    buf = batch_scratch(kernel.args[0], 6)
+    pnet_rows(z, X, T, 6, *kernel.args, rng, False, buf, out)
+    one = np.array([kernel.step(z, x, t, None) for x, t in zip(X, T)])
+    np.testing.assert_allclose(out, one, rtol=1e-5, atol=1e-5)
+    same = np.repeat(X[:1], 6, axis=0), np.repeat(T[:1], 6, axis=0)
+    pnet_rows(z, *same, 6, *kernel.args, np.random.default_rng(1), True, buf, out)
+    assert len({tuple(r) for r in out}) == 6  # six masks, six proposals from one state
+    pnet_rows(z, *same, 3, *kernel.args, np.random.default_rng(1), True, buf, out)  # only the first m rows

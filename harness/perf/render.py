@@ -319,8 +319,9 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             _md_table(["What", "Size", "Input", "Median [µs]", "p90 [µs]", "Floor [µs]", "Ratio"], rows_),
             "",
-            "Pnet step: the planner's numpy export and the compiled step (`_compiled`, what the default "
-            "planner runs) with dropout on (as MPNet plans), raw s2D states in and out. Floor: the same "
+            "Pnet step: the planner's numpy export, the compiled step called from Python (`_compiled`) and "
+            "in a compiled loop (`_in_loop`: as the default planner runs it, Python's call into numba left "
+            "out), with dropout on (as MPNet plans), raw s2D states in and out. Floor: the same "
             "weights as plain chained BLAS matmuls (no bias, activation, dropout or scaling). Enet: one "
             "cloud of 1400 2-D points, numpy and compiled.",
         ]

@@ -8,12 +8,13 @@ import statistics
 import time
 
 import numpy as np
+from numba import njit
 
 from harness.bench_checkers import bench_checker
 from mpnet.envs.specs import get_spec
 from mpnet.models.enet_kernel import EnetKernel
 from mpnet.models.networks import Enet, Normalizer, Pnet, enet_numpy, pnet_numpy
-from mpnet.models.pnet_kernel import PnetKernel
+from mpnet.models.pnet_kernel import PnetKernel, pnet_step
 
 
 def _best_per_call(fn, repeats: int, inner: int) -> tuple[float, float]:
@@ -41,9 +42,18 @@ def _floor(weights: list[np.ndarray], h0: np.ndarray):
     return run
 
 
+@njit(cache=True)
+def _steps(n, z, x, g, *args):
+    """n compiled Pnet steps in a compiled loop: the step as the compiled planner calls it,
+    without Python's call into numba."""
+    for _ in range(n):
+        pnet_step(z, x, g, *args)
+
+
 def networks(sizes: dict, state_dim: int, cloud_dim: int, repeats: int, inner: int) -> list[dict]:
-    """Pnet's step at batch 1 (dropout on, as MPNet plans; the numpy export and the compiled
-    step) and Enet's encoding of one cloud (numpy, compiled), each against its floor, at every
+    """Pnet's step at batch 1 (dropout on, as MPNet plans; the numpy export, the compiled step
+    called from Python, and the compiled step in a compiled loop, as the compiled planner runs
+    it) and Enet's encoding of one cloud (numpy, compiled), each against its floor, at every
     size of `sizes`
     ({name: {"latent", "pnet_hidden", "enet_hidden"}})."""
     import torch
@@ -61,6 +71,11 @@ def networks(sizes: dict, state_dim: int, cloud_dim: int, repeats: int, inner: i
         for what, f in (("pnet_step", pnet.step), ("pnet_step_compiled", kernel.step)):
             step = _best_per_call(lambda f=f, z=z, x=x, g=g: f(z, x, g, rng), repeats, inner)
             rows.append(_net_row(what, name, pnet.in_dim, step, floor))
+        out = np.empty(state_dim)
+        loop = _best_per_call(
+            lambda k=kernel, z=z, x=x, g=g, o=out: _steps(inner, z, x, g, *k.args, rng, True, k._scratch, o), repeats, 1
+        )
+        rows.append(_net_row("pnet_step_in_loop", name, pnet.in_dim, (loop[0] / inner, loop[1] / inner), floor))
         enet = enet_numpy(Enet(cloud_dim, list(s["enet_hidden"]), latent).eval(), Normalizer.points(2))
         cloud = rng.random(cloud_dim).astype(np.float32)
         floor = _best_per_call(_floor(enet.weights, cloud), repeats, max(1, inner // 10))

@@ -127,3 +127,62 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     o = layers[last]
     for i in range(d):
         out[i] = np.float64(o[i]) * out_scale[i % out_scale.shape[0]]
+
+
+def batch_scratch(weights, rows: int) -> tuple:
+    """pnet_rows' buffers for up to `rows` states: the inputs, each layer's outputs, the masks."""
+    n_mask = sum(w.shape[1] for w in weights[:-1])
+    layers = tuple(np.empty((rows, w.shape[1]), np.float32) for w in weights)
+    return (np.empty((rows, weights[0].shape[0]), np.float32), layers, np.empty((rows, n_mask), np.float32))
+
+
+@njit(cache=True)
+def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max, rng,
+              dropout, buf, out):  # fmt: skip
+    """out[:m] = Pnet(z, X[r], T[r]) for the first m rows as one matrix product per layer (batched
+    planning): pnet_step's operations on rows, each row its own dropout mask (one draw of all
+    rows' masks per call), so a row's result is what pnet_step gives with that row's mask."""
+    H, layers, masks = buf
+    zd, d = z.shape[0], X.shape[1]
+    for r in range(m):
+        for i in range(zd):
+            H[r, i] = z[i]
+        for i in range(d):
+            H[r, zd + i] = np.float32(X[r, i]) * inv2[i]
+            H[r, zd + d + i] = np.float32(T[r, i]) * inv2[d + i]
+    n_dropout = offsets.shape[0] - 1
+    n_mask = offsets[n_dropout]
+    on = dropout and n_mask > 0
+    weights = dropped if on else plain
+    if on:
+        one = np.float32(1.0) * mask_scale
+        u = rng.random((m, n_mask), dtype=np.float32)
+        for r in range(m):
+            for i in range(n_mask):
+                masks[r, i] = one if u[r, i] >= p else np.float32(0.0)
+    last = len(weights) - 1
+    src = H[:m]
+    for k in range(last + 1):
+        o = layers[k][:m]
+        o[:, :] = np.dot(src, weights[k])
+        b = biases[k]
+        a = alphas[k] if k < last else np.float32(0.0)
+        for r in range(m):
+            for j in range(o.shape[1]):
+                v = o[r, j] + b[j]
+                if k < last:
+                    if prelu_max:
+                        t = v * a
+                        v = v if v >= t else t
+                    else:
+                        v = v * (
+                            (np.float32(1.0) if v < 0 else np.float32(0.0)) * (a - np.float32(1.0)) + np.float32(1.0)
+                        )
+                    if on and k < n_dropout:
+                        v *= masks[r, offsets[k] + j]
+                o[r, j] = v
+        src = o
+    o = layers[last]
+    for r in range(m):
+        for i in range(d):
+            out[r, i] = np.float64(o[r, i]) * out_scale[i % out_scale.shape[0]]

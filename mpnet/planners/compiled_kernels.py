@@ -28,7 +28,7 @@ from numba.extending import overload
 from mpnet.envs import point_kernels as P
 from mpnet.envs import rigid_kernels as R
 from mpnet.envs import sphere_checks as S
-from mpnet.models.pnet_kernel import pnet_step
+from mpnet.models.pnet_kernel import pnet_rows, pnet_step
 
 POINT, RIGID, ARM = 0, 1, 2
 PNET, RANDOM, RANDOM_ANY, STRAIGHT = 0, 1, 2, 3  # mpnet.planners.neural.PROPOSALS, in order
@@ -274,6 +274,17 @@ def _sample(rng, lower, upper, q):
 
 
 @njit(cache=True)
+def _settle(env, prop, new):
+    """A Pnet proposal into canonical coordinates: wrapped, or clipped into the bounds (prop's clip)."""
+    _, clip, _, lower, upper, _ = prop
+    _canonical(env, new)
+    if clip:
+        bounded = 2 if env[0] == RIGID else new.shape[0]
+        for k in range(bounded):
+            new[k] = min(max(new[k], lower[k]), upper[k])
+
+
+@njit(cache=True)
 def _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new):
     """MPNetPlanner.propose into `new`: Pnet's step, wrapped or clipped into the bounds (clip),
     or an ablation's proposal (mpnet.planners.neural: random_valid_state, space.sample,
@@ -285,11 +296,7 @@ def _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new):
             z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max,
             rng, dropout, buf, new,
         )  # fmt: skip
-        _canonical(env, new)
-        if clip:
-            bounded = 2 if env[0] == RIGID else new.shape[0]
-            for k in range(bounded):
-                new[k] = min(max(new[k], lower[k]), upper[k])
+        _settle(env, prop, new)
     elif kind == RANDOM:
         for _ in range(RANDOM_TRIES):
             _sample(rng, lower, upper, new)
@@ -335,3 +342,58 @@ def neural_planner(z, start, goal, max_steps, precheck, env, memo, counts, prop,
             return True, n[0], n[1], s + 1
         a = b
     return False, n[0], n[1], max_steps
+
+
+@njit(cache=True)
+def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, net, rng, dropout, buf, scratch,
+             live, trees, n, steps, connected, trace):  # fmt: skip
+    """Batched planning's first NeuralPlanner runs (mpnet.planners.batched): query b grows
+    trees[b] from starts[b] and goals[b] as neural_planner does, all live queries one step at a
+    time, their proposals from one pnet_rows call per step. memos: (keys, verdicts, used) with a
+    leading query axis; counts (B, 3); scratch: (X, T, Y) of (B, d); live: the queries to run
+    (endpoints valid); out: n (B, 2) tree sizes, steps (B,), connected (B,), trace (B, S, 2, d)."""
+    plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max = net
+    keys, verdicts, used = memos
+    X, T, Y = scratch
+    B = starts.shape[0]
+    grow = np.zeros(B, np.int64)
+    rows = np.empty(B, np.int64)
+    for b in range(B):
+        trees[b, 0, 0], trees[b, 1, 0] = starts[b], goals[b]
+        n[b, 0], n[b, 1] = 1, 1
+        steps[b], connected[b] = 0, False
+        if (
+            live[b]
+            and precheck
+            and motion_valid(env, (keys[b], verdicts[b], used[b : b + 1]), counts[b], starts[b], goals[b])
+        ):
+            connected[b], live[b] = True, False
+    for _ in range(max_steps):
+        m = 0
+        for b in range(B):
+            if live[b]:
+                g = grow[b]
+                X[m], T[m] = trees[b, g, n[b, g] - 1], trees[b, 1 - g, n[b, 1 - g] - 1]
+                rows[m] = b
+                m += 1
+        if m == 0:
+            break
+        pnet_rows(
+            z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max, rng,
+            dropout, buf, Y,
+        )  # fmt: skip
+        for r in range(m):
+            b = rows[r]
+            g = grow[b]
+            new = trees[b, g, n[b, g]]
+            new[:] = Y[r]
+            _settle(env, prop, new)
+            trace[b, steps[b], 0], trace[b, steps[b], 1] = X[r], new
+            steps[b] += 1
+            n[b, g] += 1
+            if motion_valid(
+                env, (keys[b], verdicts[b], used[b : b + 1]), counts[b], new, trees[b, 1 - g, n[b, 1 - g] - 1]
+            ):
+                connected[b], live[b] = True, False
+            else:
+                grow[b] = 1 - g
