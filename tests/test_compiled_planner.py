@@ -1,6 +1,6 @@
 """The compiled planner (mpnet.planners.compiled) against the numpy planner it compiles: on every
 query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid; the arms' 100 and 138
-reversed and with other seeds: 400 and 552), the same status, path, check counts, Pnet
+reversed and with other seeds: 400 and 552; the variants every 4th of them), the same status, path, check counts, Pnet
 calls, partial trees and Pnet trace, with the shipped networks and each query's seed (HR's
 classical planner runs in time slices: where it ran, the path and checks after it depend on the
 machine's load, so there the status, the Pnet trace and that it ran are compared)."""
@@ -77,6 +77,8 @@ def test_the_compiled_planner_decides_as_the_numpy_planner(env, name, settings, 
     cloud = lambda ws: spec.cloud(ws, 200, 0)  # noqa: E731 - the env configs' points_per_block and data_seed
     queries = _queries(spec)
     assert len(queries) >= 400
+    if name not in ("mpnet_nr", "mpnet_hr"):  # a variant's own pieces: every 4th query (>= 100)
+        queries = queries[::4]
     numpy_planner = from_checkpoint(tmp_path, spec, 0, cloud, name=name, **settings)
     compiled = from_checkpoint(tmp_path, spec, 0, cloud, name=name, compiled=True, **settings)
     want, got = _run(numpy_planner, spec, queries), _run(compiled, spec, queries)
