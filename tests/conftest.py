@@ -72,3 +72,12 @@ def run_cli(workdir):
 def mbm_dir(repo) -> Path:
     """Six MotionBenchMaker Panda problems (scene/request YAML pairs), test data only."""
     return repo / "tests" / "data" / "mbm"
+
+
+@pytest.fixture(scope="session")
+def sweeps_cache(tmp_path_factory) -> Path:
+    """One cache for the end-to-end sweeps (tests/test_cli.py), shared by the suite's workers
+    (pytest-xdist gives each worker its own base folder under one parent): each network trains
+    once, the artifact store's lock making the others wait."""
+    base = tmp_path_factory.getbasetemp()
+    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "sweeps-cache"

@@ -358,15 +358,6 @@ SWEEPS = [(env, "base") for env in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda
 SWEEPS += [("s2d", "variants0"), ("s2d", "variants1")]
 
 
-@pytest.fixture(scope="session")
-def sweeps_cache(tmp_path_factory) -> Path:
-    """One cache for the sweeps below, shared by the suite's workers (pytest-xdist gives each
-    worker its own base folder under one parent): each network trains once, the artifact
-    store's lock making the others wait."""
-    base = tmp_path_factory.getbasetemp()
-    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "sweeps-cache"
-
-
 @pytest.mark.parametrize("env,which", SWEEPS, ids=[f"{e}-{w}" for e, w in SWEEPS])
 def test_every_env_and_planner_config_runs(env, which, tmp_path, run_cli, sweeps_cache):
     """Each conf/env × base planner, and s2d × every conf/planner (ablations and time to
@@ -526,7 +517,7 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
     cache = tmp_path / "cache"
     run_cli(
         "harness",
-        "+env=s2d",
+        "+env=rigid",
         "+planner=mpnet_hr",
         "scale=tiny",
         "rerun=false",
@@ -547,7 +538,7 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
         assert all({"pnet_calls", "replans", "fallback_used"} <= set(q) for q in queries)
     run_cli(
         "harness",
-        "+env=s2d",
+        "+env=rigid",
         "+planner=mpnet_nr",
         "scale=tiny",
         "rerun=false",
@@ -625,12 +616,54 @@ def test_table1_experiment_and_report(tmp_path, run_cli):
     assert "Scale: tiny" in readme and "Compared with the paper" in readme
 
 
+def test_the_findings_equal_quality_and_arm7_experiments_run(tmp_path, run_cli, sweeps_cache):
+    """docs/mpnet.md's and README's experiments, each narrowed to one planner and seed at tiny
+    scale (their sweeps' other planners run in test_every_env_and_planner_config_runs)."""
+    common = ["scale=tiny", "seed=0", "splits=[unseen]", "rerun=false", "progress=false", f"cache_dir={sweeps_cache}"]
+    for experiment, env, planner in (
+        ("findings", "s2d", "mpnet_nr_random"),
+        ("equal_quality", "s2d", "bit_star_to_nr_x1.1"),
+        ("arm7", "arm7", "mpnet_hr_rrtc"),
+    ):
+        sweep = tmp_path / experiment
+        run_cli(
+            "harness", "-m", f"+experiment={experiment}", f"+env={env}", f"+planner={planner}", *common,
+            f"hydra.sweep.dir={sweep}",
+        )  # fmt: skip
+        (f,) = sweep.rglob("trials.mcap")
+        _, msgs = read_mcap(f)
+        queries = [m for t, m in msgs if t == "/query"]
+        assert len(queries) == 4 and recheck(msgs) == sum(q["success"] for q in queries)
+        assert next(m for t, m in msgs if t == "/run")["planner"] == planner
+
+
+def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_cache):
+    """docs/arm.md's panda_mbm commands at tiny scale: the dense networks trained, then MPNet,
+    its ablation and its named variants (a short budget: tiny networks rarely connect)."""
+    common = ["scale=tiny", "progress=false", f"cache_dir={sweeps_cache}"]
+    run_cli("harness.train", "+env=panda_mbm", "+planner=mpnet_nr_dense", *common, f"hydra.run.dir={tmp_path / 't'}")
+    planners = "mpnet_nr,mpnet_nr_random,mpnet_hr_rrtc,mpnet_nr_clip,mpnet_nr_dense_clip,mpnet_hr_rrtc_clip"
+    sweep = tmp_path / "sweep"
+    run_cli(
+        "harness", "-m", "+env=panda_mbm", f"+planner={planners}", *common, "splits=[unseen]", "budget_s=2",
+        "rerun=false", f"hydra.sweep.dir={sweep}",
+    )  # fmt: skip
+    files = sorted(sweep.rglob("trials.mcap"))
+    assert len(files) == 6
+    for f in files:
+        _, msgs = read_mcap(f)
+        queries = [m for t, m in msgs if t == "/query"]
+        assert len(queries) == 4 and recheck(msgs) == sum(q["success"] for q in queries)
+
+
 def test_learning_curve_cli(tmp_path, run_cli):
-    """Two training-set sizes (tiny: 2 workspaces x 5 and x 10 paths), then the learning
+    """The learning-curve experiment narrowed to two training-set sizes (tiny: 2 workspaces x 5
+    and x 10 paths), then the learning
     curve from their logs: one row per size and split, the figure written."""
     run_cli(
         "harness",
         "-m",
+        "+experiment=learning_curve",
         "+env=s2d",
         "+planner=mpnet_nr",
         "scale=tiny",

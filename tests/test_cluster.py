@@ -5,6 +5,8 @@ the checks of the sharding and Lightning keys."""
 from __future__ import annotations
 
 import json
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -198,3 +200,17 @@ def test_a_child_spawned_in_a_loky_worker_starts_and_the_worker_keeps_its_method
     script.write_text(SPAWN_UNDER_LOKY)
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120).stdout.split()
     assert out == ["0", "loky", "1"]
+
+
+@pytest.mark.slow
+def test_a_training_sweep_on_the_local_launcher(tmp_path, run_cli, sweeps_cache):
+    """docs/cluster.md's `harness.train scale=tiny hydra/launcher=local -m +env=s2d,c2d`: one
+    job per env through submitit's local executor (the networks from the suite's shared cache
+    when a sweep trained them first)."""
+    run_cli(
+        "harness.train", "scale=tiny", "hydra/launcher=local", "-m", "+env=s2d,c2d", "progress=false",
+        f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={tmp_path}",
+    )  # fmt: skip
+    logs = "".join(f.read_text() for f in tmp_path.rglob("*_log.out"))  # each job's stdout (submitit)
+    folders = set(re.findall(r"^(?:trained|cached): (.+)$", logs, re.M))
+    assert len(folders) == 2 and all(Path(f, "pnet.ckpt").exists() for f in folders)

@@ -56,15 +56,15 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     from mpnet.planners.mpnet import from_checkpoint
 
     cache = tmp_path / "cache"
-    args = ["+env=s2d", "scale=tiny", "progress=false", f"cache_dir={cache}", f"hydra.run.dir={tmp_path / 'r'}"]
-    out = run_cli("harness.export_weights", *args, f"export_dir={tmp_path / 'sets'}").stdout
-    assert out.startswith("exported: ") and (tmp_path / "sets" / "testsets" / "s2d-tiny" / "seen.json").exists()
+    args = ["-m", "+env=s2d", "scale=tiny", "progress=false", f"cache_dir={cache}", f"hydra.sweep.dir={tmp_path / 'r'}"]
+    out = run_cli("harness.export_weights", *args, f"export_dir={tmp_path / 'sets'}").stdout  # a sweep, as documented
+    assert "exported: " in out and (tmp_path / "sets" / "testsets" / "s2d-tiny" / "seen.json").exists()
     (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
     shipped = tmp_path / "shipped"
     shipped.mkdir()
     write_checkpoint(tmp_path / "sets" / "pretrained" / "s2d-tiny", shipped / "pnet.ckpt")
 
-    run = settings([*args[:4]])
+    run = settings([*args[1:5]])
     spec = run.env.spec
     testset = ensure_testset(run, progress=False)
     cloud = runtime_objects(run)["cloud"]
