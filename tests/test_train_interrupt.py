@@ -40,7 +40,12 @@ def _interrupt_in_pnet(repo, cache) -> tuple[int, str]:
             if sel.select(1):
                 err += os.read(p.stderr.fileno(), 1 << 16)
         p.send_signal(signal.SIGINT)
-        err += p.communicate(timeout=120)[1]
+        for _ in range(60):  # a user presses Ctrl-C again while nothing happens (on a loaded machine
+            try:  # the first one was once lost at Pnet's start: the fit ran on to early stopping)
+                err += p.communicate(timeout=2)[1]
+                break
+            except subprocess.TimeoutExpired:
+                p.send_signal(signal.SIGINT)
     finally:
         if p.poll() is None:
             p.kill()
