@@ -30,6 +30,10 @@ def _interrupt_in_pnet(repo, cache) -> tuple[int, str]:
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         env=env,
+        # Ctrl-C's default action, as in a terminal: a suite started in the background by a
+        # non-interactive shell (`cmd &`) ignores SIGINT, its children inherit that, and Python
+        # then never raises KeyboardInterrupt (the fit ran on to early stopping)
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     sel = selectors.DefaultSelector()
     sel.register(p.stderr, selectors.EVENT_READ)
@@ -40,12 +44,7 @@ def _interrupt_in_pnet(repo, cache) -> tuple[int, str]:
             if sel.select(1):
                 err += os.read(p.stderr.fileno(), 1 << 16)
         p.send_signal(signal.SIGINT)
-        for _ in range(60):  # a user presses Ctrl-C again while nothing happens (on a loaded machine
-            try:  # the first one was once lost at Pnet's start: the fit ran on to early stopping)
-                err += p.communicate(timeout=2)[1]
-                break
-            except subprocess.TimeoutExpired:
-                p.send_signal(signal.SIGINT)
+        err += p.communicate(timeout=120)[1]
     finally:
         if p.poll() is None:
             p.kill()

@@ -64,10 +64,18 @@ def _first(batch: _Batch, b: int, shared_s: float):
     return adopt
 
 
+def warm_up(planner: CompiledMPNetPlanner, problem: Problem) -> None:
+    """The planner's kernels (CompiledMPNetPlanner.warm_up) and the lockstep's compiled, or
+    loaded from numba's cache, before a timed batch: a cold cache's compilation would otherwise
+    come out of the first batch's budget."""
+    planner.warm_up(problem)
+    plan_batch(planner, [problem], 1.0)
+
+
 def plan_batch(planner: CompiledMPNetPlanner, problems: list[Problem], budget_s: float) -> list[tuple[Result, float]]:
     """Plan `problems` (one workspace) together: (Result, latency_s) per problem, in order; a
     query's latency is from the batch's start to its answer (it waits for the queries before
-    it)."""
+    it). Call warm_up first: the lockstep is compiled on its first call."""
     if not isinstance(planner, CompiledMPNetPlanner) or planner.proposal != "pnet":
         raise ValueError("batched planning takes the compiled planner with Pnet's proposals")
     if not problems:
