@@ -9,27 +9,21 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
 
-from harness.perf.planners import run_one
+from harness.perf.planners import compose_run, run_one
 
 
 def _child(overrides: list[str], conn) -> None:
-    from hydra import compose, initialize_config_dir
-
     from harness.bench.loop import query_seed
     from harness.bench.run import build_testset, runtime_objects, seed_everything
     from harness.settings import settings_of
     from mpnet.planners.base import Problem
     from mpnet.planners.batched import plan_batch, warm_up
 
-    conf = str(Path(__file__).resolve().parents[2] / "conf")
     try:
-        with initialize_config_dir(conf, version_base="1.3"):
-            cfg = compose("config", overrides)
-        run = settings_of(cfg)
+        run = settings_of(compose_run(overrides))
         seed_everything(run.seed)
         planner = run.planner.make(runtime_objects(run))
         testset, _ = build_testset(run)

@@ -14,19 +14,23 @@ import numpy as np
 from mpnet.planners.neural import SPLIT_KEYS
 
 
+def compose_run(overrides: list[str]):
+    """The config `python -m harness` composes from these overrides (in a spawned child)."""
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(str(Path(__file__).resolve().parents[2] / "conf"), version_base="1.3"):
+        return compose("config", overrides)
+
+
 def _child(overrides: list[str], conn) -> None:
     """One bench run, composed as `python -m harness` would compose it; sends back the
     timing, the logged queries and the peak memory, or the error as one line."""
-    from hydra import compose, initialize_config_dir
-
     from harness.bench import QueryTiming, bench
     from harness.provenance import peak_rss_mb
     from harness.report.load import read_trials
 
-    conf = str(Path(__file__).resolve().parents[2] / "conf")
     try:
-        with initialize_config_dir(conf, version_base="1.3"):
-            cfg = compose("config", overrides)
+        cfg = compose_run(overrides)
         timing = QueryTiming()
         with tempfile.TemporaryDirectory() as tmp:
             bench(cfg, Path(tmp) / "run", timing=timing, quiet=True)

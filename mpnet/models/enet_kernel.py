@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from mpnet.models.networks import NumpyEnet, _flat_cloud
+from mpnet.models.pnet_kernel import affine
 
 
 class EnetKernel:
@@ -61,10 +62,7 @@ def enet_encode(h, weights, biases, alphas, layers):
     src = h
     for k in range(last + 1):
         o = layers[k]
-        o[:] = np.dot(src, weights[k])
-        b = biases[k]
-        for j in range(o.shape[0]):
-            o[j] += b[j]
+        affine(src, weights[k], biases[k], o)
         if k < last:
             a = alphas[k]
             for j in range(o.shape[0]):

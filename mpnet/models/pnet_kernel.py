@@ -65,6 +65,23 @@ def scratch(weights) -> tuple:
 
 
 @njit(cache=True)
+def affine(src, w, b, o):
+    """o = src @ w + b, as numpy's `h @ w` then `h += b` (np.dot: the same BLAS sgemv)."""
+    o[:] = np.dot(src, w)
+    for j in range(o.shape[0]):
+        o[j] += b[j]
+
+
+@njit(cache=True)
+def prelu(v, a, prelu_max):
+    """NumpyPnet's PReLU of one float32: max(v, a v) when 0 <= a <= 1, else its select."""
+    if prelu_max:
+        t = v * a
+        return v if v >= t else t
+    return v * ((np.float32(1.0) if v < 0 else np.float32(0.0)) * (a - np.float32(1.0)) + np.float32(1.0))
+
+
+@njit(cache=True)
 def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     z,
     x,
@@ -105,20 +122,12 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     src = h
     for k in range(last + 1):
         o = layers[k]
-        o[:] = np.dot(src, weights[k])
-        b = biases[k]
-        for j in range(o.shape[0]):
-            o[j] += b[j]
+        affine(src, weights[k], biases[k], o)
         if k == last:
             break
         a = alphas[k]
         for j in range(o.shape[0]):
-            v = o[j]
-            if prelu_max:
-                t = v * a
-                o[j] = v if v >= t else t
-            else:
-                o[j] = v * ((np.float32(1.0) if v < 0 else np.float32(0.0)) * (a - np.float32(1.0)) + np.float32(1.0))
+            o[j] = prelu(o[j], a, prelu_max)
         if dropout and k < n_dropout and n_mask > 0:
             base = offsets[k]
             for j in range(o.shape[0]):
@@ -171,13 +180,7 @@ def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets
             for j in range(o.shape[1]):
                 v = o[r, j] + b[j]
                 if k < last:
-                    if prelu_max:
-                        t = v * a
-                        v = v if v >= t else t
-                    else:
-                        v = v * (
-                            (np.float32(1.0) if v < 0 else np.float32(0.0)) * (a - np.float32(1.0)) + np.float32(1.0)
-                        )
+                    v = prelu(v, a, prelu_max)
                     if on and k < n_dropout:
                         v *= masks[r, offsets[k] + j]
                 o[r, j] = v

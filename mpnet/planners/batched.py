@@ -93,7 +93,7 @@ def plan_batch(planner: CompiledMPNetPlanner, problems: list[Problem], budget_s:
     live = np.array([check_endpoints(p) is None for p in problems])  # a bad endpoint: solve answers it alone
     K.lockstep(
         np.asarray(code, np.float32), starts, goals, planner.max_steps, planner.replanning == "forgiving",
-        planner.env_of(problems[0].checker), batch.memos, batch.counts, planner._proposal(problems[0].spec),
+        planner.env_of(problems[0].checker), batch.memos, batch.counts, planner.prop_of(problems[0].spec),
         planner.kernel.args, rng, planner.compiled_dropout, batch.buf, batch.scratch, live, batch.trees, batch.n,
         batch.steps, batch.connected, batch.trace,
     )  # fmt: skip

@@ -94,11 +94,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
         """MPNetPlanner.solve (`given`: batched planning's code and first run)."""
         raw = problem.checker
         self.env = self.env_of(raw)
-        spec = problem.spec
-        prop = self._props.get(id(spec))
-        if prop is None or prop[0] is not spec:
-            prop = self._props[id(spec)] = (spec, self._proposal(spec))
-        self.prop = prop[1]
+        self.prop = self.prop_of(problem.spec)
         self._memo[1].fill(-1)
         self._memo[2][0] = 0
         self._counts[:] = 0
@@ -110,11 +106,18 @@ class CompiledMPNetPlanner(MPNetPlanner):
             if hasattr(raw, "configurations"):
                 raw.configurations += int(self._counts[2])
 
-    def _proposal(self, spec) -> tuple:
-        """The kernel's `prop`: kind, clip, straight step, the space's lower, upper, half-widths."""
-        space = spec.space
-        lower, upper, half = (np.ascontiguousarray(v, float) for v in (space.lower, space.upper, space.half_widths()))
-        return (PROPOSAL_KINDS[self.proposal], self.clip, self.straight_step, lower, upper, half)
+    def prop_of(self, spec) -> tuple:
+        """The kernel's `prop` for the env, made once per spec: kind, clip, straight step, the
+        space's lower, upper, half-widths."""
+        known = self._props.get(id(spec))
+        if known is None or known[0] is not spec:
+            space = spec.space
+            bounds = (np.ascontiguousarray(v, float) for v in (space.lower, space.upper, space.half_widths()))
+            known = self._props[id(spec)] = (
+                spec,
+                (PROPOSAL_KINDS[self.proposal], self.clip, self.straight_step, *bounds),
+            )
+        return known[1]
 
     def warm_up(self, problem: Problem) -> None:
         """Every kernel called once on the problem's ends, with no budget: compiled, or loaded
@@ -123,7 +126,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
         budget, and the loop's kernels were then compiled inside the first timed query.)"""
         z = self.encode(self.cloud(problem.workspace))
         env, memo, counts = self.env_of(problem.checker), K.new_memo(self.net.state_dim, 4), np.zeros(3, np.int64)
-        prop = self._proposal(problem.spec)
+        prop = self.prop_of(problem.spec)
         start, goal = np.asarray(problem.start, float), np.asarray(problem.goal, float)
         K.neural_planner(
             np.asarray(z, np.float32), start, goal, 1, True, env, memo, counts, prop, self.kernel.args,
