@@ -44,11 +44,14 @@ def settings(compose_config):
 
 
 @pytest.fixture(scope="session")
-def workdir(tmp_path_factory) -> Path:
-    """Where the tests' subprocesses run: a command given no cache_dir or run dir writes its
-    cache (.cache/mpnet-bench, shared by the session's tests) and outputs/ here, never into
-    the user's checkout."""
-    return tmp_path_factory.mktemp("cwd")
+def workdir(tmp_path_factory, sweeps_cache) -> Path:
+    """Where the tests' subprocesses run: a command given no run dir writes outputs/ here, never
+    into the user's checkout; one given no cache_dir uses .cache/mpnet-bench here, which is the
+    session's shared cache (sweeps_cache), so a tiny network trains once for the whole suite."""
+    wd = tmp_path_factory.mktemp("cwd")
+    sweeps_cache.mkdir(parents=True, exist_ok=True)
+    (wd / ".cache").symlink_to(sweeps_cache.parent, target_is_directory=True)
+    return wd
 
 
 @pytest.fixture(scope="session")
@@ -76,8 +79,9 @@ def mbm_dir(repo) -> Path:
 
 @pytest.fixture(scope="session")
 def sweeps_cache(tmp_path_factory) -> Path:
-    """One cache for the end-to-end sweeps (tests/test_cli.py), shared by the suite's workers
-    (pytest-xdist gives each worker its own base folder under one parent): each network trains
-    once, the artifact store's lock making the others wait."""
+    """The session's artifact cache, shared by the suite's workers (pytest-xdist gives each
+    worker its own base folder under one parent): the sweeps' cache_dir and every command's
+    default one (workdir); each network trains once, the artifact store's lock making the
+    others wait. A test about building artifacts gives its command a cache of its own."""
     base = tmp_path_factory.getbasetemp()
-    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "sweeps-cache"
+    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "shared-cache" / "mpnet-bench"

@@ -5,14 +5,14 @@ import pytest
 
 
 @pytest.mark.slow
-def test_perf_writes_every_section(run_cli, tmp_path):
+def test_perf_writes_every_section(run_cli, tmp_path, sweeps_cache):
     out = tmp_path / "reports"
     run_cli(
         "harness.perf",
         "perf=tiny",
         "perf.envs=[s2d]",
         f"out={out}",
-        f"cache_dir={tmp_path / 'cache'}",
+        f"cache_dir={sweeps_cache}",  # the tiny s2d networks the other tests train too
         f"hydra.run.dir={tmp_path / 'run'}",
         timeout=900,
     )

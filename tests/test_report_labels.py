@@ -142,6 +142,7 @@ def test_labelled_report_from_tiny_runs(tmp_path, run_cli):
             "+planner=mpnet_nr,bit_star,bit_star_to_nr",
             "scale=tiny",
             f"seed={seed}",
+            "budget_s=1",  # BIT* chasing NR's exact cost gives up after 1 s, not 10
             "progress=false",
             "rerun=false",
             f"hydra.sweep.dir={tmp_path / name}",

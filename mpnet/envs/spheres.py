@@ -16,7 +16,6 @@ from functools import cache
 from importlib import resources
 
 import numpy as np
-from scipy.cluster.vq import kmeans2
 
 from mpnet.envs import sphere_checks as C
 from mpnet.envs import sphere_kernels as K
@@ -221,6 +220,8 @@ def _grouped(spheres: np.ndarray) -> list[np.ndarray]:
     k = max(1, round(len(spheres) / GROUP))
     if k == 1:
         return [spheres]
+    from scipy.cluster.vq import kmeans2  # here, not at the top: scipy.cluster costs every run ~0.3 s to import
+
     _, label = kmeans2(spheres[:, :3], k, minit="++", seed=np.random.default_rng(0), iter=30)
     return [spheres[label == j] for j in range(k) if (label == j).any()]
 
