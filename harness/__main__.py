@@ -22,13 +22,15 @@ def main(cfg: DictConfig) -> None:
     run_dir = Path(hydra_cfg.runtime.output_dir)
     if cfg.problems:
         cfg.problems = hydra.utils.to_absolute_path(str(cfg.problems))
+    overrides = list(hydra_cfg.overrides.task)  # logged in /run: the report says how to run it again
     if hydra_cfg.mode != RunMode.MULTIRUN:
-        bench_or_exit(cfg, run_dir)
+        bench_or_exit(cfg, run_dir, overrides=overrides)
         return
     # OMPL's RNG takes its seed once per process: each job of a sweep (several may run in
     # one process: Hydra's basic launcher, a joblib worker) runs in a fresh interpreter.
     with spawning() as ctx:
-        child = ctx.Process(target=bench_in_child, args=(OmegaConf.to_container(cfg, resolve=True), str(run_dir)))
+        container = OmegaConf.to_container(cfg, resolve=True)
+        child = ctx.Process(target=bench_in_child, args=(container, str(run_dir), overrides))
         child.start()
     child.join()
     if child.exitcode:

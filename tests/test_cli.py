@@ -4,6 +4,7 @@ import csv
 import importlib.util
 import json
 import os
+import shlex
 import shutil
 import sqlite3
 import subprocess
@@ -597,9 +598,10 @@ def test_paper_scale_dry_run(tmp_path, env, run_cli):
     assert len(rows) == 4
 
 
-def test_table1_experiment_and_report(tmp_path, run_cli):
+def test_table1_experiment_and_report(tmp_path, run_cli, sweeps_cache):
     """The Table I sweep (narrowed to two planners and two seeds at tiny scale), then the
-    report over its folder: every run is in results.csv and Table I."""
+    report over its folder: every run is in results.csv and Table I, and its README gives the
+    sweep's own command."""
     sweep = tmp_path / "sweep"
     run_cli(
         "harness",
@@ -611,7 +613,7 @@ def test_table1_experiment_and_report(tmp_path, run_cli):
         "seed=0,1",
         "progress=false",
         "rerun=false",
-        f"cache_dir={tmp_path / 'cache'}",
+        f"cache_dir={sweeps_cache}",
         f"hydra.sweep.dir={sweep}",
     )
     assert len(list(sweep.rglob("trials.mcap"))) == 4
@@ -630,6 +632,9 @@ def test_table1_experiment_and_report(tmp_path, run_cli):
     con.close()
     readme = (out / "README.md").read_text()
     assert "Scale: tiny" in readme and "Compared with the paper" in readme
+    logged = ["+experiment=table1", "scale=tiny", "progress=False", "rerun=False"]  # as Hydra logs them
+    rest = shlex.join([*logged, f"cache_dir={sweeps_cache}"])
+    assert f"\npython -m harness -m +env=s2d +planner=bit_star,mpnet_nr seed=0,1 {rest}\n" in readme
 
 
 def test_the_findings_equal_quality_and_arm7_experiments_run(tmp_path, run_cli, sweeps_cache):
@@ -661,7 +666,7 @@ def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_
     planners = "mpnet_nr,mpnet_nr_random,mpnet_hr_rrtc,mpnet_nr_clip,mpnet_nr_dense_clip,mpnet_hr_rrtc_clip"
     sweep = tmp_path / "sweep"
     run_cli(
-        "harness", "-m", "+env=panda_mbm", f"+planner={planners}", *common, "splits=[unseen]", "budget_s=2",
+        "harness", "-m", "+env=panda_mbm", f"+planner={planners}", *common, "splits=[unseen]", "budget_s=1",
         "rerun=false", f"hydra.sweep.dir={sweep}",
     )  # fmt: skip
     files = sorted(sweep.rglob("trials.mcap"))
@@ -672,7 +677,7 @@ def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_
         assert len(queries) == 4 and recheck(msgs) == sum(q["success"] for q in queries)
 
 
-def test_learning_curve_cli(tmp_path, run_cli):
+def test_learning_curve_cli(tmp_path, run_cli, sweeps_cache):
     """The learning-curve experiment narrowed to two training-set sizes (tiny: 2 workspaces x 5
     and x 10 paths), then the learning
     curve from their logs: one row per size and split, the figure written."""
@@ -688,7 +693,7 @@ def test_learning_curve_cli(tmp_path, run_cli):
         "progress=false",
         f"hydra.sweep.dir={tmp_path / 'sweep'}",
         "hydra.sweep.subdir=p${scale.train.paths}",
-        f"cache_dir={tmp_path / 'cache'}",
+        f"cache_dir={sweeps_cache}",  # tiny's own 10 paths: the networks other tests train
     )
     p = run_cli("harness.report.learning_curve", str(tmp_path / "sweep"), "--out", str(tmp_path / "lc"))
     rows = list(csv.DictReader((tmp_path / "lc" / "learning_curve.csv").open()))

@@ -74,8 +74,15 @@ def build_testset(run: RunSettings):
     return ensure_testset(run, run.progress), "+".join(run.splits)
 
 
-def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, quiet: bool = False) -> Tally:
-    """Run one bench job into run_dir and print its summary (of the queries planned now)."""
+def bench(
+    cfg: DictConfig,
+    run_dir: Path,
+    timing: QueryTiming | None = None,
+    quiet: bool = False,
+    overrides: list[str] | None = None,
+) -> Tally:
+    """Run one bench job into run_dir and print its summary (of the queries planned now).
+    overrides: the job's command-line overrides, logged in /run (the report's commands)."""
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
     run = settings_of(cfg)
@@ -95,6 +102,8 @@ def bench(cfg: DictConfig, run_dir: Path, timing: QueryTiming | None = None, qui
     info["settings"] = run.results
     info["facts"] = run.facts
     info["queries_expected"] = len(testset.queries)
+    if overrides is not None:
+        info["overrides"] = [str(o) for o in overrides]
     log_process = LogProcess(
         run_dir, info, spec, validation_step=spec.validation_step, rerun=run.rerun, resume=run.resume
     )
@@ -158,5 +167,5 @@ def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
         sys.exit(1)
 
 
-def bench_in_child(container: dict, run_dir: str) -> None:
-    bench_or_exit(OmegaConf.create(container), Path(run_dir))
+def bench_in_child(container: dict, run_dir: str, overrides: list[str] | None = None) -> None:
+    bench_or_exit(OmegaConf.create(container), Path(run_dir), overrides=overrides)

@@ -62,6 +62,12 @@ RUN_SCHEMA = {
             "its sha256): a resumed run must have the same",
         },
         "queries_expected": {"type": "integer", "description": "Queries in the run's test set or problem file"},
+        "overrides": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "The job's command-line overrides as Hydra recorded them (`+env=s2d`, `seed=0`, ...): "
+            "what `python -m harness` was given, so the report can say how to run it again",
+        },
         "facts": {
             "type": "object",
             "description": "What the report needs to know, computed once from the config (harness/log/facts.py): "

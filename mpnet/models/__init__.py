@@ -1,31 +1,23 @@
 """MPNet's networks (plain torch), their LightningModules and DataModules.
 
-Importing this package does NOT import Lightning (~2 s): the networks, the numpy export and
-the checkpoint reader are loaded eagerly; the Lightning classes on first access.
+Importing this package imports nothing heavy: each name loads its module on first access, so
+a planning run that reads its networks with numpy (``load_pnet_numpy``) never imports torch
+(~1.5 s), and nothing here imports Lightning (~2 s) until a LightningModule is asked for.
 """
 
 from __future__ import annotations
 
 import importlib
 
-from mpnet.models.checkpoint import CheckpointError, PlannerNets, load_enet_checkpoint, load_pnet_checkpoint
-from mpnet.models.networks import (
-    ENET_HIDDEN,
-    ENET_LATENT,
-    PNET_HIDDEN,
-    ContractiveAE,
-    Decoder,
-    Enet,
-    Normalizer,
-    NumpyEnet,
-    NumpyPnet,
-    Pnet,
-    enet_numpy,
-    paper_s2d,
-    pnet_numpy,
-)
-
+_NETWORKS = ("ENET_HIDDEN", "ENET_LATENT", "PNET_HIDDEN", "ContractiveAE", "Decoder", "Enet", "Pnet")
+_NETWORKS += ("enet_numpy", "paper_s2d", "pnet_numpy")
 _LAZY = {
+    **dict.fromkeys(_NETWORKS, "mpnet.models.networks"),
+    **dict.fromkeys(("Normalizer", "NumpyEnet", "NumpyPnet"), "mpnet.models.numpy_nets"),
+    **dict.fromkeys(
+        ("CheckpointError", "PlannerNets", "load_enet_checkpoint", "load_pnet_checkpoint", "load_pnet_numpy"),
+        "mpnet.models.checkpoint",
+    ),
     "EnetModule": "mpnet.models.modules",
     "PnetModule": "mpnet.models.modules",
     "MPNetDataModule": "mpnet.models.datamodule",
@@ -43,23 +35,4 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = [
-    "ENET_HIDDEN",
-    "ENET_LATENT",
-    "PNET_HIDDEN",
-    "Enet",
-    "Decoder",
-    "ContractiveAE",
-    "Pnet",
-    "Normalizer",
-    "NumpyPnet",
-    "NumpyEnet",
-    "pnet_numpy",
-    "enet_numpy",
-    "paper_s2d",
-    "PlannerNets",
-    "CheckpointError",
-    "load_pnet_checkpoint",
-    "load_enet_checkpoint",
-    *_LAZY,
-]
+__all__ = list(_LAZY)

@@ -1,5 +1,6 @@
 """Read the networks out of a PnetModule / EnetModule checkpoint WITHOUT importing Lightning
-(importing it costs ~2 s; the bench path must not pay that).
+(importing it costs ~2 s; the bench path must not pay that), and the planner's numpy networks
+without importing torch either (:func:`load_pnet_numpy`: another ~1.5 s per run).
 
 The layout read here is the one :mod:`mpnet.models.modules` writes: ``hyper_parameters``
 holds the networks' ``config()`` dicts and scales; ``state_dict`` keys are prefixed with
@@ -12,10 +13,15 @@ import os
 import pickle
 import zipfile
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import torch
+from mpnet.models import torch_zip
+from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet, PnetArrays, _flat_cloud
 
-from mpnet.models.networks import ContractiveAE, Enet, Normalizer, NumpyEnet, NumpyPnet, Pnet, _flat_cloud
+if TYPE_CHECKING:
+    import torch
+
+    from mpnet.models.networks import ContractiveAE, Enet, Pnet
 
 
 def _sub_state(state: dict, prefix: str) -> dict:
@@ -31,16 +37,35 @@ class CheckpointError(ValueError):
     """A checkpoint file that cannot be read; `str(e)` is one line naming the file."""
 
 
-def _load(path: str | os.PathLike, map_location) -> tuple[dict, dict]:
-    try:
-        ckpt = torch.load(path, map_location=map_location, weights_only=True)
-    except _DAMAGED as e:
-        detail = (str(e).strip().splitlines() or [""])[0]
-        raise CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: {detail})") from None
+def _unreadable(path, e: BaseException) -> CheckpointError:
+    detail = (str(e).strip().splitlines() or [""])[0]
+    return CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: {detail})")
+
+
+def _parts(path, ckpt) -> tuple[dict, dict]:
     try:
         return ckpt["hyper_parameters"], ckpt["state_dict"]
     except (KeyError, TypeError) as e:
         raise CheckpointError(f"{path}: not a Lightning checkpoint of mpnet.models (missing {e})") from None
+
+
+def _load(path: str | os.PathLike, map_location) -> tuple[dict, dict]:
+    import torch
+
+    try:
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+    except _DAMAGED as e:
+        raise _unreadable(path, e) from None
+    return _parts(path, ckpt)
+
+
+def _load_arrays(path: str | os.PathLike) -> tuple[dict, dict]:
+    """As _load, tensors as numpy arrays, without torch (mpnet.models.torch_zip)."""
+    try:
+        ckpt = torch_zip.load(path)
+    except _DAMAGED as e:
+        raise _unreadable(path, e) from None
+    return _parts(path, ckpt)
 
 
 @dataclass
@@ -55,6 +80,8 @@ class PlannerNets:
 
     def encode(self, cloud) -> torch.Tensor:
         """Raw cloud (flattened, or points (n_points, wdim)) -> ``Z`` (no autograd)."""
+        import torch
+
         with torch.inference_mode():
             c = _flat_cloud(torch.as_tensor(cloud, dtype=torch.float32), self.encoder.in_dim)
             return self.encoder(self.cloud_norm.normalize(c))
@@ -66,18 +93,41 @@ class PlannerNets:
         return NumpyEnet(self.encoder, self.cloud_norm), NumpyPnet(self.pnet, self.state_norm)
 
 
-def load_pnet_checkpoint(path: str | os.PathLike, map_location="cpu") -> PlannerNets:
-    hp, state = _load(path, map_location)
+def _check_pnet(path, hp: dict) -> None:
     if "pnet" not in hp or "encoder" not in hp:
         raise CheckpointError(f"{path}: not a PnetModule checkpoint")
+
+
+def load_pnet_checkpoint(path: str | os.PathLike, map_location="cpu") -> PlannerNets:
+    from mpnet.models.networks import Enet, Pnet
+
+    hp, state = _load(path, map_location)
+    _check_pnet(path, hp)
     pnet, encoder = Pnet(**hp["pnet"]), Enet(**hp["encoder"])
     pnet.load_state_dict(_sub_state(state, "pnet."))
     encoder.load_state_dict(_sub_state(state, "encoder."))
     return PlannerNets(encoder.eval(), pnet.eval(), Normalizer(hp["state_scale"]), Normalizer(hp["cloud_scale"]))
 
 
+def load_pnet_numpy(path: str | os.PathLike) -> tuple[NumpyEnet, NumpyPnet]:
+    """What ``load_pnet_checkpoint(path).to_numpy()`` gives, the same float32 weights, without
+    importing torch: how a planning run loads its networks."""
+    hp, state = _load_arrays(path)
+    _check_pnet(path, hp)
+    try:
+        enet, pnet = (
+            EnetArrays(hp["encoder"], _sub_state(state, "encoder.")),
+            PnetArrays(hp["pnet"], _sub_state(state, "pnet.")),
+        )
+    except (KeyError, TypeError, ValueError) as e:
+        raise CheckpointError(f"{path}: not a PnetModule checkpoint (weights: {type(e).__name__} {e})") from None
+    return NumpyEnet(enet, Normalizer(hp["cloud_scale"])), NumpyPnet(pnet, Normalizer(hp["state_scale"]))
+
+
 def load_enet_checkpoint(path: str | os.PathLike, map_location="cpu") -> tuple[ContractiveAE, Normalizer]:
     """An EnetModule checkpoint -> (autoencoder, cloud normaliser)."""
+    from mpnet.models.networks import ContractiveAE
+
     hp, state = _load(path, map_location)
     if "ae" not in hp:
         raise CheckpointError(f"{path}: not an EnetModule checkpoint")
@@ -87,4 +137,4 @@ def load_enet_checkpoint(path: str | os.PathLike, map_location="cpu") -> tuple[C
     return ae.eval(), Normalizer(hp["cloud_scale"])
 
 
-__all__ = ["CheckpointError", "PlannerNets", "load_pnet_checkpoint", "load_enet_checkpoint"]
+__all__ = ["CheckpointError", "PlannerNets", "load_pnet_checkpoint", "load_pnet_numpy", "load_enet_checkpoint"]

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from mpnet.models.networks import NumpyEnet, _flat_cloud
+from mpnet.models.numpy_nets import NumpyEnet, _flat_cloud
 from mpnet.models.pnet_kernel import affine
 
 

@@ -12,7 +12,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from mpnet.data.store import SET_META as META
 from mpnet.data.store import ArtifactError, file_checksum, find_set, read_set_meta
@@ -63,6 +62,8 @@ def write_checkpoint(folder: Path, path: Path) -> dict:
     got = file_checksum(folder / WEIGHTS)
     if got != meta["weights"]:
         raise CheckpointError(f"{folder / WEIGHTS}: {got} differs from {folder / META}'s {meta['weights']}")
+    import torch  # here: importing this module (the cache's lookup of a shipped set) must not cost it
+
     with np.load(folder / WEIGHTS) as z:
         state = {k: torch.from_numpy(z[k].copy()) for k in z.files}
     torch.save({"hyper_parameters": meta["hyper_parameters"], "state_dict": state}, path)

@@ -21,7 +21,7 @@ from mpnet.envs.collision import PointChecker
 from mpnet.envs.rigid import RigidChecker
 from mpnet.envs.spheres import CERTIFY_TOL, SphereChecker
 from mpnet.models.enet_kernel import EnetKernel
-from mpnet.models.networks import NumpyEnet
+from mpnet.models.numpy_nets import NumpyEnet
 from mpnet.models.pnet_kernel import PnetKernel
 from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result

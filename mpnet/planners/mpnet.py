@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from mpnet.envs.spec import EnvSpec
-from mpnet.models.checkpoint import load_pnet_checkpoint
+from mpnet.models.checkpoint import load_pnet_numpy
 from mpnet.planners.classical import ALGORITHMS, OmplPlanner
 from mpnet.planners.neural import MPNetPlanner, check_settings
 
@@ -86,7 +86,7 @@ class MPNetSettings:
         point cloud as training drew it; collision the checkers' backend (None: the robot's
         default)."""
         self.check_env(env, collision)
-        encode, pnet_step = load_pnet_checkpoint(Path(models_dir) / PNET_FILE).to_numpy()
+        encode, pnet_step = load_pnet_numpy(Path(models_dir) / PNET_FILE)
         if self.encoding == "zeros":
             code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
             encode, cloud = (lambda _cloud: code), (lambda _ws: None)
