@@ -53,7 +53,7 @@ def test_seeds_of_any_size_run(tmp_path, seed, run_cli):
     assert len(paths(tmp_path)) == 8
 
 
-def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp_path, run_cli, workdir):
+def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp_path, run_cli, workdir, sweeps_cache):
     """kill -9 of the whole group (the log process too): the file holds what was flushed; the
     same command with resume=true logs every query exactly once, each planned as an
     uninterrupted run plans it, and leaves a file the stock `mcap` reader opens."""
@@ -67,7 +67,7 @@ def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp
         "rerun=false",
         "env.reference.bit_star_s=0.01",  # a test set built in seconds
         "env.expert.iterations=10",
-        f"cache_dir={tmp_path / 'cache'}",
+        f"cache_dir={sweeps_cache}",  # the next test's test set too
     ]
     run_cli(*args, f"hydra.run.dir={tmp_path / 'whole'}")
     killed = tmp_path / "killed"
@@ -104,10 +104,10 @@ def _log_child(pid: int) -> int:
     raise AssertionError("no trial-log process")
 
 
-def test_a_killed_log_process_is_one_line_and_resume_finishes(tmp_path, run_cli, workdir):
+def test_a_killed_log_process_is_one_line_and_resume_finishes(tmp_path, run_cli, workdir, sweeps_cache):
     args = [
         "harness", "+env=rigid", "+planner=rrt_star", "scale=quick", "splits=[seen]", "progress=false",
-        "rerun=false", "env.reference.bit_star_s=0.01", "env.expert.iterations=10", f"cache_dir={tmp_path / 'c'}",
+        "rerun=false", "env.reference.bit_star_s=0.01", "env.expert.iterations=10", f"cache_dir={sweeps_cache}",
         f"hydra.run.dir={tmp_path / 'run'}",
     ]  # fmt: skip
     proc = subprocess.Popen([sys.executable, "-m", *args], cwd=workdir, stdout=subprocess.PIPE, stderr=subprocess.PIPE)

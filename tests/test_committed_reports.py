@@ -1,0 +1,37 @@
+"""The committed reports' Planner Arena databases, opened with Planner Arena's own loader: in
+the current format (named statuses, best cost over time for the optimizing planners)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+DATABASES = sorted((REPO_ROOT / "reports").rglob("benchmark.db"))
+OPTIMIZING = {"bit_star", "informed_rrt_star", "rrt_star"}  # OMPL's: best cost over time is logged
+
+
+def test_the_top_level_database_is_committed():
+    assert REPO_ROOT / "reports" / "benchmark.db" in DATABASES
+
+
+@pytest.mark.parametrize("path", DATABASES, ids=[str(p.parent.relative_to(REPO_ROOT)) for p in DATABASES])
+def test_a_committed_database_loads_with_named_statuses_and_progress(path):
+    pytest.importorskip("plannerarena")
+    import polars as pl
+    from plannerarena.database import load_database
+
+    db = load_database(path)
+    runs = db["runs"]
+    assert runs.height > 0 and db["attributes"][:3] == ["time", "solved", "status"]
+    statuses = runs.join(db["enums"].filter(pl.col("name") == "status"), left_on="status", right_on="value")
+    assert statuses.height == runs.height  # every run's status is a named one
+    assert "Unknown status" not in set(statuses["description"])
+    planners = {str(p).split("_to_nr")[0] for p in runs["planner"].unique()}  # bit_star_to_nr_x1.1: bit_star
+    progress = db["progress"]
+    if not planners & OPTIMIZING:
+        return
+    assert progress.height > 0 and progress["best cost"].null_count() < progress.height
+    drawn = progress.join(runs.select(["id", "planner"]), left_on="runid", right_on="id")
+    assert {str(p).split("_to_nr")[0] for p in drawn["planner"].unique()} <= OPTIMIZING
