@@ -1230,3 +1230,25 @@ def test_a_run_from_a_dirty_tree_is_marked_in_every_table(tmp_path):
     write_log(clean / "nr", "s2d", "mpnet_nr", 0, qs)
     facts, _ = planner_facts(load([clean])[0])
     assert facts.dirty == {} and facts.label("mpnet_nr") == "MPNet (NR)" and facts.dirty_note() == ""
+
+
+def test_every_failure_the_harness_logs_has_a_named_status():
+    """A failure reason the harness writes maps to a status Planner Arena names (never
+    "Unknown status"): a cost-target query with no target is "not run"."""
+    import pandas as pd
+
+    from harness.report.arena import OMPL_STATUS, ST_UNKNOWN, ompl_status
+
+    failures = ["timeout", "invalid_query", "error", "no_solution", "recheck_collision", "no_target", None]
+    success = [False] * 6 + [True]
+    st = ompl_status(pd.Series(success), pd.Series(failures))
+    assert ST_UNKNOWN not in st
+    assert [OMPL_STATUS[s] for s in st] == [
+        "Timeout",
+        "Invalid start",
+        "Crash",
+        "Abort",
+        "Invalid solution (failed the re-check)",
+        "Not run (no target: the planner it chases failed)",
+        "Exact solution",
+    ]

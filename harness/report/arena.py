@@ -37,8 +37,10 @@ OMPL_STATUS = (
     "Abort",
     "Infeasible",
     "Invalid solution (failed the re-check)",  # ours: an exact path claimed, refused by the harness
+    "Not run (no target: the planner it chases failed)",  # ours: a *_to_nr query whose NR failed
 )
 ST_UNKNOWN, ST_INVALID_START, ST_TIMEOUT, ST_EXACT, ST_CRASH, ST_ABORT, ST_RECHECK = 0, 1, 4, 6, 7, 8, 10
+ST_NO_TARGET = 11
 # Planner Arena takes the columns of `experiments` past OMPL's twelve as problem parameters.
 PARAMETERS = (("split", "VARCHAR(64)"),)
 
@@ -119,7 +121,8 @@ def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
     """OMPL PlannerStatus values: exact solution for a success; for a failure timeout, invalid
     start, crash (an exception in the planner), abort (the planner gave up within the budget:
     OMPL's 'no solution for some other reason'), our invalid solution (a path that failed the
-    harness's re-check), or unknown."""
+    harness's re-check), our not run (a cost-target query whose target planner failed: no
+    target, nothing planned), or unknown."""
     f = failure.fillna("").astype(str)
     st = np.full(len(f), ST_UNKNOWN)
     st[f.eq("timeout").to_numpy()] = ST_TIMEOUT
@@ -127,6 +130,7 @@ def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
     st[f.isin(("error", "exception", "crash")).to_numpy()] = ST_CRASH
     st[f.eq("no_solution").to_numpy()] = ST_ABORT
     st[f.str.startswith("recheck").to_numpy()] = ST_RECHECK
+    st[f.eq("no_target").to_numpy()] = ST_NO_TARGET
     st[success.to_numpy(bool)] = ST_EXACT
     return st
 

@@ -353,7 +353,8 @@ How the numbers are computed:
   "— (0/N)": the planner ran N queries there and solved none; blank: not run.
 - `benchmark.db` status: exact solution for a success, timeout, invalid start (an invalid
   query), crash (an exception), abort (the planner gave up within the budget), invalid
-  solution (a path that failed the harness's re-check); `solved` and `correct_solution` are
+  solution (a path that failed the harness's re-check), not run (a time-to-equal-quality
+  query whose MPNet target failed, so there was nothing to chase); `solved` and `correct_solution` are
   the harness's verdict, `solution_length` the path cost, `solution_segments` the path's
   points less one (NULL for a failure or an empty path); no `memory` (not measured); the
   seed, split, workspace and query ids and failure reason in `run_queries` (by run id);
