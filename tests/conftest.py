@@ -85,3 +85,22 @@ def sweeps_cache(tmp_path_factory) -> Path:
     others wait. A test about building artifacts gives its command a cache of its own."""
     base = tmp_path_factory.getbasetemp()
     return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "shared-cache" / "mpnet-bench"
+
+
+@pytest.fixture(scope="session")
+def write_pnet_checkpoint():
+    """write(path, enet, pnet, state_scale, cloud_scale): a PnetModule-layout checkpoint of
+    these torch networks, as mpnet.models.checkpoint reads it."""
+    return _write_pnet_checkpoint
+
+
+def _write_pnet_checkpoint(path: Path, enet, pnet, state_scale: list, cloud_scale: list) -> Path:
+    import torch
+
+    state = {
+        **{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
+        **{f"encoder.{k}": v for k, v in enet.state_dict().items()},
+    }
+    hp = {"pnet": pnet.config(), "encoder": enet.config(), "state_scale": state_scale, "cloud_scale": cloud_scale}
+    torch.save({"hyper_parameters": hp, "state_dict": state}, path)
+    return path

@@ -7,7 +7,6 @@ import copy
 import itertools
 
 import pytest
-import torch
 from omegaconf import open_dict
 
 from harness.bench.run import runtime_objects
@@ -22,19 +21,14 @@ ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "s
 
 
 @pytest.fixture(scope="module")
-def models_dirs(tmp_path_factory):
+def models_dirs(tmp_path_factory, write_pnet_checkpoint):
     """A tiny Pnet checkpoint per state dimension (its workspace's dimension beside it), in
     the layout the reader expects."""
     out = {}
     for dim, wdim in ((2, 2), (3, 3), (7, 3)):
         folder = tmp_path_factory.mktemp(f"models{dim}")
         enet, pnet = Enet(10 * wdim, (8,), 4), Pnet(4 + 2 * dim, dim, (8,))
-        state = {
-            **{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
-            **{f"encoder.{k}": v for k, v in enet.state_dict().items()},
-        }
-        hp = {"pnet": pnet.config(), "encoder": enet.config(), "state_scale": [20.0] * dim, "cloud_scale": [20.0]}
-        torch.save({"hyper_parameters": hp, "state_dict": state}, folder / "pnet.ckpt")
+        write_pnet_checkpoint(folder / "pnet.ckpt", enet, pnet, [20.0] * dim, [20.0])
         out[dim] = folder
     return out
 

@@ -65,19 +65,15 @@ def test_tensors_of_every_kind_read_as_torch_reads_them(tmp_path):
     dims=st.tuples(st.integers(1, 7), st.integers(1, 3), st.integers(1, 6)),
     dropout=st.sampled_from([0.0, 0.25, 0.5]),
 )
-def test_the_planners_networks_are_the_checkpoints_bit_for_bit(tmp_path_factory, hidden, dims, dropout):
+def test_the_planners_networks_are_the_checkpoints_bit_for_bit(
+    tmp_path_factory, write_pnet_checkpoint, hidden, dims, dropout
+):
     state_dim, wdim, latent = dims
     enet = Enet(10 * wdim, hidden, latent)
     pnet = Pnet(latent + 2 * state_dim, state_dim, hidden, dropout)
     for m in (*pnet.acts, *(m for m in enet.net if isinstance(m, torch.nn.PReLU))):
         torch.nn.init.uniform_(m.weight, 0.05, 0.6)  # PReLUs that differ from their default
-    state = {
-        **{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
-        **{f"encoder.{k}": v for k, v in enet.state_dict().items()},
-    }
-    hp = {"pnet": pnet.config(), "encoder": enet.config(), "state_scale": [3.0] * state_dim, "cloud_scale": [20.0]}
-    f = tmp_path_factory.mktemp("ckpt") / "pnet.ckpt"
-    torch.save({"hyper_parameters": hp, "state_dict": state}, f)
+    f = write_pnet_checkpoint(tmp_path_factory.mktemp("ckpt") / "pnet.ckpt", enet, pnet, [3.0] * state_dim, [20.0])
     (e1, p1), (e2, p2) = load_pnet_numpy(f), load_pnet_checkpoint(f).to_numpy()
     for a, b in zip(p1.weights + p1.biases + e1.weights + e1.biases, p2.weights + p2.biases + e2.weights + e2.biases):
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
@@ -109,15 +105,10 @@ def test_a_damaged_checkpoint_is_one_line_naming_the_file(tmp_path, damage):
 
 
 @pytest.mark.slow  # a subprocess
-def test_planning_reads_its_networks_without_importing_torch(tmp_path):
+def test_planning_reads_its_networks_without_importing_torch(tmp_path, write_pnet_checkpoint):
     """What a planning run imports to build MPNet from a checkpoint: no torch (~1.5 s)."""
     enet, pnet = Enet(20, (8,), 4), Pnet(4 + 4, 2, (8, 4))
-    state = {
-        **{f"pnet.{k}": v for k, v in pnet.state_dict().items()},
-        **{f"encoder.{k}": v for k, v in enet.state_dict().items()},
-    }
-    hp = {"pnet": pnet.config(), "encoder": enet.config(), "state_scale": [20.0, 20.0], "cloud_scale": [20.0]}
-    torch.save({"hyper_parameters": hp, "state_dict": state}, tmp_path / "pnet.ckpt")
+    write_pnet_checkpoint(tmp_path / "pnet.ckpt", enet, pnet, [20.0, 20.0], [20.0])
     code = (
         "import sys, numpy as np\n"
         "from mpnet.envs.specs import get_spec\n"

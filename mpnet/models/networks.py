@@ -24,7 +24,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from mpnet.models.numpy_nets import Normalizer, NumpyEnet, NumpyPnet, _flat_cloud, _np  # noqa: F401 (re-exported)
+from mpnet.models.numpy_nets import Normalizer, NumpyEnet, NumpyPnet, _flat_cloud  # noqa: F401 (re-exported)
 
 # The public MPNet code's sizes for simple 2D (DESIGN §1).
 ENET_HIDDEN = (512, 256, 128)
