@@ -19,7 +19,6 @@ import re
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mpnet.envs.shapes import IDENTITY, Primitive
 from mpnet.envs.spec import EnvSpec, TestSet
@@ -102,6 +101,8 @@ def _pose(path: Path, obj: str, pose, what: str) -> tuple[np.ndarray, np.ndarray
 def scene_primitives(path: Path) -> list[Primitive]:
     """The collision objects of a MoveIt scene file as posed primitives (an object's own
     `pose`, where given, composed with its primitives' poses, as MoveIt does)."""
+    from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm_ik.solve)
+
     doc = _load_yaml(path)
     world = doc.get("world") if isinstance(doc, dict) else None
     objects = world.get("collision_objects") if isinstance(world, dict) else None

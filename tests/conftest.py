@@ -2,14 +2,59 @@
 
 from __future__ import annotations
 
+import fcntl
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
+KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the session's kernels compile
+ARM_ENVS = ("arm7", "panda_mbm", "mbm")  # a command naming one of them waits for the arms' kernels
+
+
+def pytest_configure(config):
+    """The controller (not an xdist worker) compiles numba's kernels in the background
+    (`python -m harness.compile_kernels`, the planar envs' first), while the workers run the
+    tests: on a fresh clone, every process would otherwise compile them, an arm's for about a
+    minute, each of the first ones at once. The compile holds a lock that `run_cli` waits on
+    before a command on an arm (wait_for_kernels); a test planning in-process loads what is
+    compiled, or compiles what is not yet (at worst what it did before)."""
+    if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly:
+        return
+    fd, lock = tempfile.mkstemp(prefix="mpnet-bench-kernels-", suffix=".lock")
+    fcntl.flock(fd, fcntl.LOCK_EX)  # held by the compile's copy of fd until it exits
+    config._kernels = subprocess.Popen(
+        [sys.executable, "-m", "harness.compile_kernels"],
+        cwd=REPO_ROOT,
+        pass_fds=(fd,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(fd)
+    os.environ[KERNELS_LOCK] = lock  # the workers inherit it
+
+
+def pytest_unconfigure(config):
+    proc = getattr(config, "_kernels", None)
+    if proc is not None:
+        proc.terminate()  # a short session may end first; what is compiled stays cached
+        proc.wait()
+        Path(os.environ.pop(KERNELS_LOCK)).unlink(missing_ok=True)
+
+
+def wait_for_kernels() -> None:
+    """Until the session's background compile has finished (at once when there is none)."""
+    lock = os.environ.get(KERNELS_LOCK)
+    if lock and Path(lock).exists():
+        fd = os.open(lock, os.O_RDONLY)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH)
+        finally:
+            os.close(fd)
 
 
 @pytest.fixture(scope="session")
@@ -60,6 +105,8 @@ def run_cli(workdir):
     session's workdir); raises with its output when it fails and check is true."""
 
     def run(*args, cwd=None, check=True, timeout=600, env=None):
+        if any(e in a for a in args for e in ARM_ENVS):
+            wait_for_kernels()
         env = {**os.environ, "HYDRA_FULL_ERROR": "0", **(env or {})}
         p = subprocess.run(
             [sys.executable, "-m", *args], cwd=cwd or workdir, capture_output=True, text=True, timeout=timeout, env=env

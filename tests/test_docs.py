@@ -84,6 +84,7 @@ TESTED = {
     ),
     # docs/mpnet.md
     "python -m harness +env=s2d +planner=mpnet_nr": TABLE1,
+    "python -m harness.compile_kernels": "tests/test_compile_kernels.py::test_compile_kernels_cli",
     "python -m harness.data +env=s2d [scale=S]": "tests/test_data.py::test_data_cli_builds_once_under_concurrency",
     "python -m harness.train +env=s2d [scale=S]": (
         "tests/test_artifact_integrity.py::test_damaged_checkpoint_and_dataset_are_rebuilt_end_to_end"

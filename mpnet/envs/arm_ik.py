@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mpnet.envs.arm_model import PRISMATIC, ArmModel
 
@@ -65,6 +64,8 @@ def _jacobian(model: ArmModel, q: np.ndarray, tip: int, joints: list[int]) -> tu
 
 def meets(model: ArmModel, q: np.ndarray, target: IKTarget) -> bool:
     """Does q put the target's link within its tolerances?"""
+    from scipy.spatial.transform import Rotation  # here: see solve
+
     T = model.link_transforms(q)[model.kinematics.index(target.link)]
     if np.any(np.abs(T[:3, 3] - target.pose[:3, 3]) > target.position_tol / 2 + 1e-12):
         return False
@@ -135,6 +136,10 @@ def solve(
     uniform within the limits (MBM: 200 attempts, random restarts). Each attempt aims at a
     pose drawn within the tolerances, as MBM's IK query does. The first `batch` attempts run
     side by side as arrays, then all the rest; the first success in attempt order is returned."""
+    # Imported where IK runs: scipy.spatial costs ~0.25 s, and every process that imports
+    # mpnet.envs (a run's, its log process) would pay it for IK that only data building does.
+    from scipy.spatial.transform import Rotation
+
     lower = np.array([b[0] for b in model.limits])
     upper = np.array([b[1] for b in model.limits])
     path = _path(model, target.link)

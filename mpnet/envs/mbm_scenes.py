@@ -16,7 +16,6 @@ from importlib import resources
 
 import numpy as np
 import yaml
-from scipy.spatial.transform import Rotation
 
 from mpnet.envs.shapes import Primitive, quat_matrix
 
@@ -99,6 +98,8 @@ class SceneFamily:
 
     def primitives(self, poses: dict[str, np.ndarray]) -> tuple[Primitive, ...]:
         """The scene's obstacles, in the data's object order."""
+        from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm_ik.solve)
+
         out = []
         for o in self.objects:
             p = poses[o.name]

@@ -15,6 +15,7 @@ import numpy as np
 
 from mpnet.envs.spec import EnvSpec
 from mpnet.models.checkpoint import load_pnet_numpy
+from mpnet.models.numpy_nets import NumpyPnet
 from mpnet.planners.classical import ALGORITHMS, OmplPlanner
 from mpnet.planners.neural import MPNetPlanner, check_settings
 
@@ -87,6 +88,12 @@ class MPNetSettings:
         default)."""
         self.check_env(env, collision)
         encode, pnet_step = load_pnet_numpy(Path(models_dir) / PNET_FILE)
+        return self.assemble(encode, pnet_step, env, seed, cloud)
+
+    def assemble(
+        self, encode: Callable, pnet_step: NumpyPnet, env: EnvSpec, seed: int, cloud: Callable
+    ) -> MPNetPlanner:
+        """The planner on these numpy networks (build's second half; the env already checked)."""
         if self.encoding == "zeros":
             code = np.zeros(pnet_step.in_dim - 2 * pnet_step.state_dim, np.float32)
             encode, cloud = (lambda _cloud: code), (lambda _ws: None)

@@ -1,0 +1,115 @@
+"""`python -m harness.compile_kernels [ENV ...]`: numba's kernels compiled once, into numba's
+on-disk cache (the `__pycache__` folders beside the package's sources), before runs need them.
+
+A process that finds the cache cold compiles what it calls: about a minute for the arm's
+checker and compiled MPNet loop, seconds for the planar envs. The processes of a parallel
+sweep on a fresh install (a cluster array, joblib's workers, the test suite's workers) each
+compile the same kernels at once; run this first and each of them loads them in about a second.
+
+For each env (all of them by default): its default checker's four checks, the judge's fine
+re-check, the workspace point cloud, and the compiled MPNet loop (batched planning's too) for
+each network depth a scale gives the env (numba compiles the loop once per depth: the layers
+are a tuple), on untrained networks of that depth (their weights do not matter to the compiler).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from harness.cli import CONF_DIR
+from mpnet.envs.spec import EnvSpec
+from mpnet.envs.specs import SPECS, get_spec
+from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet, PnetArrays
+from mpnet.motion import verify_path
+from mpnet.planners import batched
+from mpnet.planners.base import Problem
+from mpnet.planners.mpnet import MPNetSettings
+
+WIDTH, LATENT, POINTS_PER_BLOCK = 8, 4, 20  # any sizes compile the same code
+
+
+def network_depths(env: str) -> list[tuple[int, int]]:
+    """(Enet's, Pnet's) hidden layer counts of each scale's networks for the env, as the composed
+    configs give them (an env's own scale settings included), fewest Pnet layers first."""
+    from hydra import compose, initialize_config_dir
+
+    scales = sorted(p.stem for p in (CONF_DIR / "scale").glob("*.yaml"))
+    depths = set()
+    with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
+        for scale in scales:
+            model = compose("config", [f"+env={env}", "+planner=mpnet_nr", f"scale={scale}"]).scale.model
+            depths.add((len(model.enet_hidden), len(model.pnet_hidden)))
+    return sorted(depths, key=lambda d: (d[1], d[0]))
+
+
+def _layers(sizes: list[int], rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray]]:
+    return [
+        ((0.1 * rng.standard_normal((b, a))).astype(np.float32), np.zeros(b, np.float32))
+        for a, b in zip(sizes, sizes[1:])
+    ]
+
+
+def untrained_networks(spec: EnvSpec, cloud_dim: int, depths: tuple[int, int], seed: int = 0):
+    """(NumpyEnet, NumpyPnet) of these depths with random weights, normalisers as a checkpoint's."""
+    rng = np.random.default_rng(seed)
+    enet_depth, pnet_depth = depths
+    enet_state = {}
+    for i, (w, b) in enumerate(_layers([cloud_dim, *[WIDTH] * enet_depth, LATENT], rng)):
+        enet_state |= {f"net.{2 * i}.weight": w, f"net.{2 * i}.bias": b}
+        if i < enet_depth:
+            enet_state[f"net.{2 * i + 1}.weight"] = np.full(1, 0.25, np.float32)
+    sd = spec.state_dim
+    pnet_state = {}
+    for i, (w, b) in enumerate(_layers([LATENT + 2 * sd, *[WIDTH] * pnet_depth, sd], rng)):
+        pnet_state |= {f"linears.{i}.weight": w, f"linears.{i}.bias": b}
+        if i < pnet_depth:
+            pnet_state[f"acts.{i}.weight"] = np.full(1, 0.25, np.float32)
+    enet = EnetArrays({"hidden": [WIDTH] * enet_depth, "in_dim": cloud_dim}, enet_state)
+    pnet = PnetArrays(
+        {"hidden": [WIDTH] * pnet_depth, "in_dim": LATENT + 2 * sd, "out_dim": sd, "dropout": 0.5}, pnet_state
+    )
+    return NumpyEnet(enet, Normalizer(spec.workspace_scale())), NumpyPnet(pnet, Normalizer(spec.space.scale()))
+
+
+def compile_env(spec: EnvSpec, depths: list[tuple[int, int]]) -> None:
+    """Every kernel a bench run of MPNet on this env calls, compiled or loaded from the cache."""
+    ws = spec.generator.make(0, "seen", 0)
+    rng = np.random.default_rng(0)
+    start, goal = spec.space.sample(rng), spec.space.sample(rng)
+    checker = spec.make_checker(ws)
+    checker.warm_up(start)
+    verify_path(spec, ws, [start.tolist(), goal.tolist()], start.tolist(), goal.tolist(), spec.validation_step)
+    cloud = spec.cloud(ws, POINTS_PER_BLOCK, 0)
+    settings = MPNetSettings(name="mpnet_nr", compiled=True)
+    settings.check_env(spec)
+    for d in depths:
+        encode, pnet = untrained_networks(spec, cloud.size, d)
+        planner = settings.assemble(encode, pnet, spec, 0, lambda _ws: cloud)
+        batched.warm_up(planner, Problem(spec, ws, checker, start, goal, seed=0))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m harness.compile_kernels", description=__doc__.split("\n\n")[0])
+    ap.add_argument("envs", nargs="*", metavar="ENV", help=f"envs (default: all): {', '.join(SPECS)}")
+    args = ap.parse_args(argv)
+    try:
+        specs = [get_spec(e) for e in args.envs or SPECS]
+    except KeyError as e:
+        print(f"error: {e.args[0]}", file=sys.stderr)
+        return 2
+    for spec in specs:
+        t = time.perf_counter()
+        depths = network_depths(spec.name)
+        compile_env(spec, depths)
+        layers = ", ".join(str(p) for p in sorted({p for _, p in depths}))
+        print(f"{spec.name}: checks, re-check, cloud, MPNet loop (Pnet of {layers} hidden layers): "
+              f"{time.perf_counter() - t:.1f} s", flush=True)  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
