@@ -90,6 +90,19 @@ def test_zeroed_bytes_mid_file_lose_only_their_chunk(tmp_path, good_log):
     assert sum(m.topic == "/query" for m in msgs) == len(query_ids(scan))
 
 
+def test_damage_in_a_chunks_own_fields_is_never_silent(tmp_path, good_log):
+    """64 zeroed bytes from anywhere in a chunk's record head and fields (its times, size,
+    CRC, compression, data length): every query read, or the file reported damaged. (Zeroed
+    CRC and data length parsed as an empty chunk: its query was lost with no damage noted.)"""
+    for start, _ in chunk_spans(good_log)[1:-1]:
+        for off in range(start - 9, start + 45, 3):
+            bad = bytearray(good_log)
+            bad[off : off + 64] = bytes(64)
+            (tmp_path / "t.mcap").write_bytes(bytes(bad))
+            scan = scan_log(tmp_path / "t.mcap")
+            assert scan.damaged or len(query_ids(scan)) == N, off
+
+
 def test_a_lost_first_chunk_keeps_the_later_queries(tmp_path, good_log):
     bad = bytearray(good_log)
     bad[200:220] = bytes(20)  # inside the first chunk: its schemas, channels and /run

@@ -59,7 +59,13 @@ class LogScan:
 def _record(op: int, body: bytes):
     stream = ReadDataStream(BytesIO(body))
     if op == Opcode.CHUNK:
-        return breakup_chunk(Chunk.read(stream), validate_crc=True)
+        chunk = Chunk.read(stream)
+        # Damage in a chunk's own fields can zero its CRC (0: "not computed", so nothing is
+        # validated; the writer always computes one) and its data length (an empty chunk that
+        # parses): its fields must fill the record, and the CRC be there.
+        if stream.count != len(body) or chunk.uncompressed_crc == 0:
+            raise ValueError("chunk fields do not fill its record, or it has no CRC")
+        return breakup_chunk(chunk, validate_crc=True)
     if op == Opcode.SCHEMA:
         return [Schema.read(stream)]
     if op == Opcode.CHANNEL:
