@@ -38,6 +38,16 @@ def pytest_configure(config):
     os.environ[KERNELS_LOCK] = lock  # the workers inherit it
 
 
+ARM_TESTS = ("arm", "panda", "mbm", "sphere")  # in a test's id: it plans or checks on the arm
+
+
+def pytest_collection_modifyitems(config, items):
+    """The arms' tests after the others, so the background compile has their kernels on disk
+    before any of them starts (none waits, none compiles them again); in each group the slow
+    tests first, so the short ones fill the workers' ends."""
+    items.sort(key=lambda item: (any(w in item.nodeid for w in ARM_TESTS), item.get_closest_marker("slow") is None))
+
+
 def pytest_unconfigure(config):
     proc = getattr(config, "_kernels", None)
     if proc is not None:

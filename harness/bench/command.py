@@ -1,0 +1,42 @@
+"""`python -m harness +env=ENV +planner=PLANNER [seed=N] [scale=S] [problems=FILE]`: the bench
+(harness/__main__.py calls `run`)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import hydra
+from omegaconf import DictConfig, OmegaConf
+
+from harness.cli import CONF_DIR, run_hydra
+
+
+@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
+def main(cfg: DictConfig) -> None:
+    from hydra.types import RunMode
+
+    from harness.bench import bench_in_child, bench_or_exit
+    from harness.log import spawning
+
+    hydra_cfg = hydra.core.hydra_config.HydraConfig.get()
+    run_dir = Path(hydra_cfg.runtime.output_dir)
+    if cfg.problems:
+        cfg.problems = hydra.utils.to_absolute_path(str(cfg.problems))
+    overrides = list(hydra_cfg.overrides.task)  # logged in /run: the report says how to run it again
+    if hydra_cfg.mode != RunMode.MULTIRUN:
+        bench_or_exit(cfg, run_dir, overrides=overrides)
+        return
+    # OMPL's RNG takes its seed once per process: each job of a sweep (several may run in
+    # one process: Hydra's basic launcher, a joblib worker) runs in a fresh interpreter.
+    with spawning() as ctx:
+        container = OmegaConf.to_container(cfg, resolve=True)
+        child = ctx.Process(target=bench_in_child, args=(container, str(run_dir), overrides))
+        child.start()
+    child.join()
+    if child.exitcode:
+        sys.exit(child.exitcode)
+
+
+def run() -> None:
+    run_hydra(main, required=("env", "planner"))
