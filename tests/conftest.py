@@ -42,10 +42,10 @@ ARM_TESTS = ("arm", "panda", "mbm", "sphere")  # in a test's id: it plans or che
 
 
 def pytest_collection_modifyitems(config, items):
-    """The arms' tests after the others, so the background compile has their kernels on disk
-    before any of them starts (none waits, none compiles them again); in each group the slow
-    tests first, so the short ones fill the workers' ends."""
-    items.sort(key=lambda item: (any(w in item.nodeid for w in ARM_TESTS), item.get_closest_marker("slow") is None))
+    """The slow tests first and the short ones after, to fill the workers' ends; in each, the
+    arms' tests after the others, so that the background compile has their kernels on disk
+    before they start (none waits, none compiles them again)."""
+    items.sort(key=lambda item: (item.get_closest_marker("slow") is None, any(w in item.nodeid for w in ARM_TESTS)))
 
 
 def pytest_unconfigure(config):

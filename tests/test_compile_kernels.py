@@ -16,16 +16,18 @@ from mpnet.planners.base import Problem
 from mpnet.planners.mpnet import from_checkpoint
 
 
+@pytest.mark.slow  # ~60 compositions of the config
 def test_network_depths_are_the_composed_scales():
     """tiny's (2, 3), quick's and paper's: the arms' own scale settings (env_scale) replace the
     generic ones, so their paper Pnet has 8 hidden layers, the planar envs' 11."""
-    s2d, panda = network_depths("s2d"), network_depths("panda_mbm")
+    depths = {env: network_depths(env) for env in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")}
+    s2d, panda = depths["s2d"], depths["panda_mbm"]
     assert (2, 3) in s2d and (3, 4) in s2d and (3, 11) in s2d and not any(p == 8 for _, p in s2d)
     assert (2, 3) in panda and (2, 4) in panda and (3, 8) in panda and not any(p == 11 for _, p in panda)
     assert [p for _, p in s2d] == sorted(p for _, p in s2d)  # fewest layers (the tests' tiny) first
-    for env in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm"):  # the shipped networks' depths are among them
+    for env, got in depths.items():  # the shipped networks' depths are among them
         hp = read_meta(SHIPPED / f"{env}-quick")["hyper_parameters"]
-        assert (len(hp["encoder"]["hidden"]), len(hp["pnet"]["hidden"])) in network_depths(env)
+        assert (len(hp["encoder"]["hidden"]), len(hp["pnet"]["hidden"])) in got
 
 
 @pytest.mark.parametrize("depths", [(2, 3), (3, 11)])
@@ -42,9 +44,10 @@ def test_a_run_after_it_compiles_no_kernel_more(tmp_path):
     """After compile_env, the shipped quick networks' planner (what a run builds) warms up, its
     batched planning too, with the loop's specialisations already there: none is added."""
     spec = get_spec("s2d")
-    compile_env(spec, network_depths("s2d"))
+    depths = network_depths("s2d")
+    compile_env(spec, depths)
     before = {f: len(f.signatures) for f in (K.neural_planner, K.contract, K.is_feasible, K.lockstep)}
-    assert before[K.neural_planner] >= len({p for _, p in network_depths("s2d")})
+    assert before[K.neural_planner] >= len({p for _, p in depths})
     write_checkpoint(SHIPPED / "s2d-quick", tmp_path / "pnet.ckpt")
     ws = spec.generator.make(1, "seen", 0)
     planner = from_checkpoint(tmp_path, spec, 0, lambda w: spec.cloud(w, 200, 0), name="mpnet_nr", compiled=True)
