@@ -44,8 +44,12 @@ ARM_TESTS = ("arm", "panda", "mbm", "sphere")  # in a test's id: it plans or che
 def pytest_collection_modifyitems(config, items):
     """The slow tests first and the short ones after, to fill the workers' ends; in each, the
     arms' tests after the others, so that the background compile has their kernels on disk
-    before they start (none waits, none compiles them again)."""
-    items.sort(key=lambda item: (item.get_closest_marker("slow") is None, any(w in item.nodeid for w in ARM_TESTS)))
+    before they start (none waits, none compiles them again). pytest-xdist's worksteal
+    (pyproject's addopts) hands each worker a contiguous share, then moves tests from a busy
+    worker's queue to an idle one: every worker's share is dealt from this order in turn."""
+    ordered = sorted(items, key=lambda i: (i.get_closest_marker("slow") is None, any(w in i.nodeid for w in ARM_TESTS)))
+    n = getattr(config, "workerinput", {}).get("workercount", 1)
+    items[:] = [ordered[i] for k in range(n) for i in range(k, len(ordered), n)]
 
 
 def pytest_unconfigure(config):
