@@ -23,8 +23,8 @@ def pytest_configure(config):
     minute, each of the first ones at once. The compile holds a lock that `run_cli` waits on
     before a command on an arm (wait_for_kernels); a test planning in-process loads what is
     compiled, or compiles what is not yet (at worst what it did before)."""
-    if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly:
-        return
+    if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly or "not slow" in config.option.markexpr:
+        return  # the fast loop's few kernels compile in its own tests sooner
     fd, lock = tempfile.mkstemp(prefix="mpnet-bench-kernels-", suffix=".lock")
     fcntl.flock(fd, fcntl.LOCK_EX)  # held by the compile's copy of fd until it exits
     config._kernels = subprocess.Popen(
