@@ -1,4 +1,5 @@
-"""Shared fixtures: the repository's paths, the config composer, and the CLI runner."""
+"""Shared fixtures (the repository's paths, the config composer, the CLI runner) and the
+session's set-up: numba's kernels compiled in the background, the tests' order."""
 
 from __future__ import annotations
 
@@ -7,13 +8,16 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the session's kernels compile
-ARM_ENVS = ("arm7", "panda_mbm", "mbm")  # a command naming one of them waits for the arms' kernels
+KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles what it needs itself
+ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
+ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere")  # in a test's id: it plans or checks on the arm
 
 
 def pytest_configure(config):
@@ -23,52 +27,94 @@ def pytest_configure(config):
     minute, each of the first ones at once. The compile holds a lock that `run_cli` waits on
     before a command on an arm (wait_for_kernels); a test planning in-process loads what is
     compiled, or compiles what is not yet (at worst what it did before)."""
+    if config.pluginmanager.hasplugin("xdist"):
+        config.pluginmanager.register(WorkSteal(), "mpnet-bench-worksteal")
     if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly or "not slow" in config.option.markexpr:
         return  # the fast loop's few kernels compile in its own tests sooner
     fd, lock = tempfile.mkstemp(prefix="mpnet-bench-kernels-", suffix=".lock")
     fcntl.flock(fd, fcntl.LOCK_EX)  # held by the compile's copy of fd until it exits
-    config._kernels = subprocess.Popen(
-        [sys.executable, "-m", "harness.compile_kernels"],
-        cwd=REPO_ROOT,
-        pass_fds=(fd,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    log = Path(lock).with_suffix(".log")
+    with log.open("w") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "harness.compile_kernels"], cwd=REPO_ROOT, pass_fds=(fd,), stdout=out, stderr=out
+        )
     os.close(fd)
+    config._kernels = (proc, log)
     os.environ[KERNELS_LOCK] = lock  # the workers inherit it
 
 
-ARM_TESTS = ("arm", "panda", "mbm", "sphere")  # in a test's id: it plans or checks on the arm
+def pytest_unconfigure(config):
+    """The background compile stopped if the session ended first (what it compiled stays
+    cached), and said if it failed."""
+    if not hasattr(config, "_kernels"):
+        return
+    proc, log = config._kernels
+    failed = proc.poll() not in (None, 0)
+    proc.terminate()
+    proc.wait()
+    if failed:
+        text = f"harness.compile_kernels failed (exit {proc.returncode}): {log.read_text()[-2000:]}"
+        reporter = config.pluginmanager.get_plugin("terminalreporter")
+        if reporter is not None:
+            reporter.write_line(text, red=True)
+        else:
+            print(text, file=sys.stderr)
+    log.unlink(missing_ok=True)
+    Path(os.environ.pop(KERNELS_LOCK)).unlink(missing_ok=True)
+
+
+def wait_for_kernels(timeout_s: float = KERNELS_WAIT_S) -> None:
+    """Until the session's background compile has finished (at once when there is none), or
+    timeout_s."""
+    lock = os.environ.get(KERNELS_LOCK)
+    if not lock or not Path(lock).exists():
+        return
+    fd, deadline = os.open(lock, os.O_RDONLY), time.monotonic() + timeout_s
+    try:
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                return
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    return
+                time.sleep(0.5)
+    finally:
+        os.close(fd)
+
+
+class WorkSteal:
+    """pytest-xdist's worksteal in place of its default (`load`): an idle worker takes tests
+    from a busy one's queue (with `load`, one worker ended a run with ~100 queued tests while
+    the other idled). Another --dist given is kept. A plugin registered only where xdist is
+    (pytest refuses a conftest hook it has no spec for: `-p no:xdist`)."""
+
+    @staticmethod
+    def pytest_xdist_make_scheduler(config, log):
+        if config.getoption("dist") != "load":
+            return None
+        from xdist.scheduler import WorkStealingScheduling
+
+        return WorkStealingScheduling(config, log)
+
+
+def deal(ordered: list, n: int) -> list:
+    """`ordered` rearranged so that worksteal's first hand-out, contiguous shares of
+    len // n, len // (n - 1) of the rest, ... (xdist's WorkStealingScheduling.check_schedule),
+    gives each of the n workers every n-th test, each in this order."""
+    r = len(ordered) % n
+    shares = [[] for _ in range(n)]
+    for i, item in enumerate(ordered):
+        shares[(i + n - r) % n].append(item)  # the last r shares are one longer
+    return [item for share in shares for item in share]
 
 
 def pytest_collection_modifyitems(config, items):
     """The slow tests first and the short ones after, to fill the workers' ends; in each, the
     arms' tests after the others, so that the background compile has their kernels on disk
-    before they start (none waits, none compiles them again). pytest-xdist's worksteal
-    (pyproject's addopts) hands each worker a contiguous share, then moves tests from a busy
-    worker's queue to an idle one: every worker's share is dealt from this order in turn."""
+    before they start (none waits, none compiles them again); dealt to the workers (deal)."""
     ordered = sorted(items, key=lambda i: (i.get_closest_marker("slow") is None, any(w in i.nodeid for w in ARM_TESTS)))
-    n = getattr(config, "workerinput", {}).get("workercount", 1)
-    items[:] = [ordered[i] for k in range(n) for i in range(k, len(ordered), n)]
-
-
-def pytest_unconfigure(config):
-    proc = getattr(config, "_kernels", None)
-    if proc is not None:
-        proc.terminate()  # a short session may end first; what is compiled stays cached
-        proc.wait()
-        Path(os.environ.pop(KERNELS_LOCK)).unlink(missing_ok=True)
-
-
-def wait_for_kernels() -> None:
-    """Until the session's background compile has finished (at once when there is none)."""
-    lock = os.environ.get(KERNELS_LOCK)
-    if lock and Path(lock).exists():
-        fd = os.open(lock, os.O_RDONLY)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_SH)
-        finally:
-            os.close(fd)
+    items[:] = deal(ordered, getattr(config, "workerinput", {}).get("workercount", 1))
 
 
 @pytest.fixture(scope="session")
