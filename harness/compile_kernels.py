@@ -46,28 +46,26 @@ def network_depths(env: str) -> list[tuple[int, int]]:
     return sorted(depths, key=lambda d: (d[1], d[0]))
 
 
-def _layers(sizes: list[int], rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray]]:
-    return [
-        ((0.1 * rng.standard_normal((b, a))).astype(np.float32), np.zeros(b, np.float32))
-        for a, b in zip(sizes, sizes[1:])
-    ]
+def _prelu_stack(sizes: list[int], linear, act, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """A state dict of linear layers through `sizes`, a one-weight PReLU after each but the
+    last; linear(i) and act(i) are layer i's key prefixes."""
+    state = {}
+    for i, (a, b) in enumerate(zip(sizes, sizes[1:])):
+        state[f"{linear(i)}.weight"] = (0.1 * rng.standard_normal((b, a))).astype(np.float32)
+        state[f"{linear(i)}.bias"] = np.zeros(b, np.float32)
+        if i < len(sizes) - 2:
+            state[f"{act(i)}.weight"] = np.full(1, 0.25, np.float32)
+    return state
 
 
 def untrained_networks(spec: EnvSpec, cloud_dim: int, depths: tuple[int, int], seed: int = 0):
-    """(NumpyEnet, NumpyPnet) of these depths with random weights, normalisers as a checkpoint's."""
+    """(NumpyEnet, NumpyPnet) of these depths with random weights, normalisers as a checkpoint's
+    (the layers' key names are EnetArrays' and PnetArrays')."""
     rng = np.random.default_rng(seed)
-    enet_depth, pnet_depth = depths
-    enet_state = {}
-    for i, (w, b) in enumerate(_layers([cloud_dim, *[WIDTH] * enet_depth, LATENT], rng)):
-        enet_state |= {f"net.{2 * i}.weight": w, f"net.{2 * i}.bias": b}
-        if i < enet_depth:
-            enet_state[f"net.{2 * i + 1}.weight"] = np.full(1, 0.25, np.float32)
-    sd = spec.state_dim
-    pnet_state = {}
-    for i, (w, b) in enumerate(_layers([LATENT + 2 * sd, *[WIDTH] * pnet_depth, sd], rng)):
-        pnet_state |= {f"linears.{i}.weight": w, f"linears.{i}.bias": b}
-        if i < pnet_depth:
-            pnet_state[f"acts.{i}.weight"] = np.full(1, 0.25, np.float32)
+    (enet_depth, pnet_depth), sd = depths, spec.state_dim
+    enet_sizes, pnet_sizes = [cloud_dim, *[WIDTH] * enet_depth, LATENT], [LATENT + 2 * sd, *[WIDTH] * pnet_depth, sd]
+    enet_state = _prelu_stack(enet_sizes, lambda i: f"net.{2 * i}", lambda i: f"net.{2 * i + 1}", rng)
+    pnet_state = _prelu_stack(pnet_sizes, lambda i: f"linears.{i}", lambda i: f"acts.{i}", rng)
     enet = EnetArrays({"hidden": [WIDTH] * enet_depth, "in_dim": cloud_dim}, enet_state)
     pnet = PnetArrays(
         {"hidden": [WIDTH] * pnet_depth, "in_dim": LATENT + 2 * sd, "out_dim": sd, "dropout": 0.5}, pnet_state
