@@ -201,6 +201,24 @@ def _swept_groups(cfg, given: list[str]) -> list[str]:
     return out
 
 
+HYDRA_KEYS = ("hydra.run.dir", "hydra.sweep.dir", "hydra.sweep.subdir", "hydra.job.chdir")  # in every Hydra config
+
+
+@functools.cache
+def _plain_keys(config_name: str) -> frozenset[str]:
+    """The keys that every config composed from conf/CONFIG_NAME.yaml has, read from that file
+    and the files its defaults list by name (not a group's choice), without composing: those
+    of them that hold a value, not a map (a map may take new keys, which need a +)."""
+    import yaml
+
+    doc = yaml.safe_load((CONF_DIR / f"{config_name}.yaml").read_text()) or {}
+    keys = {k for k, v in doc.items() if k not in ("defaults", "hydra") and not isinstance(v, dict)}
+    for entry in doc.get("defaults") or []:
+        if isinstance(entry, str) and entry != "_self_" and (CONF_DIR / f"{entry}.yaml").is_file():
+            keys |= _plain_keys(entry)
+    return frozenset(keys) | frozenset(HYDRA_KEYS)
+
+
 def check_keys(argv: list[str], config_name: str) -> None:
     """UsageError for an override of a key that the composed config lacks (naming the closest
     one), and for `+key=` on a key it has. Keys of a group an experiment's sweep chooses
@@ -220,8 +238,8 @@ def check_keys(argv: list[str], config_name: str) -> None:
                 groups.append(f"{key}={values[0]}")
         elif sep or key.startswith("~"):
             keys.append((key, bare, value))
-    if not keys:
-        return
+    if all(key == bare and bare in _plain_keys(config_name) for key, bare, _ in keys):
+        return  # keys every composition has: no need to compose (~0.25 s of each command)
     cfg = _compose(config_name, groups)
     swept = [] if cfg is None else _swept_groups(cfg, groups)
     if swept:

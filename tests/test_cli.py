@@ -370,9 +370,11 @@ def test_every_env_and_planner_config_runs(env, which, tmp_path, run_cli, sweeps
         f"+env={env}",
         f"+planner={','.join(planner_list)}",
         "scale=tiny",
-        "splits=[unseen]",
+        # arm7's tiny unseen split holds a query that RRT* and Informed-RRT* do not solve in 10 s
+        # (BIT*: 0.3 s): its seen split, where every classical planner solves all four in < 0.5 s
+        f"splits=[{'seen' if env == 'arm7' else 'unseen'}]",
         # what times out (panda_mbm's deep goals, a tiny HR's RRT*) costs 1 s, not 10; arm7's
-        # classical planners need more than 1 s on some of these queries
+        # classical planners need more than 1 s on some queries
         f"budget_s={10 if env == 'arm7' else 1}",
         "rerun=false",
         "progress=false",

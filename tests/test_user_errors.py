@@ -9,6 +9,7 @@ import json
 import pytest
 
 from harness.cli import UsageError, check_keys, check_output_dirs, check_plus
+from harness.cli_help import ENTRIES
 from harness.settings import settings_of
 
 
@@ -146,6 +147,22 @@ def test_unknown_key_names_the_closest_real_one(argv, message):
 )
 def test_real_keys_pass_the_key_check(argv, config):
     check_keys(argv, config)
+
+
+@pytest.mark.parametrize("config", sorted({e.config for e in ENTRIES.values()}))
+def test_keys_passed_without_composing_are_in_every_composition(config):
+    """check_keys leaves the keys of a command's own config file (and Hydra's output folders)
+    unchecked by composition: each is in the composed config, whatever the env, planner,
+    scale or experiment, and holds a value (`budget_s=1` replaces it; no + is needed)."""
+    from hydra import compose, initialize_config_dir
+
+    from harness.cli import CONF_DIR, _lookup, _plain_keys
+
+    choices = [[], ["+env=arm7", "+planner=mpnet_hr", "scale=paper"], ["+experiment=findings"], ["+env=c3d"]]
+    for overrides in choices if config != "perf_main" else [[]]:
+        with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
+            cfg = compose(config, overrides, return_hydra_config=True)
+        assert {key: _lookup(cfg, key) for key in _plain_keys(config)} == dict.fromkeys(_plain_keys(config), "known")
 
 
 @pytest.mark.slow  # the CLI in subprocesses
