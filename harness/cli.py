@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import difflib
 import functools
+import random
 import stat
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
@@ -283,6 +285,9 @@ def _check_writable_dir(key: str, path: Path, attempts: int = 20) -> None:
             return _try_writable_dir(path)
         except FileNotFoundError as e:
             if attempt + 1 < attempts:
+                # a random pause, growing: without one, jobs that make and remove the folder
+                # in step can keep one of them failing every attempt (seen on a loaded machine)
+                time.sleep(random.uniform(0, 0.001 * 2 ** min(attempt, 6)))
                 continue
             error = e
         except OSError as e:
