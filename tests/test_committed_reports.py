@@ -35,3 +35,11 @@ def test_a_committed_database_loads_with_named_statuses_and_progress(path):
     assert progress.height > 0 and progress["best cost"].null_count() < progress.height
     drawn = progress.join(runs.select(["id", "planner"]), left_on="runid", right_on="id")
     assert {str(p).split("_to_nr")[0] for p in drawn["planner"].unique()} <= OPTIMIZING
+    # a query's best cost never rises (the aggregate curve Planner Arena smooths may: docs/reports.md)
+    rises = (
+        progress.sort(["runid", "time"])
+        .drop_nulls("best cost")
+        .with_columns(pl.col("best cost").diff().over("runid").alias("step"))
+        .filter(pl.col("step") > 1e-9)
+    )
+    assert rises.height == 0, rises.head()
