@@ -204,7 +204,8 @@ def _swept_groups(cfg, given: list[str]) -> list[str]:
     return out
 
 
-HYDRA_KEYS = ("hydra.run.dir", "hydra.sweep.dir", "hydra.sweep.subdir", "hydra.job.chdir")  # in every Hydra config
+OUTPUT_DIR_KEYS = ("hydra.run.dir", "hydra.sweep.dir")
+HYDRA_KEYS = (*OUTPUT_DIR_KEYS, "hydra.sweep.subdir", "hydra.job.chdir")  # in every Hydra config
 
 
 @functools.cache
@@ -260,9 +261,6 @@ def check_keys(argv: list[str], config_name: str) -> None:
         known = [k for k in _dotted(cfg) if bare.startswith("hydra.") or not k.startswith("hydra")]
         close = difflib.get_close_matches(bare, known, n=1)
         raise UsageError(f"unknown config key {bare}" + (f" (did you mean {close[0]}?)" if close else ""))
-
-
-OUTPUT_DIR_KEYS = ("hydra.run.dir", "hydra.sweep.dir")
 
 
 def check_output_dirs(argv: list[str]) -> None:
