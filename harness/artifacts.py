@@ -236,6 +236,27 @@ def models_key_config(run: RunSettings) -> dict:
     return {"data": data_key, **run.models}
 
 
+def training_paths(run: RunSettings) -> int | None:
+    """How many expert paths the run's networks were trained on: the count in the dataset's
+    manifest (in the cache), else in the shipped set's meta; None when neither says (a set
+    exported before the count was). The scale's workspaces x paths is what was asked: an env
+    whose queries can fail (panda_mbm's cage goals) builds fewer."""
+    from mpnet.models.pretrained import find_pretrained, read_meta
+
+    key_config = models_key_config(run)
+    folder = run.cache_dir / "data" / key_config["data"]
+    try:
+        return int(read_manifest(folder, folder.name, verify=False)["expert"]["paths"])
+    except (ArtifactError, KeyError, TypeError, ValueError):
+        pass
+    source = find_pretrained(content_key({"kind": "models", **key_config}))
+    try:
+        n = None if source is None else read_meta(source).get("training_paths")
+    except ValueError:
+        return None
+    return int(n) if isinstance(n, int) else None
+
+
 def _shipped_models(run: RunSettings, key_config: dict):
     """The package's pretrained set for these models, as a checkpoint in the cache (kind
     "pretrained"), when the cache has no models artifact of this key; else None."""

@@ -18,7 +18,7 @@ from harness.cli import run_hydra, user_errors
 @hydra.main(version_base="1.3", config_path="../conf", config_name="export")
 @user_errors
 def main(cfg: DictConfig) -> None:
-    from harness.artifacts import ensure_models, ensure_testset_artifact, models_key_config
+    from harness.artifacts import ensure_models, ensure_testset_artifact, models_key_config, training_paths
     from harness.fit import PNET_FILE
     from harness.settings import settings_of
     from mpnet.data.shipped import SHIPPED as SHIPPED_TESTSETS
@@ -33,7 +33,8 @@ def main(cfg: DictConfig) -> None:
     name = f"{run.env.name}-{run.scale}"
     root = Path(cfg.export_dir) if cfg.export_dir else SHIPPED.parent
     out = root / SHIPPED.name / name
-    meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config)
+    paths = training_paths(run)  # before the export: it may read the set being replaced
+    meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config, training_paths=paths)
     print(f"exported: {out} ({meta['weights']['bytes'] / 1e6:.1f} MB, key {meta['key']}, from {folder})")
     ts_folder, ts_manifest, _ = ensure_testset_artifact(run, progress=run.progress)
     ts_out = root / SHIPPED_TESTSETS.name / name

@@ -677,6 +677,10 @@ def test_learning_curve_cli(tmp_path, run_cli, sweeps_cache):
         "hydra.sweep.subdir=p${scale.train.paths}",
         f"cache_dir={sweeps_cache}",  # tiny's own 10 paths: the networks other tests train
     )
+    for paths in (5, 10):  # the bench logs the paths its networks were trained on (s2d's: all it asked)
+        (f,) = (tmp_path / "sweep" / f"p{paths}").rglob("trials.mcap")
+        run = next(m for t, m in read_mcap(f)[1] if t == "/run")
+        assert run["facts"]["training_paths_built"] == 2 * paths
     p = run_cli("harness.report.learning_curve", str(tmp_path / "sweep"), "--out", str(tmp_path / "lc"))
     rows = list(csv.DictReader((tmp_path / "lc" / "learning_curve.csv").open()))
     assert sorted((r["split"], r["train_paths"]) for r in rows) == [

@@ -60,6 +60,9 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     out = run_cli("harness.export_weights", *args, f"export_dir={tmp_path / 'sets'}").stdout  # a sweep, as documented
     assert "exported: " in out and (tmp_path / "sets" / "testsets" / "s2d-tiny" / "seen.json").exists()
     (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
+    (data,) = [d for d in (cache / "data").iterdir() if d.is_dir()]
+    built = json.loads((data / "manifest.json").read_text())["expert"]["paths"]
+    assert read_meta(tmp_path / "sets" / "pretrained" / "s2d-tiny")["training_paths"] == built > 0
     shipped = tmp_path / "shipped"
     shipped.mkdir()
     write_checkpoint(tmp_path / "sets" / "pretrained" / "s2d-tiny", shipped / "pnet.ckpt")

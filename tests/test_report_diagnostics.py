@@ -7,6 +7,7 @@ import math
 import pytest
 import yaml
 
+from harness.log.facts import facts_from_config
 from harness.report.diagnostics import diagnostics_table, render_diagnostics
 from harness.report.learning_curve import learning_curve_table, main, train_size
 from harness.report.load import load
@@ -103,3 +104,23 @@ def test_learning_curve_by_training_size(tmp_path, capsys):
     assert "| s2d | unseen | mpnet_nr | 1000 (100 × 10) | 4 | 75.0 [" in (out / "learning_curve.md").read_text()
     assert main([str(tmp_path / "nothing"), "--out", str(out)]) == 1
     assert "error: no trial logs" in capsys.readouterr().err
+
+
+def test_learning_curve_sizes_are_the_paths_built(tmp_path):
+    """Issue 26: a panda_mbm dataset holds fewer paths than workspaces x paths asked (cage goals
+    can fail); a size is the count a run of it logged (`training_paths_built`), for every
+    planner at that size, the random ablation too, which plans on no network."""
+    for planner, built in (("mpnet_nr", 950), ("mpnet_nr_random", None)):
+        cfg = config(100, 10, planner)
+        facts = {**facts_from_config(yaml.safe_load(cfg)), "training_paths_built": built}
+        write_log(tmp_path / planner, "s2d", planner, 0, [Q("unseen", "100", 0, True, 0.01)], config=cfg, facts=facts)
+    write_log(tmp_path / "older", "s2d", "mpnet_nr", 0, [Q("unseen", "100", 0, True, 0.01)], config=config(100, 40))
+    files, _, _ = load([tmp_path])
+    df, _ = learning_curve_table(files)
+    assert sorted(zip(df["planner"], df["train_paths"])) == [
+        ("mpnet_nr", 950),
+        ("mpnet_nr", 4000),  # a log without the count: the size asked
+        ("mpnet_nr_random", 950),
+    ]
+    main([str(tmp_path), "--out", str(tmp_path / "lc")])
+    assert "| 950 (100 × 10) |" in (tmp_path / "lc" / "learning_curve.md").read_text()

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from harness.artifacts import ensure_models, ensure_testset
+from harness.artifacts import ensure_models, ensure_testset, training_paths
 from harness.bench.loop import CostTarget, QueryTiming, run_bench
 from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
@@ -42,15 +42,23 @@ def seed_everything(seed: int) -> None:
         sys.modules["torch"].manual_seed(int(seed) % 2**63)
 
 
-def runtime_objects(run: RunSettings) -> dict:
+def runtime_objects(run: RunSettings, used_networks: list | None = None) -> dict:
     """What the app hands a planner's constructor besides its config: the env, the run's
-    seed, the trained networks' folder (built on first use), the workspace cloud and the
+    seed, the trained networks' folder (built on first use; its folder appended to
+    used_networks, so that the run knows it planned on them), the workspace cloud and the
     collision backend."""
+
+    def models_dir():
+        folder = ensure_models(run, progress=run.progress, planning=True)[0]
+        if used_networks is not None:
+            used_networks.append(folder)
+        return folder
+
     return {
         "env": run.env.spec,
         "seed": run.seed,
         "collision": run.env.collision,
-        "models_dir": lambda: ensure_models(run, progress=run.progress, planning=True)[0],
+        "models_dir": models_dir,
         "cloud": run.env.cloud,
     }
 
@@ -88,7 +96,8 @@ def bench(
     run = settings_of(cfg)
     seed_everything(run.seed)
     spec = run.env.spec
-    runtime = runtime_objects(run)
+    used_networks = []
+    runtime = runtime_objects(run, used_networks)
     planner = run.planner.make(runtime)
     target = run.planner.cost_target
     pre_query = None if target is None else CostTarget(target.make(runtime))
@@ -100,7 +109,7 @@ def bench(
         )
     info = run_info(run.env.name, run.planner.name, run.seed, split, run.config_yaml)
     info["settings"] = run.results
-    info["facts"] = run.facts
+    info["facts"] = {**run.facts, "training_paths_built": training_paths(run) if used_networks else None}
     info["queries_expected"] = len(testset.queries)
     if overrides is not None:
         info["overrides"] = [str(o) for o in overrides]

@@ -13,7 +13,9 @@ same from the config text their `/run` holds (the only place that still parses i
   `fallback` is not RRT*, or its `networks` were trained on resampled expert paths;
   `algorithm`, a classical run; else a plain planner (a planner of one's own). None when
   the config has no `planner` mapping.
-- budget_s, the training set's size (train_workspaces x train_paths), the expert and the
+- budget_s, the training set's size (train_workspaces x train_paths asked, and, where the
+  bench planned on networks whose dataset or shipped set says so, the paths built,
+  training_paths_built: fewer where queries fail, as panda_mbm's), the expert and the
   reference's settings (expert_planner, expert_iterations, reference_bit_star_s), and, where
   the bench knows them, workspace_dim and robot; the scale's and the planner's config sections
   as they were (`scale`, `planner_config`: the report's provenance and Planner Arena's
@@ -97,6 +99,7 @@ def facts_from_config(cfg: dict, workspace_dim: int | None = None, robot: str | 
         "budget_s": _number(cfg.get("budget_s")),
         "train_workspaces": _int(_get(cfg, "scale", "train", "workspaces")),
         "train_paths": _int(_get(cfg, "scale", "train", "paths")),
+        "training_paths_built": None,  # the bench sets it: the expert paths its networks were trained on
         "expert_planner": str(_get(cfg, "env", "expert", "planner") or "rrt_star") if "env" in cfg else None,
         "expert_iterations": _int(_get(cfg, "env", "expert", "iterations")),
         "reference_bit_star_s": _number(_get(cfg, "env", "reference", "bit_star_s")),

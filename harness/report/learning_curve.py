@@ -1,6 +1,8 @@
 """`python -m harness.report.learning_curve DIR [DIR ...] [--out reports/learning_curve]`: how
-MPNet grows with data. Each run's training-set size comes from its logged config
-(its logged facts: `scale.train.workspaces` × `scale.train.paths`); per env × split × planner × size: success
+MPNet grows with data. Each run's training-set size comes from its logged facts:
+`scale.train.workspaces` × `scale.train.paths` asked, and the paths built where a run of that
+env and size logged them (`training_paths_built`: panda_mbm's cage queries can fail, so its
+datasets hold fewer than asked); per env × split × planner × size: success
 with its Wilson interval, path quality (median cost / reference over successes), the share
 of Pnet's proposals in collision and reachable from their tree end, and the workspace-code
 sensitivity. A table (md, csv) and a figure against training paths on a log axis, beside the
@@ -72,6 +74,11 @@ def learning_curve_table(files) -> tuple[pd.DataFrame, list[str]]:
             d = m.get("diagnostics")
             if isinstance(d, dict):
                 diag[(i, j)] = d
+    built = {}  # (env, workspaces, paths per workspace) -> paths built, from any run that logged them
+    for i, tf in enumerate(files):
+        n = logged_facts(tf.run).get("training_paths_built")
+        if sizes[i] is not None and isinstance(n, int):
+            built[(tf.run.get("env"), *sizes[i])] = n
     rows = []
     for key, g in q.groupby(["env", "split", "planner", "train_workspaces", "paths_per_workspace"], sort=False):
         n, k = len(g), int(g["success"].sum())
@@ -94,7 +101,7 @@ def learning_curve_table(files) -> tuple[pd.DataFrame, list[str]]:
                 "planner": key[2],
                 "train_workspaces": key[3],
                 "paths_per_workspace": key[4],
-                "train_paths": key[3] * key[4],
+                "train_paths": built.get((key[0], key[3], key[4]), key[3] * key[4]),
                 "queries": n,
                 "success": k / n,
                 "success_ci_low": lo,
@@ -136,7 +143,7 @@ def render_learning_curve(df: pd.DataFrame, files=()) -> str:
         "env",
         "split",
         "planner",
-        "training paths (workspaces × paths)",
+        "training paths (workspaces × paths asked)",
         "queries",
         "success % [95% CI]",
         "quality (median cost / ref.)",
