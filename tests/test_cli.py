@@ -96,8 +96,10 @@ def test_used_by_form_multirun(tmp_path, run_cli):
     assert sorted(seeds) == [0, 1]
     table = p.stdout[p.stdout.index("sweep summary: 2 runs in") :].splitlines()
     rows = [line.split() for line in table[2:]]
-    assert [(r[0], r[1], r[2], r[3], r[4], r[-1]) for r in rows] == [
-        ("rigid", "rrt_connect", seed, split, "4", "8/8") for seed in ("0", "1") for split in ("seen", "unseen")
+    assert [(r[0], r[1], r[2], r[3], r[4], r[-2], r[-1]) for r in rows] == [
+        ("rigid", "rrt_connect", seed, split, "4", "8/8", f"rigid/rrt_connect/seed{seed}")
+        for seed in ("0", "1")
+        for split in ("seen", "unseen")
     ]
 
 

@@ -1032,3 +1032,17 @@ def test_an_optimizing_planners_best_cost_over_time_is_logged(tmp_path):
         log.add_query(full)
     (q,) = by_topic(read_all(tmp_path / "trials.mcap")[1], "/query")
     assert q["progress"] == rec["progress"]
+
+
+def test_sweep_summary_tells_apart_runs_of_one_env_planner_and_seed(tmp_path):
+    """A learning curve's sweep: runs that differ only in training-set size (their folders)
+    are counted and shown apart, not as one run."""
+    from harness.bench.sweep import format_sweep, sweep_rows
+    from tests.test_report import Q, write_log
+
+    for size in ("w70", "w210"):
+        write_log(tmp_path / "s2d" / size / "mpnet_nr" / "seed0", "s2d", "mpnet_nr", 0, [Q("seen", "0", 0, True, 0.01)])
+    rows = sweep_rows(tmp_path)
+    assert sorted(r["run"] for r in rows) == ["s2d/w210/mpnet_nr/seed0", "s2d/w70/mpnet_nr/seed0"]
+    table = format_sweep(rows, tmp_path)
+    assert table.startswith(f"sweep summary: 2 runs in {tmp_path}") and "s2d/w70/mpnet_nr/seed0" in table

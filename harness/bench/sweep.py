@@ -14,7 +14,8 @@ from harness.log import MCAP_NAME, Tally, read_log
 
 def sweep_rows(sweep_dir: Path) -> list[dict]:
     """Per run and split: env, planner, seed, queries, success, median time; with the
-    run's queries logged / expected."""
+    run's queries logged / expected and its folder in the sweep (what tells apart runs of
+    one env, planner and seed: a learning curve's sizes)."""
     rows = []
     for path in sorted(Path(sweep_dir).rglob(MCAP_NAME)):
         msgs, _ = read_log(path, ("/run", "/query"))
@@ -34,6 +35,7 @@ def sweep_rows(sweep_dir: Path) -> list[dict]:
                     "seed": run.get("seed"),
                     **r,
                     "logged": f"{len(tally)}/{expected}" if isinstance(expected, int) else str(len(tally)),
+                    "run": path.parent.relative_to(sweep_dir).as_posix(),
                 }
             )
     return rows
@@ -42,13 +44,13 @@ def sweep_rows(sweep_dir: Path) -> list[dict]:
 def format_sweep(rows: list[dict], sweep_dir: Path) -> str:
     head = (
         f"{'env':<6} {'planner':<22} {'seed':>5} {'split':<7} {'queries':>7} {'success':>8} "
-        f"{'median (ms)':>11} {'logged':>9}"
+        f"{'median (ms)':>11} {'logged':>9}  run"
     )
-    lines = [f"sweep summary: {len({(r['env'], r['planner'], r['seed']) for r in rows})} runs in {sweep_dir}", head]
+    lines = [f"sweep summary: {len({r['run'] for r in rows})} runs in {sweep_dir}", head]
     for r in rows:
         lines.append(
             f"{r['env']:<6} {r['planner']:<22} {r['seed']!s:>5} {r['split']:<7} {r['queries']:>7} "
-            f"{r['success'] * 100:>7.1f}% {r['time_median_s'] * 1e3:>11.2f} {r['logged']:>9}"
+            f"{r['success'] * 100:>7.1f}% {r['time_median_s'] * 1e3:>11.2f} {r['logged']:>9}  {r['run']}"
         )
     return "\n".join(lines)
 
