@@ -25,6 +25,7 @@ from harness.report.facts import Facts, planner_facts, run_facts
 from harness.report.figures import pick_example, solved_within, success_vs_time
 from harness.report.load import load, queries_frame
 from harness.report.names import env_rank
+from harness.report.readme import judge_bullet
 from harness.report.stats import BOOT_N, boot_interval, boot_medians, fisher_p, wilson
 from mpnet.envs.spaces import SE2Space
 from mpnet.envs.specs import SPECS
@@ -697,6 +698,8 @@ def test_readme_scales_and_no_warnings(tmp_path, capsys):
         "10 × 2000 unseen."
     ) in readme
     assert "- Scale `paper`: the paper's sizes." in readme
+    judged = "fine re-check (s2d: every 0.01 along the path, a point against the boxes, exact)"
+    assert judged in " ".join(readme.split())
     assert "- Scale `mine`: smaller than the paper's." in readme
 
 
@@ -1252,3 +1255,18 @@ def test_every_failure_the_harness_logs_has_a_named_status():
         "Not run (no target: the planner it chases failed)",
         "Exact solution",
     ]
+
+
+def test_judge_bullet_says_how_each_env_was_judged():
+    """The README said "every 0.01 along the path, exact boxes" for every env, the arm's too
+    (judged by pybullet at 0.002 rad): each env now gets its own step, as its runs logged it,
+    and its checker's geometry."""
+    text = judge_bullet({"panda_mbm": {0.002}, "s2d": {None}, "rigid": {0.01, 0.005}, "mystery": {None}})
+    how = text.split("(", 1)[1].rsplit(")", 1)[0]
+    assert how.split("; ") == [
+        "s2d: every 0.01 along the path, a point against the boxes, exact",
+        "rigid: every 0.005 or 0.01 along the path, the rectangle against the boxes, exact (separating axes)",
+        "panda_mbm: every 0.002 rad along the path, pybullet on the arm model's collision meshes, no margin",
+        "mystery: as its runs' config says",
+    ]
+    assert "exact boxes" not in judge_bullet({"arm7": {0.002}})

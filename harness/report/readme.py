@@ -16,6 +16,7 @@ from harness.report.facts import logged_facts
 from harness.report.load import TrialFile
 from harness.report.names import APPROX, CITATION, PAPER_PNET_HIDDEN, PAPER_SCALE, PAPER_SCALE_TEXT, env_label, env_rank
 from harness.report.stats import BOOT_N, BOOT_SEED
+from mpnet.envs.specs import SPECS
 
 
 def scale_sizes(scale) -> tuple[int, ...] | None:
@@ -69,6 +70,7 @@ def provenance(files: list[TrialFile]) -> dict:
     """Where the logs came from, read from their /run messages: git revisions, hosts,
     dates, scales (with their sizes where logged), budgets, versions and the commands."""
     revs, hosts, scales, budgets, starts, scale_rows, overrides = set(), set(), set(), set(), [], {}, []
+    judges: dict[str, set] = {}
     versions: dict[str, set] = {}
     for f in files:
         r = f.run
@@ -88,6 +90,9 @@ def provenance(files: list[TrialFile]) -> dict:
             budgets.add(str(facts["budget_s"]))
         logged = r.get("overrides")
         overrides.append(logged if isinstance(logged, list) else None)
+        settings = r.get("settings")
+        step = settings.get("env.validation_step") if isinstance(settings, dict) else None
+        judges.setdefault(str(r.get("env")), set()).add(step)
     return {
         "git_rev": sorted(revs),
         "host": sorted(hosts),
@@ -98,7 +103,27 @@ def provenance(files: list[TrialFile]) -> dict:
         "to": max(starts) if starts else "unknown",
         "versions": {k: sorted(v) for k, v in sorted(versions.items())},
         "commands": sweep_commands(overrides),
+        "judges": judges,
     }
+
+
+def judge_bullet(judges: dict[str, set]) -> str:
+    """How the runs' successes were judged, env by env: the fine re-check's step (as each run
+    logged it; the env's default for older logs) and what its checker tests."""
+    parts = []
+    for env in sorted(judges, key=env_rank):
+        spec = SPECS.get(env)
+        if spec is None:
+            parts.append(f"{env}: as its runs' config says")
+            continue
+        steps = sorted({float(s) for s in judges[env] if s is not None} or {spec.validation_step})
+        step = " or ".join(f"{s:g}{spec.robot.step_unit}" for s in steps)
+        parts.append(f"{env}: every {step} along the path, {spec.robot.judge_text}")
+    how = "; ".join(parts) or "every step of the env's `validation_step` along the path, no margin"
+    return (
+        f"A success here is a path that passed the harness's fine re-check ({how}); the paper does not "
+        "say how its paths were checked."
+    )
 
 
 def _scale_rows(rows: dict) -> list[tuple]:
@@ -206,6 +231,7 @@ def readme_text(
     prov = prov or provenance([])
     vers = ", ".join(f"{k} {'/'.join(v)}" for k, v in prov["versions"].items()) or "unknown"
     scale_text = "\n".join("- " + scale_bullet(*row) for row in prov.get("scales") or [("unknown", None, False)])
+    judge_text = textwrap.fill(judge_bullet(prov.get("judges") or {}), 95, initial_indent="- ", subsequent_indent="  ")
     warn_text = "\n".join(f"- {w.removeprefix('warning: ')}" for w in warnings) or "none"
     commands = prov.get("commands")
     if commands:
@@ -263,8 +289,7 @@ logged in more than one file, figures left out):
 - The paper timed MPNet on a machine with a GPU (i7 + GTX 1080); ours plan on the CPU of
   the machine above, Pnet as numpy matmuls on one thread.
 {scale_text}
-- A success here is a path that passed the harness's fine re-check (every 0.01 along the
-  path, exact boxes); the paper does not say how its paths were checked.
+{judge_text}
 
 ## Files
 

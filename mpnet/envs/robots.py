@@ -22,6 +22,8 @@ class Robot:
     default_backend: str = "native"
     judge_backend: str | None = None  # the checker of the fine re-check (None: the default)
     posed_obstacles: bool = False  # whether its checkers handle posed primitives (problems@2)
+    judge_text: str = "a point against the boxes, exact"  # what the fine re-check tests (reports)
+    step_unit: str = ""  # the unit of the re-check's step along a path ("": workspace units)
 
     def to_json(self) -> dict:
         return {"kind": self.kind}
@@ -65,6 +67,7 @@ class RectangleRobot(Robot):
 
     kind = "rectangle"
     checkers = {"native": RigidChecker, "fcl": FclRigidChecker}
+    judge_text = "the rectangle against the boxes, exact (separating axes)"
 
     def __init__(self, size: tuple[float, float]):
         self.size = tuple(float(s) for s in size)
@@ -88,6 +91,8 @@ class ArmRobot(Robot):
     default_backend = "spheres"
     judge_backend = "pybullet"
     posed_obstacles = True
+    judge_text = "pybullet on the arm model's collision meshes, no margin"
+    step_unit = " rad"
 
     def __init__(self, model: str):
         self.model_name = model
