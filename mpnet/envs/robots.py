@@ -22,7 +22,7 @@ class Robot:
     default_backend: str = "native"
     judge_backend: str | None = None  # the checker of the fine re-check (None: the default)
     posed_obstacles: bool = False  # whether its checkers handle posed primitives (problems@2)
-    judge_text: str = "a point against the boxes, exact"  # what the fine re-check tests (reports)
+    judge_text: str = "the env's judge checker, no margin"  # what the fine re-check tests (reports)
     step_unit: str = ""  # the unit of the re-check's step along a path ("": workspace units)
 
     def to_json(self) -> dict:
@@ -58,6 +58,7 @@ class PointRobot(Robot):
 
     kind = "point"
     checkers = {"native": PointChecker, "fcl": PointChecker}
+    judge_text = "a point against the boxes, exact"
 
 
 class RectangleRobot(Robot):
