@@ -18,7 +18,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from harness.cli import CONF_DIR
-from harness.log import TrialLog
+from harness.log import TrialLog, read_log, run_segments
 from harness.report import arena
 from harness.report.__main__ import main
 from harness.report.facts import Facts, planner_facts, run_facts
@@ -61,7 +61,14 @@ def ws(env: str, wid: str, split: str) -> Workspace:
 
 
 def write_log(
-    run_dir: Path, env: str, planner: str, seed, queries: list[dict], config: str | None = None, **run_kw
+    run_dir: Path,
+    env: str,
+    planner: str,
+    seed,
+    queries: list[dict],
+    config: str | None = None,
+    resume: bool = False,
+    **run_kw,
 ) -> Path:
     """A trials.mcap with the given queries: dicts with split, wid, i, ok, t, and optional
     cost, checks and planner stats (any query field); paths run start -> (0, 15) -> goal."""
@@ -79,7 +86,7 @@ def write_log(
         "started_at": "2026-11-21T12:00:00+00:00",
         **run_kw,
     }
-    with TrialLog(run_dir, run, spec, rerun=False) as log:
+    with TrialLog(run_dir, run, spec, rerun=False, resume=resume) as log:
         for q in queries:
             log.add_workspace(ws(env, q["wid"], q["split"]))
             start, mid, goal = np.full(d, -15.0), np.zeros(d), np.full(d, 15.0)
@@ -1255,6 +1262,32 @@ def test_every_failure_the_harness_logs_has_a_named_status():
         "Not run (no target: the planner it chases failed)",
         "Exact solution",
     ]
+
+
+def test_resumed_log_names_every_revision_that_planned_it(tmp_path):
+    """A resumed log's /run is its last session's: the report named that revision and start alone
+    for queries three sessions planned (Informed-RRT* on MBM's 700 ran at two revisions). The
+    resume now records the earlier sessions, and the README, results.csv's dirty mark and Planner
+    Arena read them all."""
+    d = tmp_path / "logs" / "bit"
+    revs = ["aaa1111", "bbb2222-dirty", "ccc3333"]
+    for i, rev in enumerate(revs):
+        started = f"2026-11-2{i}T01:00:00+00:00"
+        write_log(
+            d, "s2d", "bit_star", 0, [Q("seen", "0", i, True, 1.0)], resume=i > 0, git_rev=rev, started_at=started
+        )
+    (run,) = [m.data for m in read_log(d / "trials.mcap")[0] if m.topic == "/run"]
+    assert [s["git_rev"] for s in run_segments(run)] == revs
+    assert run["resumed_from"]["queries"] == 2
+    rc, out = report(tmp_path, tmp_path / "logs")
+    assert rc == 0
+    readme = (out / "README.md").read_text()
+    assert "- Git revision of the runs: aaa1111, bbb2222-dirty, ccc3333\n" in readme
+    assert "between 2026-11-20T01:00:00+00:00 and 2026-11-22T01:00:00+00:00" in readme
+    assert pd.read_csv(out / "results.csv")["dirty"].all()
+    with sqlite3.connect(out / "benchmark.db") as db:
+        setup, date = db.execute("SELECT setup, date FROM experiments").fetchone()
+    assert "git aaa1111, bbb2222-dirty, ccc3333" in setup and date == "2026-11-20T01:00:00+00:00"
 
 
 def test_judge_bullet_says_how_each_env_was_judged():

@@ -17,7 +17,7 @@ from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
 from harness.log.process import LogProcess, LogProcessDied, judge, spawning
 from harness.log.rerun import RRD_NAME
-from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, scene_update_schema
+from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, run_segments, scene_update_schema
 from harness.log.tally import Tally
 from harness.log.writer import ResumeRefused, TrialLog
 
@@ -43,6 +43,7 @@ __all__ = [
     "read_log",
     "rect_outlines",
     "register",
+    "run_segments",
     "scene_update_schema",
     "spawning",
 ]

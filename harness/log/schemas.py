@@ -35,6 +35,19 @@ QUERY_FIELDS = (
     "collision_checks",
 )
 
+SEGMENT_FIELDS = ("git_rev", "host", "started_at")
+
+
+def run_segments(run: dict) -> list[dict]:
+    """Every session that planned some of a run's queries, oldest first, each {git_rev, host,
+    started_at}: those a resume recorded in `resumed_from.runs`, then the run's own. A resumed
+    log's /run is its last session's, so provenance read off it alone would name one revision for
+    queries that several planned."""
+    earlier = (run.get("resumed_from") or {}).get("runs") if isinstance(run.get("resumed_from"), dict) else None
+    segs = [{k: e.get(k) for k in SEGMENT_FIELDS} for e in earlier or () if isinstance(e, dict)]
+    return segs + [{k: run.get(k) for k in SEGMENT_FIELDS}]
+
+
 _NUM = {"type": "number"}
 _VEC = {"type": "array", "items": _NUM}
 _STATE_LIST = {"type": "array", "items": _VEC}
@@ -55,7 +68,11 @@ RUN_SCHEMA = {
         "versions": {"type": "object", "description": "Package name to version"},
         "host": {"type": "string"},
         "started_at": {"type": ["string", "number"]},
-        "resumed_from": {"type": "object", "description": "Set when the run resumed an earlier log"},
+        "resumed_from": {
+            "type": "object",
+            "description": "Set when the run resumed an earlier log: the files and queries it took over, and "
+            "`runs`, every earlier session that planned some of them ({git_rev, host, started_at}, oldest first)",
+        },
         "settings": {
             "type": "object",
             "description": "Every config value that decides the results, by dotted key (the problem file by "

@@ -44,7 +44,7 @@ from harness.log.mcap_io import (
 from harness.log.painters import painter_for
 from harness.log.recover import scan_log
 from harness.log.rerun import RRD_NAME, RerunSink
-from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, topic_schemas
+from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, run_segments, topic_schemas
 
 
 class ResumeRefused(ValueError):
@@ -102,9 +102,11 @@ class TrialLog:
         old, self._asides = self._take_previous(run, resume)
         run_msg = {"format": FORMAT, **plain(dict(run))}
         if old is not None:
+            earlier = [seg for m in old if m.topic == "/run" for seg in run_segments(m.data)]
             run_msg["resumed_from"] = {
                 "files": [p.name for p in self._asides],
                 "queries": sum(m.topic == "/query" for m in old),
+                "runs": [dict(t) for t in dict.fromkeys(tuple(s.items()) for s in earlier)],
             }
 
         topics = topic_schemas()  # read before any file is opened: a bad schema file fails here

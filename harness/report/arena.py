@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from harness.log import run_segments
 from harness.report.facts import Facts, logged_facts
 from harness.report.load import TrialFile, run_seed
 
@@ -232,9 +233,10 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
             )
             logged_seed = np.array([run_seed(files[f].run) is not None for f in d["file"]], bool)
             budgets = {b for b in (logged_facts(r)["budget_s"] for r in fruns) if b is not None}
-            started = sorted(str(r.get("started_at")) for r in fruns if r.get("started_at") is not None)
-            hosts = sorted({str(r.get("host")) for r in fruns if r.get("host")})
-            git = sorted({str(r.get("git_rev")) for r in fruns if r.get("git_rev")})
+            segs = [seg for r in fruns for seg in run_segments(r)]
+            started = sorted(str(s["started_at"]) for s in segs if s["started_at"] is not None)
+            hosts = sorted({str(s["host"]) for s in segs if s["host"]})
+            git = sorted({str(s["git_rev"]) for s in segs if s["git_rev"]})
             c.execute(
                 "INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, hostname,"
                 " cpuinfo, date, seed, setup, split) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",

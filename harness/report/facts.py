@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from harness.log.facts import run_facts as logged_facts  # a run's facts, for the report's modules
+from harness.log.schemas import run_segments
 from harness.report.names import (
     ABLATION_BASES,
     ABLATIONS,
@@ -182,9 +183,10 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     for tf in files:
         name = tf.planner
         tags[name] = (str(tf.run["planner"]), tf.label)
-        rev = str(tf.run.get("git_rev") or "")
-        if rev.endswith("-dirty") and rev not in dirty.setdefault(name, []):
-            dirty[name].append(rev)
+        for seg in run_segments(tf.run):
+            rev = str(seg["git_rev"] or "")
+            if rev.endswith("-dirty") and rev not in dirty.setdefault(name, []):
+                dirty[name].append(rev)
         f = run_facts(tf.run)
         if f is None:
             no_config.append((tf.path, name))

@@ -9,7 +9,7 @@ from collections.abc import Iterable
 import numpy as np
 import pandas as pd
 
-from harness.log import painter_for
+from harness.log import painter_for, run_segments
 from harness.report.commands import sweep_commands
 from harness.report.equal_quality import REACH_RTOL
 from harness.report.facts import logged_facts
@@ -74,10 +74,11 @@ def provenance(files: list[TrialFile]) -> dict:
     versions: dict[str, set] = {}
     for f in files:
         r = f.run
-        revs.add(str(r.get("git_rev", "unknown")))
-        hosts.add(str(r.get("host", "unknown")))
-        if r.get("started_at"):
-            starts.append(str(r["started_at"]))
+        for seg in run_segments(r):  # a resumed log: every session that planned some of it
+            revs.add(str(seg["git_rev"] or "unknown"))
+            hosts.add(str(seg["host"] or "unknown"))
+            if seg["started_at"]:
+                starts.append(str(seg["started_at"]))
         vers = r.get("versions")
         for k, v in vers.items() if isinstance(vers, dict) else ():
             versions.setdefault(k, set()).add(str(v))
