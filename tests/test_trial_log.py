@@ -30,6 +30,7 @@ from harness.log import (
     plain,
     read_log,
     rect_outlines,
+    run_segments,
     scene_update_schema,
 )
 from mpnet.envs.specs import SPECS
@@ -1046,3 +1047,13 @@ def test_sweep_summary_tells_apart_runs_of_one_env_planner_and_seed(tmp_path):
     assert sorted(r["run"] for r in rows) == ["s2d/w210/mpnet_nr/seed0", "s2d/w70/mpnet_nr/seed0"]
     table = format_sweep(rows, tmp_path)
     assert table.startswith(f"sweep summary: 2 runs in {tmp_path}") and "s2d/w70/mpnet_nr/seed0" in table
+
+
+@pytest.mark.parametrize("resumed", [None, "x", {}, {"runs": "x"}, {"runs": [3, {"git_rev": "a1"}]}])
+def test_run_segments_reads_what_it_can_of_resumed_from(resumed):
+    """A /run from an older or damaged log: the run's own session always, earlier ones only where readable."""
+    run = make_run(git_rev="b2", resumed_from=resumed)
+    segs = run_segments(run)
+    assert segs[-1] == {"git_rev": "b2", "host": "testhost", "started_at": "2026-11-21T12:00:00+00:00"}
+    earlier = [s["git_rev"] for s in segs[:-1]]
+    assert earlier == (["a1"] if isinstance(resumed, dict) and isinstance(resumed.get("runs"), list) else [])

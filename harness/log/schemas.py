@@ -43,8 +43,13 @@ def run_segments(run: dict) -> list[dict]:
     started_at}: those a resume recorded in `resumed_from.runs`, then the run's own. A resumed
     log's /run is its last session's, so provenance read off it alone would name one revision for
     queries that several planned."""
-    earlier = (run.get("resumed_from") or {}).get("runs") if isinstance(run.get("resumed_from"), dict) else None
-    segs = [{k: e.get(k) for k in SEGMENT_FIELDS} for e in earlier or () if isinstance(e, dict)]
+    resumed = run.get("resumed_from")
+    earlier = resumed.get("runs") if isinstance(resumed, dict) else None
+    segs = (
+        [{k: e.get(k) for k in SEGMENT_FIELDS} for e in earlier if isinstance(e, dict)]
+        if isinstance(earlier, list)
+        else []
+    )
     return segs + [{k: run.get(k) for k in SEGMENT_FIELDS}]
 
 
