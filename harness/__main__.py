@@ -5,10 +5,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import hydra
-from omegaconf import DictConfig, OmegaConf
+from harness.threads import single_threaded
 
-from harness.cli import run_hydra
+single_threaded()  # before numpy, scipy, torch or numba load: each reads its thread count as it loads
+
+import hydra  # noqa: E402
+from omegaconf import DictConfig, OmegaConf  # noqa: E402
+
+from harness.cli import run_hydra  # noqa: E402
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")

@@ -11,9 +11,13 @@ import argparse
 import sys
 import time
 
-import numpy as np
+from harness.threads import single_threaded
 
-from mpnet.envs.specs import SPECS, get_spec
+single_threaded()  # before numpy, scipy, torch or numba load (harness.threads)
+
+import numpy as np  # noqa: E402
+
+from mpnet.envs.specs import SPECS, get_spec  # noqa: E402
 
 STATES, MOTIONS, REPEATS = 2000, 200, 5
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from harness.threads import training_threads
 from mpnet.data.dataset import Dataset
 from mpnet.envs.spec import EnvSpec
 
@@ -181,6 +182,11 @@ def fit_models(
     """Pnet on the frozen codes of the Enet artifact `enet` (its folder and manifest), whose
     checkpoint the models folder gets a copy of; or, with `end_to_end` (the paper's arm) and
     no `enet`, Enet and Pnet together on Pnet's loss. Returns the manifest fields."""
+    with training_threads():
+        return _fit_models(spec, data, params, lightning, folder, progress, enet)
+
+
+def _fit_models(spec, data, params, lightning, folder, progress, enet) -> dict:
     from mpnet.models import Enet
 
     _quiet_lightning(params["seed"])

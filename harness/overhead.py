@@ -14,11 +14,15 @@ import statistics
 import tempfile
 from pathlib import Path
 
-import hydra
-import numpy as np
-from omegaconf import DictConfig
+from harness.threads import single_threaded
 
-from harness.cli import run_hydra
+single_threaded()  # before numpy, scipy, torch or numba load (harness.threads)
+
+import hydra  # noqa: E402
+import numpy as np  # noqa: E402
+from omegaconf import DictConfig  # noqa: E402
+
+from harness.cli import run_hydra  # noqa: E402
 
 
 def _row(name: str, xs: list[float], plan: list[float]) -> str:

@@ -609,10 +609,9 @@ def test_benchmark_db_configs_segments_versions(tmp_path):
     assert rc == 0
     con = sqlite3.connect(out / "benchmark.db")
     configs = con.execute("SELECT id, name, settings FROM plannerConfigs ORDER BY id").fetchall()
-    assert [(n, "range: 2.0" in st) for _, n, st in configs] == [
-        ("geometric_bit_star", False),
-        ("geometric_bit_star", True),
-    ]
+    assert sorted("range: 2.0" in st for _, n, st in configs) == [False, True]
+    names = [n for _, n, _ in configs]  # two variants, two names (a log without settings: its config's digest)
+    assert len(set(names)) == 2 and all(n.startswith("geometric_bit_star [planner.config=") for n in names)
     seeds_of = dict(
         con.execute(
             "SELECT p.settings, group_concat(DISTINCT q.seed) FROM runs r JOIN run_queries q ON q.runid = r.id "
@@ -631,6 +630,36 @@ def test_benchmark_db_configs_segments_versions(tmp_path):
         "s2d": "OMPL 2.0.1",
         "c2d": "OMPL 1.6.0",
     }
+    con.close()
+
+
+def test_benchmark_db_keeps_variants_apart(tmp_path):
+    """One planner run with two checkers, and on a subset of the same problems: each variant is
+    a planner of its own, named by the settings that differ, and none has more runs than its
+    experiment's runcount (each query and seed once). Before, RRT-Connect with spheres and with
+    pybullet was one planner of 1,400 runs in an experiment of 700."""
+    logs = tmp_path / "logs"
+    settings = {"seed": 0, "budget_s": 10.0, "planner.name": "rrt_connect", "problems": "sha256:" + "a" * 64}
+    every = [Q("seen", "0", i, True, 1.0) for i in range(4)]
+    write_log(logs / "sp", "s2d", "rrt_connect", 0, every, settings={**settings, "env.collision": "spheres"})
+    write_log(logs / "pb", "s2d", "rrt_connect", 0, every, settings={**settings, "env.collision": "pybullet"})
+    subset = {**settings, "env.collision": "spheres", "problems": "sha256:" + "b" * 64}
+    write_log(logs / "first2", "s2d", "rrt_connect", 0, every[:2], settings=subset)
+    write_log(
+        logs / "seed1", "s2d", "rrt_connect", 1, every, settings={**settings, "seed": 1, "env.collision": "spheres"}
+    )
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    con = sqlite3.connect(out / "benchmark.db")
+    runs = dict(
+        con.execute("SELECT p.name, count(*) FROM runs r JOIN plannerConfigs p ON p.id = r.plannerid GROUP BY p.id")
+    )
+    assert runs == {
+        "geometric_rrt_connect [env.collision=spheres, problems=aaaaaaaa]": 8,  # seeds 0 and 1: one variant
+        "geometric_rrt_connect [env.collision=pybullet, problems=aaaaaaaa]": 4,
+        "geometric_rrt_connect [env.collision=spheres, problems=bbbbbbbb]": 2,
+    }
+    assert con.execute("SELECT runcount FROM experiments").fetchall() == [(8,)]  # 4 queries x 2 seeds
     con.close()
 
 
@@ -1194,7 +1223,26 @@ def test_timed_out_queries_cpu_share_is_reported_and_a_loaded_run_flagged(tmp_pa
     assert res.loc["bit_star", "timeouts"] == 1 and res.loc["bit_star", "timeout_cpu_share"] == pytest.approx(0.45)
     assert res.loc["rrt_connect", "timeout_cpu_share"] == pytest.approx(0.98)
     warned = [w for w in (out / "README.md").read_text().splitlines() if "of a CPU" in w]
-    assert len(warned) == 1 and "bit_star" in warned[0] and "lower bound" in warned[0]
+    assert len(warned) == 2 and all("bit_star" in w for w in warned)  # its queries waited; its rate a lower bound
+    assert any("lower bound" in w for w in warned) and any("waited for the CPU" in w for w in warned)
+
+
+@pytest.mark.parametrize(
+    ("cpu", "warning"), [(0.05, "waited for the CPU"), (0.15, "more than one thread"), (0.1, None)]
+)
+def test_a_run_whose_queries_waited_or_ran_two_threads_is_flagged(tmp_path, cpu, warning):
+    """cpu_share: the planned queries' CPU time over their wall time. Well under one, they
+    waited for a CPU (a loaded machine: their times are not the planner's); over one, a second
+    thread ran. Solved queries only, no timeouts: the timeouts' share does not see it."""
+    logs = tmp_path / "logs"
+    queries = [Q("seen", "0", i, True, 0.1, stats={"cpu_s": cpu}) for i in range(3)]
+    write_log(logs / "nr", "s2d", "mpnet_nr", 0, queries)
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    res = pd.read_csv(out / "results.csv")
+    assert res.loc[0, "cpu_share"] == pytest.approx(cpu / 0.1)
+    warned = [w for w in (out / "README.md").read_text().splitlines() if "of a CPU" in w]
+    assert [warning in w for w in warned] == ([True] if warning else [])
 
 
 def test_problem_sets_count_valid_and_solved_per_scene_with_published_figures(tmp_path):

@@ -162,6 +162,30 @@ def _warm_up(planner, problem: Problem) -> None:
         warm_up(problem)
 
 
+def warm_up(planner: Planner, problem: Problem) -> None:
+    """The checker's and the planner's kernels compiled or loaded from numba's cache, and the
+    libraries they load loaded (with their thread pools), before the first timed query: a fresh
+    clone compiles them here, not in query 1's time."""
+    t0 = time.perf_counter()
+    problem.checker.warm_up(problem.start)
+    _warm_up(planner, replace(problem, reference_cost=None, seed=0))
+    if (took := time.perf_counter() - t0) > 5.0:
+        print(
+            f"warm-up: the kernels compiled in {took:.0f} s, before the first query (once: numba keeps them on disk)",
+            file=sys.stderr,
+        )
+    problem.checker.reset_counts()
+
+
+def first_problem(testset: TestSet, collision: str = "native") -> Problem | None:
+    """The test set's first query as a problem on its own checker (warm_up's), None if it has none."""
+    if not testset.queries:
+        return None
+    q = testset.queries[0]
+    ws = next(w for w in testset.workspaces if (w.split, w.id) == (q.split, q.workspace_id))
+    return Problem(testset.spec, ws, testset.spec.make_checker(ws, backend=collision), q.start, q.goal, seed=0)
+
+
 def run_bench(
     testset: TestSet,
     planner: Planner,
@@ -179,7 +203,6 @@ def run_bench(
 
     pre_query(problem, budget_s) -> (problem to plan or None, fields for the record) runs
     before each query, outside its time (a cost target); None logs failure "no_target"."""
-    from threadpoolctl import threadpool_limits
     from tqdm import tqdm
 
     spec = testset.spec
@@ -195,9 +218,6 @@ def run_bench(
         file=sys.stderr,
         dynamic_ncols=True,
     )
-    # A query's matmuls are tiny (batch 1): BLAS threads only contend with the log process
-    # and the other jobs (s2d MPNet-NR median 1.3 ms single-threaded, 1.6 ms with two).
-    limits = threadpool_limits(1, user_api="blas")
     warm = False
     try:
         for ws in testset.workspaces:
@@ -206,17 +226,8 @@ def run_bench(
             if not queries:
                 continue
             checker = spec.make_checker(ws, backend=collision)
-            if not warm:  # a fresh clone compiles the checker's kernels here, not in query 1's time
-                t0 = time.perf_counter()
-                checker.warm_up(queries[0].start)
-                _warm_up(planner, Problem(spec, ws, checker, queries[0].start, queries[0].goal, seed=0))
-                if (took := time.perf_counter() - t0) > 5.0:
-                    print(
-                        f"warm-up: the kernels compiled in {took:.0f} s, before the first query (once: numba keeps "
-                        "them on disk)",
-                        file=sys.stderr,
-                    )
-                checker.reset_counts()
+            if not warm:
+                warm_up(planner, Problem(spec, ws, checker, queries[0].start, queries[0].goal))
                 warm = True
             for q in queries:
                 t0 = time.perf_counter()
@@ -249,5 +260,4 @@ def run_bench(
                     timing.diagnostics_s.append(diag_s)
                     timing.harness_s.append(time.perf_counter() - t0 - rec["time_s"] - diag_s)
     finally:
-        limits.restore_original_limits()
         bar.close()

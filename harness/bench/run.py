@@ -9,12 +9,13 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from harness.artifacts import ensure_models, ensure_testset, training_paths
-from harness.bench.loop import CostTarget, QueryTiming, run_bench
+from harness.bench.loop import CostTarget, QueryTiming, first_problem, run_bench, warm_up
 from harness.bench.summary import format_summary, summarize
 from harness.cli import UsageError
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
 from harness.provenance import run_info
 from harness.settings import RunSettings, settings_of
+from harness.threads import extra_threads, single_threaded, thread_pools
 from mpnet.mbm import is_mbm, load_mbm
 from mpnet.planners.base import sub_seed
 from mpnet.planners.reference import reference_costs
@@ -107,7 +108,14 @@ def bench(
             "planner.stop=cost needs a reference cost for every query "
             "(give `reference_cost` per query in a problem file)"
         )
+    single_threaded()  # already so from the entry point; here for a caller in its own process
+    if (problem := first_problem(testset, run.env.collision)) is not None:
+        warm_up(planner, problem)  # every library the queries use is loaded now: its pool is recorded
+    pools = thread_pools()
+    if extra := extra_threads(pools):
+        raise UsageError(f"a timed run needs one thread per pool, and {'; '.join(extra)} (harness.threads)")
     info = run_info(run.env.name, run.planner.name, run.seed, split, run.config_yaml)
+    info["threads"] = pools
     info["settings"] = run.results
     info["facts"] = {**run.facts, "training_paths_built": training_paths(run) if used_networks else None}
     info["queries_expected"] = len(testset.queries)

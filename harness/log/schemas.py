@@ -60,7 +60,7 @@ _STATE_LIST = {"type": "array", "items": _VEC}
 RUN_SCHEMA = {
     "$schema": "http://json-schema.org/draft-07/schema#",
     "title": "mpnet_bench.Run",
-    "description": "One bench run: what was run, with which code and config (DESIGN §6).",
+    "description": "One bench run: what was run, with which code and config.",
     "type": "object",
     "properties": {
         "format": {"type": "string", "description": "Log format version, e.g. " + FORMAT},
@@ -89,6 +89,12 @@ RUN_SCHEMA = {
             "items": {"type": "string"},
             "description": "The job's command-line overrides as Hydra recorded them (`+env=s2d`, `seed=0`, ...): "
             "what `python -m harness` was given, so the report can say how to run it again",
+        },
+        "threads": {
+            "type": "array",
+            "items": {"type": "object"},
+            "description": "The process's thread pools once its kernels were loaded, before the first query "
+            "(harness/threads.py): each {api, library, file, threads}; a timed run has one thread in each",
         },
         "facts": {
             "type": "object",

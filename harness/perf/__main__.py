@@ -13,10 +13,14 @@ import sys
 import time
 from pathlib import Path
 
-import hydra
-from omegaconf import DictConfig, OmegaConf
+from harness.threads import single_threaded
 
-from harness.cli import run_hydra
+single_threaded()  # before numpy, scipy, torch or numba load (harness.threads)
+
+import hydra  # noqa: E402
+from omegaconf import DictConfig, OmegaConf  # noqa: E402
+
+from harness.cli import run_hydra  # noqa: E402
 
 
 def _sizes(names) -> dict:

@@ -98,6 +98,8 @@ def summarize(env: str, planner: str, out: dict) -> dict:
         "configurations_median": _med([q.get("configurations_checked") for q in qs]),
     }
     time_total = sum(float(q.get("time_s") or 0.0) for q in qs)
+    cpu_total = sum(float(q.get("cpu_s") or 0.0) for q in qs)
+    row["cpu_share"] = cpu_total / time_total if time_total > 0 else float("nan")  # < 0.9: the queries waited
     for k in SPLIT_KEYS:
         vals = [q.get(k) for q in qs if q.get(k) is not None]
         row[f"{k}_share"] = sum(vals) / time_total if vals and time_total > 0 else float("nan")

@@ -10,6 +10,7 @@ import pandas as pd
 
 from harness.report.names import PLANNER_LABELS, env_label
 from harness.report.render import _md_table
+from harness.report.tables import LOADED
 from mpnet.envs.specs import get_spec
 
 SPLIT = (  # (label, share column(s)): MPNet's time split, disjoint
@@ -68,10 +69,13 @@ def planners_md(pl: pd.DataFrame) -> str:
         "plan_s / BIT*",
         "Checks (median)",
         "Configurations (median)",
+        "CPU share",
     ]
     rows = []
     for r in pl.itertuples():
         b = bit.get(r.env)
+        share = getattr(r, "cpu_share", float("nan"))
+        waited = " (waited)" if share < LOADED else ""
         rows.append(
             [
                 env_label(r.env),
@@ -84,6 +88,7 @@ def planners_md(pl: pd.DataFrame) -> str:
                 _g(r.plan_median_s / b.time_median_s) if b is not None else "—",
                 _g(r.checks_median),
                 _g(getattr(r, "configurations_median", float("nan"))),
+                f"{_pct(share)}{waited}",
             ]
         )
     return _md_table(head, rows)
@@ -209,7 +214,9 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "encodes it: Table I's time). plan_s: given the workspace's code (time_s less MPNet's cloud and "
             "Enet), as a robot that encodes its scene once would see it; for the classical planners plan_s = "
             "time_s. Medians and p90 over the solved queries; / BIT*: ratio of medians to BIT*'s time_s "
-            "(its first solution). Checks: collision checks per query (states + motions, every query).",
+            "(its first solution). Checks: collision checks per query (states + motions, every query). "
+            f"CPU share: the queries' CPU time over their wall time; under {LOADED:.0%} (marked waited) they "
+            "waited for the CPU, and their times are the machine's, not the planner's.",
             "",
             "## Where MPNet's time goes [% of time_s]",
             "",

@@ -8,10 +8,10 @@ import statistics
 import time
 
 import numpy as np
-from numba import njit
 
 from harness.bench_checkers import bench_checker
 from mpnet.envs.specs import get_spec
+from mpnet.jit import njit
 from mpnet.models.enet_kernel import EnetKernel
 from mpnet.models.networks import Enet, Normalizer, Pnet, enet_numpy, pnet_numpy
 from mpnet.models.pnet_kernel import PnetKernel, pnet_step

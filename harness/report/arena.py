@@ -14,6 +14,8 @@ progress_rows)."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import sqlite3
 from pathlib import Path
@@ -118,6 +120,46 @@ def planner_settings(run: dict) -> str:
     return yaml.safe_dump(section, sort_keys=False) if section is not None else str(run.get("config") or "")
 
 
+def _variant(run: dict) -> str:
+    """What makes a run's planner a variant of its own: every logged setting that decides
+    results but the seed (a checker, a problem file, a budget, the planner's settings), as JSON;
+    a log without settings, its planner section."""
+    settings = run.get("settings")
+    if not isinstance(settings, dict):
+        return json.dumps({"planner.config": "sha256:" + hashlib.sha256(planner_settings(run).encode()).hexdigest()})
+    return json.dumps({k: v for k, v in settings.items() if k != "seed"}, sort_keys=True, default=str)
+
+
+def _short(v) -> str:
+    """A setting's value in a planner's name: a digest by its first 8 hex digits."""
+    text = v if isinstance(v, str) else json.dumps(v, default=str)
+    if text.startswith("sha256:"):
+        return text[7:15]
+    return text if len(text) <= 32 else text[:29] + "..."
+
+
+def variant_names(files: list[TrialFile]) -> list[str]:
+    """Each file's planner as the database names it: its planner's name, and where runs of one
+    planner differ in a setting other than the seed, the settings that tell them apart
+    (`rrt_connect [env.collision=pybullet]`): Planner Arena groups runs by name, so two variants
+    under one name would be shown as one planner with both variants' runs."""
+    variants = [(str(tf.run["planner"]), _variant(tf.run)) for tf in files]
+    by_name: dict[str, list[dict]] = {}
+    for p, v in dict.fromkeys(variants):
+        by_name.setdefault(p, []).append(json.loads(v))
+    out = []
+    for p, v in variants:
+        known = by_name[p]
+        if len(known) == 1:
+            out.append(p)
+            continue
+        keys = sorted({k for d in known for k in d})
+        differ = [k for k in keys if len({json.dumps(d.get(k), sort_keys=True, default=str) for d in known}) > 1]
+        mine = json.loads(v)
+        out.append(f"{p} [{', '.join(f'{k}={_short(mine.get(k))}' for k in differ)}]")
+    return out
+
+
 def ompl_status(success: pd.Series, failure: pd.Series) -> np.ndarray:
     """OMPL PlannerStatus values: exact solution for a success; for a failure timeout, invalid
     start, crash (an exception in the planner), abort (the planner gave up within the budget:
@@ -210,11 +252,15 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
         for name, typ in PARAMETERS:
             c.execute(f"ALTER TABLE experiments ADD {name} {typ}")
         c.executemany("INSERT INTO enums VALUES (?,?,?)", [("status", i, d) for i, d in enumerate(OMPL_STATUS)])
-        configs = [(str(tf.run["planner"]), planner_settings(tf.run)) for tf in files]
+        names = variant_names(files)
+        configs = [(name, planner_settings(tf.run)) for name, tf in zip(names, files)]
         config_ids = {}
-        for p, settings in sorted(set(configs), key=lambda k: (facts.rank(k[0]), k[1])):
-            c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)", (f"geometric_{p}", settings))
-            config_ids[(p, settings)] = c.lastrowid
+        ranked = sorted(
+            set(zip(configs, (str(tf.run["planner"]) for tf in files))), key=lambda k: (facts.rank(k[1]), k[0])
+        )
+        for (name, settings), _ in ranked:
+            c.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)", (f"geometric_{name}", settings))
+            config_ids[(name, settings)] = c.lastrowid
         file_config = [config_ids[k] for k in configs]
         if q.empty:
             conn.commit()
@@ -245,7 +291,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                     float(np.nansum(d["time_s"])),
                     max(budgets) if budgets else None,
                     0.0,
-                    int(d.groupby("planner").size().max()),
+                    int(len(d[["workspace_id", "query_id", "seed"]].drop_duplicates())),  # each (query, seed) once
                     "OMPL " + (",".join(ompl) or "unknown"),
                     ", ".join(hosts),
                     None,

@@ -326,6 +326,8 @@ How the numbers are computed:
   finite time; the std is the sample std (ddof=1), 0 for a single one.
 - CPU time, path cost and collision checks: over all successful queries of all seeds pooled.
 - `pnet_calls_median`, `replans_mean`, `fallback_rate`: over the queries that logged them.
+- `cpu_share`: the planned queries' CPU time over their wall time, pooled; below 90% they
+  waited for the CPU, above 110% a second thread ran, and a warning says so.
 - `timeouts`, `timeout_cpu_share`: the queries that ran out of budget and their CPU time over
   their wall time, pooled; below 90% the machine was loaded, a warning says so, and that
   row's success rate is a lower bound.

@@ -41,6 +41,7 @@ RESULT_COLS = KEYS + [
     "plan_median_s",
     "plan_p90_s",
     "cpu_mean_s",
+    "cpu_share",
     "timeouts",
     "timeout_cpu_share",
     "cost_mean",
@@ -71,15 +72,30 @@ RESULT_COLS = KEYS + [
 LOADED = 0.9  # a run whose timed-out queries got less CPU than this share of their time is flagged
 
 
+THREADED = 1.1  # a row whose queries used more CPU than this share of their time ran a second thread
+
+
 def loaded_warnings(res: pd.DataFrame) -> list[str]:
-    """One line per row whose timed-out queries got less than LOADED of a CPU."""
-    low = res[res["timeout_cpu_share"] < LOADED]
-    return [
+    """One line per row whose queries waited for a CPU (cpu_share under LOADED: their times
+    include the waiting), whose timed-out queries got less than LOADED of a CPU (a lower bound
+    on its success), or whose queries ran more than one thread (cpu_share over THREADED)."""
+    waited = [
+        f"warning: {r.env} {r.split} {r.planner}: its queries got {r.cpu_share:.0%} of a CPU (< {LOADED:.0%}): "
+        "they waited for the CPU (a loaded machine), so their times are longer than the planner's work"
+        for r in res[res["cpu_share"] < LOADED].itertuples()
+    ]
+    threaded = [
+        f"warning: {r.env} {r.split} {r.planner}: its queries used {r.cpu_share:.0%} of a CPU: more than one "
+        "thread, so its times are not one core's (a run before harness.threads, or a pool it did not limit)"
+        for r in res[res["cpu_share"] > THREADED].itertuples()
+    ]
+    timeouts = [
         f"warning: {r.env} {r.split} {r.planner}: its {r.timeouts} timed-out queries got "
         f"{r.timeout_cpu_share:.0%} of a CPU (< {LOADED:.0%}): the machine was loaded, so its success "
         "rate is a lower bound"
-        for r in low.itertuples()
+        for r in res[res["timeout_cpu_share"] < LOADED].itertuples()
     ]
+    return waited + threaded + timeouts
 
 
 def equal_quality_planners(q: pd.DataFrame, facts: Facts) -> set[str]:
@@ -114,6 +130,10 @@ def results_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
     res["plan_p90_s"] = plan.quantile(0.9)
     by = solved.groupby(KEYS, sort=False)
     res["cpu_mean_s"] = by["cpu_s"].mean()
+    # How much of a CPU the planned queries got (CPU time over wall time, pooled): well under
+    # one, they waited for the CPU; over one, a second thread ran.
+    planned = q[q["time_s"] > 0].groupby(KEYS, sort=False)
+    res["cpu_share"] = planned["cpu_s"].sum() / planned["time_s"].sum()
     # How much of a CPU the timed-out queries got: on a loaded machine a planner that ran out
     # of time got less than its budget of computing, and its success rate is a lower bound.
     out_of_time = q[q["failure"] == "timeout"].groupby(KEYS, sort=False)

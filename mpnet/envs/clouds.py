@@ -7,9 +7,9 @@ from __future__ import annotations
 import zlib
 
 import numpy as np
-from numba import njit
 
 from mpnet.envs.workspace import Workspace
+from mpnet.jit import njit
 
 
 def point_cloud(ws: Workspace, total: int, rng: np.random.Generator) -> np.ndarray:

@@ -10,7 +10,8 @@ the state bounds. Closed boxes: a point on a face collides.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from mpnet.jit import njit
 
 
 @njit(cache=True)

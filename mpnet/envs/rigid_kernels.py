@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from mpnet.jit import njit
 
 HX, HY, RADIUS, MARGIN, X0, X1, Y0, Y1 = range(8)
 MAX_STEPS = 20000  # RigidChecker.MAX_STEPS

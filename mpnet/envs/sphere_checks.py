@@ -2,22 +2,14 @@
 and free, a batch of them, and certified straight motions (an interval is cut until every
 sphere's swept reach is free, or a state on it is hit).
 
-Why a second file: the kernels here inline sphere_kernels' (verdict, unpack, ...), and numba
-caches a kernel by its own file's stamp only (numba#1833), so a change there alone would
-leave the cached code here compiled from the old one. This file therefore names that file's
-digest (KERNELS_SHA256): a change there refuses this import until the digest here is updated,
-which changes this file and so recompiles everything below.
+The kernels here inline sphere_kernels' (verdict, unpack, ...); mpnet.jit's cache stamps
+them with both files' text, so a change there recompiles these too.
 """
 
 from __future__ import annotations
 
-import hashlib
-from pathlib import Path
-
 import numpy as np
-from numba import njit
 
-from mpnet.envs import sphere_kernels as _kernels
 from mpnet.envs.sphere_kernels import (
     BRADIUS,
     DQ,
@@ -40,20 +32,7 @@ from mpnet.envs.sphere_kernels import (
     unpack_obstacles,
     verdict,
 )
-
-KERNELS_SHA256 = "f59eccf088a5a4da062514cba46e4d249759d5d863e140aaee47a2dda04de398"
-
-
-def kernels_digest() -> str:
-    """sha256 of sphere_kernels.py's text (line endings as in the repository)."""
-    return hashlib.sha256(Path(_kernels.__file__).read_text().replace("\r\n", "\n").encode()).hexdigest()
-
-
-if kernels_digest() != KERNELS_SHA256:
-    raise ImportError(
-        f"{_kernels.__file__} changed (sha256 {kernels_digest()}): set KERNELS_SHA256 in {__file__} "
-        f"to it, so that the checks compiled from it here are compiled again"
-    )
+from mpnet.jit import njit
 
 
 @njit(cache=True, inline="always")

@@ -25,11 +25,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from mpnet.jit import njit
 
 FREE, NEAR, HIT = 0, 1, 2
-# The checks built on these kernels live in sphere_checks.py, which names this file's digest:
-# numba caches a kernel by its own file's stamp, so see there before changing anything here.
 QUEUE = 1 << 14  # motion intervals pending at once; a motion that needs more is called blocked
 HEAD = 8  # mi starts with F, L, G, S, P, D, first, T (pair tables)
 TABLE_SPAN = 16  # a motion interval's lookup reads at most this many table cells, else tests spheres

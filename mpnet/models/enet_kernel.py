@@ -11,8 +11,8 @@ buffers kept between queries.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from mpnet.jit import njit
 from mpnet.models.numpy_nets import NumpyEnet, _flat_cloud
 from mpnet.models.pnet_kernel import affine
 

@@ -13,7 +13,8 @@ The dropout masks are drawn from the query's own np.random.Generator inside the 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from mpnet.jit import njit
 
 
 class PnetKernel:

@@ -22,12 +22,12 @@ by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numba.extending import overload
 
 from mpnet.envs import point_kernels as P
 from mpnet.envs import rigid_kernels as R
 from mpnet.envs import sphere_checks as S
+from mpnet.jit import njit
 from mpnet.models.pnet_kernel import pnet_rows, pnet_step
 
 POINT, RIGID, ARM = 0, 1, 2

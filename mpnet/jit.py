@@ -1,0 +1,134 @@
+"""numba's `njit`, whose on-disk cache is keyed on every source file a kernel can reach.
+
+Why not numba's own `cache=True`: numba stamps a cached kernel with its own file's text only
+(numba#1833). A kernel that calls, or inlines, a kernel of another module keeps the machine
+code compiled from that module's old text after it changes: the compiled MPNet loop
+(`mpnet/planners/compiled_kernels.py`) inlines the point, rigid, sphere and Pnet kernels, so
+an edit of `point_kernels.state_free` did not reach the planner. Here the stamp is the digest
+of the kernel's module and of every `mpnet` module it imports, transitively (module-level and
+function-level imports alike, read from the source, so nothing is imported to find them; a
+package's `__init__` only where a name is imported from it): an
+edit anywhere a kernel reaches recompiles that kernel, and only the kernels that reach it.
+
+The cache stays where numba keeps it (`NUMBA_CACHE_DIR` if set, else the `__pycache__`
+beside the source, else the user-wide cache); only the freshness stamp differs.
+"""
+
+from __future__ import annotations
+
+import ast
+import hashlib
+import os
+from functools import cache
+from pathlib import Path
+
+import numba
+from numba.core.caching import (
+    CompileResultCacheImpl,
+    FunctionCache,
+    InTreeCacheLocator,
+    UserProvidedCacheLocator,
+    UserWideCacheLocator,
+)
+
+ROOT = Path(__file__).resolve().parent  # the package whose modules a stamp follows
+PACKAGE = ROOT.name
+
+
+def _module_file(name: str) -> Path | None:
+    """The file of module `name` (dotted, inside this package), or None."""
+    parts = name.split(".")
+    if parts[0] != PACKAGE:
+        return None
+    base = ROOT.joinpath(*parts[1:])
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+@cache
+def _imports(path: Path, mtime_ns: int, size: int) -> tuple[Path, ...]:
+    """The package's files that the module at `path` imports directly (text read once per
+    version of the file: mtime and size are part of the memo key)."""
+    tree = ast.parse(path.read_text(), str(path))
+    names: list[str] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            # `from a.b import c`: c is a submodule of a.b, else a name a.b defines
+            for a in node.names:
+                sub = f"{node.module}.{a.name}"
+                names.append(sub if _module_file(sub) is not None else node.module)
+    return tuple(sorted({f for f in map(_module_file, names) if f is not None}))
+
+
+def reach(path: str | os.PathLike) -> list[Path]:
+    """The module at `path` and every module of the package it imports, transitively, sorted."""
+    seen: set[Path] = set()
+    todo = [Path(path).resolve()]
+    while todo:
+        p = todo.pop()
+        if p in seen:
+            continue
+        seen.add(p)
+        st = p.stat()
+        todo += [q for q in _imports(p, st.st_mtime_ns, st.st_size) if q not in seen]
+    return sorted(seen)
+
+
+def reach_digest(path: str | os.PathLike) -> str:
+    """sha256 over the text of every file in reach(path), each under its path in the package
+    (so the stamp does not depend on where the package is installed)."""
+    h = hashlib.sha256()
+    for p in reach(path):
+        rel = p.relative_to(ROOT).as_posix() if p.is_relative_to(ROOT) else p.name
+        data = p.read_bytes()
+        h.update(f"{rel}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
+class _ReachStamp:
+    """A numba cache locator whose freshness stamp is reach_digest, not the file's own text."""
+
+    def get_source_stamp(self):
+        return reach_digest(self._py_file)
+
+
+class _UserProvided(_ReachStamp, UserProvidedCacheLocator):
+    pass
+
+
+class _InTree(_ReachStamp, InTreeCacheLocator):
+    pass
+
+
+class _UserWide(_ReachStamp, UserWideCacheLocator):
+    pass
+
+
+class _ReachCacheImpl(CompileResultCacheImpl):
+    _locator_classes = [_UserProvided, _InTree, _UserWide]  # numba's order, same places
+
+
+class ReachCache(FunctionCache):
+    """numba's per-function cache (same files, same index) with the reach stamp."""
+
+    _impl_class = _ReachCacheImpl
+
+
+def njit(*args, cache: bool = False, **options):
+    """numba.njit; with cache=True, cached on disk under the reach stamp (see the module)."""
+
+    def wrap(func):
+        dispatcher = numba.njit(**options)(func)
+        if cache:
+            # Dispatcher.enable_caching does exactly this with numba's FunctionCache
+            dispatcher._cache = ReachCache(dispatcher.py_func)
+        return dispatcher
+
+    if args and callable(args[0]):
+        return wrap(args[0])
+    return wrap

@@ -1,0 +1,53 @@
+"""One thread per timed process (harness.threads): every pool a run loads, scipy's OpenBLAS that
+numba's kernels load after the run started included, at one thread, and recorded in /run."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from test_cli import read_mcap
+
+from harness.threads import extra_threads
+
+PROBE = """
+import json, os
+import numpy  # a BLAS loaded before: limited where it is
+from harness.threads import single_threaded, thread_pools
+single_threaded()
+import scipy.linalg  # scipy's own OpenBLAS, loaded after: reads the variables
+print(json.dumps(thread_pools()))
+"""
+
+
+def test_pools_loaded_before_and_after_are_single_threaded():
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    p = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, timeout=120)
+    assert p.returncode == 0, p.stderr
+    pools = json.loads(p.stdout)
+    assert sum(p["library"] == "openblas" for p in pools) >= 2  # numpy's and scipy's copies
+    assert extra_threads(pools) == [] and all(p["threads"] == 1 for p in pools)
+
+
+def test_extra_threads_names_each_pool_over_one():
+    pools = [
+        {"api": "blas", "library": "openblas", "file": "libscipy_openblas.so", "threads": 2},
+        {"api": "numba", "library": "numba", "file": "", "threads": 1},
+    ]
+    assert extra_threads(pools) == ["openblas (libscipy_openblas.so): 2 threads"]
+
+
+@pytest.mark.slow
+def test_a_run_records_its_pools_each_at_one_thread(tmp_path, run_cli):
+    """MPNet's compiled loop loads scipy's OpenBLAS (Pnet's products) at warm-up, before /run:
+    the record has it, and every pool at one thread, whatever the machine's cores."""
+    out = tmp_path / "run"
+    env = {k: "" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}  # the user's own settings do not decide it
+    run_cli("harness", "+env=s2d", "+planner=mpnet_nr", "scale=tiny", "rerun=false", f"hydra.run.dir={out}", env=env)
+    run = next(m for t, m in read_mcap(out / "trials.mcap")[1] if t == "/run")
+    pools = run["threads"]
+    assert any(p["library"] == "openblas" and "scipy" in p["file"] for p in pools)
+    assert {p["api"] for p in pools} >= {"blas", "numba"} and all(p["threads"] == 1 for p in pools)
