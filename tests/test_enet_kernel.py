@@ -84,4 +84,7 @@ def test_the_compiled_point_cloud_draws_as_numpy(seed, dim, blocks, total):
     a, b = np.random.default_rng(seed), np.random.default_rng(seed)
     assert np.array_equal(point_cloud(ws, total, a), _numpy_point_cloud(ws, total, b))
     assert a.random() == b.random()  # the same draws taken
-    assert np.array_equal(point_cloud(ws, total, cloud_rng(0, ws.id)), point_cloud(ws, total, cloud_rng(0, "7")))
+    listed_otherwise = Workspace("other", "seen", centers[::-1], 2 * half[::-1])  # the same scene
+    assert np.array_equal(
+        point_cloud(ws, total, cloud_rng(0, ws)), point_cloud(ws, total, cloud_rng(0, listed_otherwise))
+    )

@@ -26,7 +26,9 @@ from mpnet.envs.generators import extra_ids, make_workspaces, split_ids, split_s
 from mpnet.envs.spec import EnvSpec
 
 DATA_FILE = "data.npz"
-FORMAT = "mpnet-bench/data@3"  # @3: raw RRT* paths unless expert_contract (@2: always contracted)
+# @4: clouds drawn from the obstacles in their canonical order, seeded by the geometry (Workspace);
+# @3: raw RRT* paths unless expert_contract (@2: always contracted)
+FORMAT = "mpnet-bench/data@4"
 
 
 @dataclass

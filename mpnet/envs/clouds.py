@@ -4,8 +4,6 @@ was trained on."""
 
 from __future__ import annotations
 
-import zlib
-
 import numpy as np
 
 from mpnet.envs.workspace import Workspace
@@ -41,16 +39,15 @@ def _point_cloud(lo, hi, rng, out):
             r += 1
 
 
-def cloud_rng(seed: int, ws_id: str) -> np.random.Generator:
-    """A workspace's cloud depends on the data seed and its id only (a numeric id as the
-    number, any other id by its CRC-32)."""
-    key = int(ws_id) if str(ws_id).isdigit() else zlib.crc32(str(ws_id).encode())
-    return np.random.default_rng([seed, 5, key])
+def cloud_rng(seed: int, ws: Workspace) -> np.random.Generator:
+    """A workspace's cloud depends on the data seed and its geometry only (Workspace.geometry_key:
+    its obstacles in their canonical order), not on its id or the order a file lists them in."""
+    return np.random.default_rng([seed, 6, ws.geometry_key()])
 
 
 def workspace_cloud(ws: Workspace, total: int, seed: int, sampler=point_cloud) -> np.ndarray:
     """The cloud Enet sees for `ws` (float32, (total, dim))."""
-    return sampler(ws, total, cloud_rng(seed, ws.id)).astype(np.float32)
+    return sampler(ws, total, cloud_rng(seed, ws)).astype(np.float32)
 
 
 def clouds(workspaces: list[Workspace], total: int, seed: int, sampler=point_cloud) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -12,7 +13,13 @@ from mpnet.envs.shapes import IDENTITY, Primitive
 @dataclass
 class Workspace:
     """Axis-aligned box obstacles, stored as min and max corners (closed boxes), and, in 3D
-    workspaces (problems@2, the arm), posed primitives: oriented boxes, cylinders, spheres."""
+    workspaces (problems@2, the arm), posed primitives: oriented boxes, cylinders, spheres.
+
+    Both are kept in one canonical order (boxes by center then size, primitives by type,
+    center, size, orientation), whatever order they were given in: the point cloud Enet reads
+    is drawn obstacle by obstacle, so a scene listed in two orders would otherwise get two
+    codes and two sets of plans (MotionBenchMaker's files list objects alphabetically, our
+    generators by family). The meaning of a scene, not its listing, decides every result."""
 
     id: str
     split: str
@@ -21,16 +28,29 @@ class Workspace:
     primitives: tuple[Primitive, ...] = ()
     lo: np.ndarray = field(init=False, repr=False)
     hi: np.ndarray = field(init=False, repr=False)
+    _geometry_key: int | None = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self):
         c = np.asarray(self.centers, float)
-        self.centers = c if c.ndim == 2 else c.reshape(len(c), -1)  # (0, dim) arrays: no obstacles
-        self.sizes = np.asarray(self.sizes, float).reshape(self.centers.shape)
+        c = c if c.ndim == 2 else c.reshape(len(c), -1)  # (0, dim) arrays: no obstacles
+        s = np.asarray(self.sizes, float).reshape(c.shape)
+        order = np.lexsort(np.hstack([c, s]).T[::-1])  # rows by their first column, then the next, ...
+        self.centers, self.sizes = np.ascontiguousarray(c[order]), np.ascontiguousarray(s[order])
         self.lo = self.centers - self.sizes / 2
         self.hi = self.centers + self.sizes / 2
-        self.primitives = tuple(self.primitives)
+        self.primitives = tuple(sorted(self.primitives, key=lambda p: (p.type, p.center, p.size, p.orientation)))
         if self.primitives and self.dim != 3:
             raise ValueError(f"workspace {self.id!r}: posed primitives need a 3D workspace")
+
+    def geometry_key(self) -> int:
+        """A 63-bit digest of the obstacles (canonical order, exact float bits): the same scene
+        gives the same key whatever its id or listing (the cloud's seed: clouds.cloud_rng)."""
+        if self._geometry_key is None:
+            h = hashlib.sha256(np.float64(self.dim).tobytes() + self.centers.tobytes() + self.sizes.tobytes())
+            for p in self.primitives:
+                h.update(p.type.encode() + np.array([*p.center, *p.size, *p.orientation], float).tobytes())
+            self._geometry_key = int.from_bytes(h.digest()[:8], "little") >> 1
+        return self._geometry_key
 
     @property
     def dim(self) -> int:
