@@ -60,9 +60,10 @@ TESTED = {
     ),
     "python -m harness.fetch_mbm data/mbm": "tests/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist",
     "python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems": MBM_RUN,
-    "python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000": (
-        "tests/test_spheres.py::test_sphere_audit_cli"
-    ),
+    (
+        "python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000 "
+        "--out reports/sphere_audit"
+    ): ("tests/test_spheres.py::test_sphere_audit_cli"),
     "python -m harness.bench_checkers arm7": CLI + "test_bench_checkers",
     "python -m harness +experiment=arm7": EXPERIMENTS,
     "python -m harness +env=panda_mbm +planner=mpnet_nr problems=data/mbm/problems": PANDA_MBM,
@@ -105,10 +106,13 @@ TESTED = {
     "python -m harness.perf perf=tiny out=/tmp/p": PERF,
     "python -m harness.overhead +env=s2d +planner=bit_star": CLI + "test_overhead_benchmark",
     "python -m harness.bench_checkers arm7 rigid": CLI + "test_bench_checkers",
+    "python -m harness.bench_checkers --out reports/checkers": CLI + "test_bench_checkers",
     # docs/reports.md
     "python -m harness +env=s2d +planner=bit_star scale=tiny hydra.run.dir=outputs/tiny": NOTEBOOK,
     "MPNET_FIGURE=outputs/tiny/query.png jupyter execute examples/explore_a_run.ipynb": NOTEBOOK,
-    "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001]": MBM_RUN,
+    "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001] [--out DIR]": (
+        "tests/test_recheck.py::test_the_recheck_report_says_how_many_successes_were_verified"
+    ),
 }
 
 # Commands no test can run by their nature -> (why, what is run in their stead): a command of
