@@ -6,9 +6,8 @@ primitives included), and the logged joint path is sampled at `--step` (default:
 env's validation step, so finer than the bench's own judge) against a checker of the env
 with no margin, the robot model the log names. This is the arm's re-check (pybullet, a new
 DIRECT client, the arm model of the log: logs from before arm models were data re-check with
-pybullet_data's Panda as it was then);
-`../shared/tools/check_trials.py` does the same with its own geometry for the 2D/3D and
-rigid envs. Exit 1 on any false success or unreadable file.
+pybullet_data's Panda as it was then), and the env's own checkers for the 2D/3D and rigid
+envs. Exit 1 on any false success or unreadable file.
 """
 
 from __future__ import annotations

@@ -123,13 +123,13 @@ def test_multirun_flag_last(tmp_path, run_cli):
     [
         (["+planner=bit_star"], "choose an env with +env=NAME (choices: arm7, c2d, c3d, panda_mbm, rigid, s2d)"),
         (["+env=s2d"], "choose a planner with +planner=NAME"),
-        (["+env=s3d", "+planner=bit_star"], "unknown env 's3d'"),
+        (["+env=s3d", "+planner=bit_star"], "unknown env 's3d' (did you mean s2d?"),
         (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar'"),
     ],
 )
 def test_missing_or_unknown_choice(args, needle, run_cli):
     p = run_cli("harness", *args, check=False)
-    assert p.returncode != 0
+    assert p.returncode == 2
     assert needle in p.stderr
     assert "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1
 
@@ -316,7 +316,7 @@ def test_a_planner_of_ones_own_runs_beside_bit_star_and_in_the_report(tmp_path, 
     p = run_cli("harness", "+planner=batch_prm", searchpath, "planner.bogus=1", *common, check=False, env=own)
     assert "unknown config key planner.bogus" in p.stderr
     p = run_cli("harness", "+planner=batch_prm", searchpath, "planner.batch=0", *common, check=False, env=own)
-    assert p.returncode == 1 and "planner.batch" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 2 and "planner.batch" in p.stderr and "Traceback" not in p.stderr
     run_cli("harness", "+planner=batch_prm", searchpath, *common, f"hydra.run.dir={tmp_path / 'prm'}", env=own)
     run_cli("harness", "+planner=bit_star", *common, f"hydra.run.dir={tmp_path / 'bit'}")
     _, msgs = read_mcap(tmp_path / "prm" / "trials.mcap")
@@ -418,7 +418,7 @@ def test_ablation_under_mpnet_name_is_refused(tmp_path, run_cli):
         f"cache_dir={tmp_path / 'cache'}",
         check=False,
     )
-    assert p.returncode == 1 and "config key planner.name" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 2 and "config key planner.name" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "cache").exists()
 
 
@@ -457,7 +457,7 @@ def test_bad_config_values(tmp_path, override, key, run_cli):
     p = run_cli(
         "harness", "+env=s2d", "+planner=bit_star", "scale=tiny", override, f"hydra.run.dir={tmp_path}", check=False
     )
-    assert p.returncode == 1 and f"config key {key}" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 2 and f"config key {key}" in p.stderr and "Traceback" not in p.stderr
 
 
 @pytest.mark.parametrize(
@@ -474,7 +474,7 @@ def test_bad_steer_steps_fail_before_any_training(tmp_path, override, run_cli):
         f"cache_dir={tmp_path / 'cache'}",
         check=False,
     )
-    assert p.returncode == 1 and "config key planner.steer_steps" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 2 and "config key planner.steer_steps" in p.stderr and "Traceback" not in p.stderr
     assert not (tmp_path / "cache").exists()
 
 
