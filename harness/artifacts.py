@@ -2,7 +2,7 @@
 
 Every load verifies the files against the manifest's checksums (mpnet.data.store); a
 damaged artifact is rebuilt with a warning on stderr, and one that cannot be rebuilt here
-is refused with one line (UsageError) naming it."""
+is refused with one line (RunRefused: exit status 1) naming it."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from harness.cli import UsageError
+from harness.cli import RunRefused
 from harness.config import enet_params
 from harness.provenance import artifact_provenance
 from harness.settings import RunSettings
@@ -41,7 +41,7 @@ def _ensure(root, kind: str, config: dict, build, provenance, check):
     try:
         return ensure(root, kind, config, build, provenance, check=check, notify=_warn)
     except ArtifactError as e:
-        raise UsageError(str(e)) from None
+        raise RunRefused(str(e)) from None
 
 
 def _check_sizes(folder: Path, sizes: dict) -> None:
@@ -171,7 +171,7 @@ def ensure_testset_artifact(run: RunSettings, progress: bool = True):
             try:
                 return copy_testset(source, folder)
             except ArtifactError as e:
-                raise UsageError(str(e)) from None
+                raise RunRefused(str(e)) from None
 
         ou.setLogLevel(ou.LOG_WARN)  # RRT-Connect's solvability checks would flood stdout
         with _bar(sum(n for n, _ in sizes.values()), f"test set {spec.name}", progress) as bar:
@@ -272,13 +272,13 @@ def _shipped_models(run: RunSettings, key_config: dict):
     try:
         weights = read_meta(source)["weights"]
     except ValueError as e:
-        raise UsageError(str(e)) from None
+        raise RunRefused(str(e)) from None
 
     def build(folder: Path) -> dict:
         try:
             write_checkpoint(source, folder / PNET_FILE)
         except ValueError as e:
-            raise UsageError(str(e)) from None
+            raise RunRefused(str(e)) from None
         print(f"models: the shipped pretrained set {source.name} (key {key})", file=sys.stderr)
         return {"files": [PNET_FILE], "models_key": key, "source": str(source)}
 
@@ -305,7 +305,7 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
         try:
             data = load_dataset(data_folder, data_manifest)
         except ArtifactError as e:  # damaged since it was verified: the user's one line, not a traceback
-            raise UsageError(str(e)) from None
+            raise RunRefused(str(e)) from None
         if enet_config is None:
             return fit_models(spec, data, params, lightning, folder, progress)
         enet_folder, enet_manifest, built = _ensure(

@@ -5,7 +5,8 @@ fails with "unrecognized arguments"), so the flag is moved to the front first. T
 `+env=`/`+planner=` choices are checked before Hydra composes, so a missing or unknown
 name gets one line listing the choices instead of Hydra's traceback-like report; so does
 a `hydra.run.dir` / `hydra.sweep.dir` that cannot be created (Hydra makes it before our
-code runs, and reports the OSError with a traceback). A key override is checked against
+code runs, and reports the OSError with a traceback), and so does a `problems=` file that does
+not exist (before Hydra makes the run folder). A key override is checked against
 the composed config (composed only when some key is not one of the command's own config
 file's): Hydra accepts `+budget=5` and nothing reads it, and answers `budget=5` and `env=s2d`
 with several lines of advice. `--help` is ours (harness/cli_help.py).
@@ -21,6 +22,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import NoReturn
 
 CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
 MULTIRUN_FLAGS = ("-m", "--multirun")
@@ -33,8 +35,17 @@ HELP_FLAGS = ("-h", "--help")
 
 
 class UsageError(Exception):
-    """A one-line message for the user: exit status 2 for a command line refused before any
-    work (run_hydra), 1 for one found by the job itself (user_errors, bench_or_exit)."""
+    """A mistake in the command (a choice, key or value; a file it names): one line on stderr
+    and exit status 2 (docs/reliability.md, "Exit status"), whether run_hydra or the job finds it."""
+
+    status = 2
+
+
+class RunRefused(UsageError):
+    """The command is right, but what the run found refuses it (a cache it cannot write, a log
+    resume refuses, more than one thread per pool): one line, exit status 1."""
+
+    status = 1
 
 
 def normalize_argv(argv: list[str]) -> list[str]:
@@ -113,10 +124,35 @@ def check_groups(argv: list[str], required: tuple[str, ...], optional: tuple[str
             continue
         for v in values:
             if v not in names and "*" not in v:
+                close = difflib.get_close_matches(v, names, n=1)
                 raise UsageError(
-                    f"unknown {group} {v!r} (choices: {', '.join(names)}; one of your own: its folder's parent "
+                    f"unknown {group} {v!r} ({f'did you mean {close[0]}? ' if close else ''}"
+                    f"choices: {', '.join(names)}; one of your own: its folder's parent "
                     f'with hydra.searchpath=[file://DIR], README "Benchmark your own planner")'
                 )
+
+
+FILE_KEYS = ("problems",)  # keys that name an input file or folder
+
+
+def missing_file(key: str, value) -> str | None:
+    """The one-line complaint about a file or folder a key names that does not exist; None when
+    it exists or none is named."""
+    if value in (None, "", "null") or Path(str(value)).exists():
+        return None
+    return f"{key}={value}: no such file or folder"
+
+
+def check_files(argv: list[str]) -> None:
+    """UsageError for an input file named on the command line that does not exist (`problems=`),
+    before Hydra makes the run folder; a value with an interpolation is left to settings_of."""
+    for arg in _overrides(argv):
+        key = arg.partition("=")[0].lstrip("+")
+        if key in FILE_KEYS and "${" not in arg:
+            for value in _override_values([arg.lstrip("+")], key) or []:
+                value = value.strip("'\"")
+                if "*" not in value and (message := missing_file(key, value)):
+                    raise UsageError(message)
 
 
 def _overrides(argv: list[str]) -> list[str]:
@@ -326,9 +362,26 @@ def _try_writable_dir(path: Path) -> None:
                 pass
 
 
+def refuse(message, status: int, run_dir: Path | str | None = None) -> NoReturn:
+    """One line on stderr and exit `status`; the run folder Hydra made for the job (run_dir
+    where no Hydra job runs in this process: a sweep's job in its own process) is removed
+    when nothing but Hydra's start files is in it (harness.run_dir)."""
+    from harness.run_dir import discard
+
+    print(f"error: {message}", file=sys.stderr)
+    discard(run_dir)
+    sys.exit(status)
+
+
+def status_of(error: Exception) -> int:
+    """A one-line error's exit status: a UsageError's own (2, or 1 for RunRefused); 1 for the
+    others (a malformed problem file, a run that failed)."""
+    return error.status if isinstance(error, UsageError) else 1
+
+
 def user_errors(main):
     """A Hydra task function whose user-facing errors (UsageError, a problem file's) are one
-    line on stderr and exit status 1; Hydra would report them as a traceback."""
+    line on stderr and their exit status (refuse); Hydra would report them as a traceback."""
 
     @functools.wraps(main)
     def wrapped(*args, **kwargs):
@@ -337,8 +390,7 @@ def user_errors(main):
         try:
             return main(*args, **kwargs)
         except (UsageError, ProblemFileError) as e:
-            print(f"error: {e}", file=sys.stderr)
-            sys.exit(1)
+            refuse(e, status_of(e))
 
     return wrapped
 
@@ -363,10 +415,10 @@ def run_hydra(main, required: tuple[str, ...], optional: tuple[str, ...] = ("sca
             check_plus(argv)
             check_groups(argv, required, optional)
             check_output_dirs(argv)
+            check_files(argv)
             check_keys(argv, ENTRIES[prog].config if prog in ENTRIES else "config")
         except UsageError as e:
-            print(f"error: {e}", file=sys.stderr)
-            sys.exit(2)
+            refuse(e, e.status)
     sys.argv = [sys.argv[0]] + normalize_argv(argv)
     try:
         main()

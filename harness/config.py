@@ -17,7 +17,7 @@ from dataclasses import replace
 
 from omegaconf import DictConfig, OmegaConf
 
-from harness.cli import UsageError
+from harness.cli import UsageError, missing_file
 from mpnet.data.expert import EXPERTS
 from mpnet.envs.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
@@ -176,7 +176,20 @@ def _settings(planner_cfg, key: str, runtime: dict):
         factory = hydra.utils.instantiate(args, _partial_=True)
     except InstantiationException as e:
         raise UsageError(f"config key {key}: {e.__cause__ or e}") from None
-    return _call(factory.func, factory.args, factory.keywords, runtime, key)
+    given = dict(factory.keywords)
+    if "name" in given and not _takes(factory.func, "name"):
+        del given["name"]  # the config's label for logs and tables (PlannerSettings.label), not a setting here
+    return _call(factory.func, factory.args, given, runtime, key)
+
+
+def _takes(func, keyword: str) -> bool:
+    """Whether func accepts `keyword` (a parameter of that name, or **kwargs); True when its
+    signature cannot be read (func then says itself)."""
+    try:
+        params = inspect.signature(func).parameters.values()
+    except (TypeError, ValueError):
+        return True
+    return any(p.kind is p.VAR_KEYWORD or (p.name == keyword and p.kind is not p.POSITIONAL_ONLY) for p in params)
 
 
 def make_planner(planner_cfg, key: str, runtime: dict):
@@ -207,7 +220,8 @@ def check_planner(planner_cfg, key: str, spec: EnvSpec, seed: int, collision: st
 
 def check_run(cfg: DictConfig) -> None:
     """The run's own values as a user types them (UsageError naming the key): budget, seed,
-    splits, switches, and the counts, sizes and knobs of data and training."""
+    splits, the problem file (it exists), switches, and the counts, sizes and knobs of data
+    and training."""
     _number("budget_s", cfg.budget_s)
     _check_training(cfg)
     if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
@@ -218,6 +232,8 @@ def check_run(cfg: DictConfig) -> None:
             f"config key splits: expected a list from [seen, unseen], e.g. splits=[seen], got "
             f"{OmegaConf.to_container(splits) if OmegaConf.is_config(splits) else splits!r}"
         )
+    if message := missing_file("problems", cfg.get("problems")):
+        raise UsageError(message)
     if cfg.env.get("scales") is not None and cfg.scale.name not in cfg.env.scales:
         raise UsageError(
             f"config key scale: env {cfg.env.name} has its sizes at scales {', '.join(cfg.env.scales)} "

@@ -8,13 +8,12 @@ key; then `merge=true` assembles the one dataset from them, planning nothing.
 from __future__ import annotations
 
 import json
-import sys
 from typing import TYPE_CHECKING
 
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import UsageError, run_hydra, user_errors
+from harness.cli import RunRefused, run_hydra, user_errors
 
 if TYPE_CHECKING:
     from harness.settings import RunSettings
@@ -47,7 +46,7 @@ def _build(run: RunSettings) -> None:
     try:
         folder, m, built = ensure_dataset(run, progress=run.progress, plan=not run.merge)
     except MissingChunks as e:
-        raise UsageError(
+        raise RunRefused(
             f"config key merge: {len(e.missing)} of {e.chunks} chunks of expert paths missing "
             f"({_missing_shards(e, run.shards)}); run them, or drop merge=true to plan them here"
         ) from None
@@ -66,15 +65,11 @@ def _build(run: RunSettings) -> None:
 def main(cfg: DictConfig) -> None:
     from harness.settings import settings_of
 
-    try:
-        run = settings_of(cfg)
-        if run.shard is not None:
-            _shard(run)
-        else:
-            _build(run)
-    except UsageError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(1)
+    run = settings_of(cfg)
+    if run.shard is not None:
+        _shard(run)
+    else:
+        _build(run)
 
 
 if __name__ == "__main__":

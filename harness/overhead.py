@@ -44,7 +44,7 @@ def main(cfg: DictConfig) -> None:
     if not timing.plan_s:
         return
     plan = timing.plan_s
-    print(f"\nharness overhead, {cfg.env.name} / {cfg.planner.name}, {len(plan)} queries")
+    print(f"\nharness overhead, {cfg.env.name} / {cfg.planner.get('name') or 'planner'}, {len(plan)} queries")
     print(_row("planner (time_s)", plan, plan))
     print(_row("harness in the loop", timing.harness_s, plan))
     if any(timing.diagnostics_s):

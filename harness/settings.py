@@ -105,9 +105,10 @@ class EnvSettings:
 @dataclass(frozen=True)
 class PlannerSettings:
     """A planner's config section, checked: what its `_target_` makes (MPNet's settings, or
-    the planner itself), the bench's hooks (a cost target's planner, the networks' variant)."""
+    the planner itself), the bench's hooks (a cost target's planner, the networks' variant).
+    name: the config's `name` (None when it has none: `label` asks the planner)."""
 
-    name: str
+    name: str | None
     config: dict = field(repr=False)  # the section as composed, resolved: what make() instantiates
     key: str = "planner"
     networks: dict = field(default_factory=dict)
@@ -120,7 +121,7 @@ class PlannerSettings:
         check_planner(section, key, spec, seed, str(cfg.env.collision))
         target = section.get("cost_target")
         return cls(
-            name=str(section.get("name") or key),
+            name=str(section.name) if section.get("name") else None,
             config=OmegaConf.to_container(section, resolve=True),
             key=key,
             networks=networks,
@@ -131,6 +132,11 @@ class PlannerSettings:
     def make(self, runtime: dict):
         """The planner, built in one step with the run's objects its settings name."""
         return make_planner(OmegaConf.create(self.config), self.key, runtime)
+
+    def label(self, planner) -> str:
+        """What logs and tables call the planner: its config's `name`, else the planner's own
+        (a planner of one's own whose config has none), else the config's key."""
+        return self.name or str(getattr(planner, "name", "") or self.key)
 
 
 @dataclass(frozen=True)

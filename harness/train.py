@@ -4,12 +4,11 @@ point clouds) and then Pnet (on expert waypoint pairs, both directions) with Lig
 from __future__ import annotations
 
 import json
-import sys
 
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import UsageError, run_hydra, user_errors
+from harness.cli import run_hydra, user_errors
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
@@ -18,12 +17,8 @@ def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_models
     from harness.settings import settings_of
 
-    try:
-        run = settings_of(cfg)
-        folder, manifest, built = ensure_models(run, progress=run.progress)
-    except UsageError as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(1)
+    run = settings_of(cfg)
+    folder, manifest, built = ensure_models(run, progress=run.progress)
     print(f"{'trained' if built else 'cached'}: {folder}")
     print(json.dumps(manifest["fit"], indent=2))
 

@@ -104,7 +104,8 @@ def interpolate_path(spec: EnvSpec, path: np.ndarray, step: float) -> np.ndarray
 
 
 def verify_path(spec: EnvSpec, ws: Workspace, path, start, goal, step: float | None = None) -> str | None:
-    """The independent fine re-check (DESIGN §5): None when the path is a success, else why not.
+    """The independent fine re-check (docs/reliability.md, "What the numbers mean"): None when
+    the path is a success, else why not.
 
     Samples every segment at `step` (the env's validation step) against the exact closed
     boxes; it never uses the planners' continuous motion test.

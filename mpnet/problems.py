@@ -1,4 +1,4 @@
-"""Problem files: bring your own workspaces and queries (DESIGN §6 "Problem files").
+"""Problem files: bring your own workspaces and queries (docs/environments.md, "Problem files").
 
     {
       "format": "mpnet-bench/problems@1",

@@ -8,7 +8,8 @@ lines joined, and `a && b` is two commands. docs/research/ is not read.
 Each command is in TESTED, naming the test that runs it (at tiny scale, with a test's paths
 for the page's placeholders), or in UNTESTED, saying why no test can run it and what is run in
 its stead. A new command fails here until it is given a test or dropped; a test renamed, or one
-that no longer names the command's module and overrides, fails here too.
+that no longer names the command's module and overrides, fails here too. The folders the
+commands write are ignored by git, and no page or comment cites a file a clone lacks.
 """
 
 from __future__ import annotations
@@ -17,8 +18,12 @@ import ast
 import functools
 import re
 import shlex
+import shutil
+import subprocess
 import tomllib
 from pathlib import Path
+
+import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 CLI = "tests/test_cli.py::"
@@ -60,9 +65,10 @@ TESTED = {
     ),
     "python -m harness.fetch_mbm data/mbm": "tests/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist",
     "python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems": MBM_RUN,
-    "python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000": (
-        "tests/test_spheres.py::test_sphere_audit_cli"
-    ),
+    (
+        "python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000 "
+        "--out reports/sphere_audit"
+    ): ("tests/test_spheres.py::test_sphere_audit_cli"),
     "python -m harness.bench_checkers arm7": CLI + "test_bench_checkers",
     "python -m harness +experiment=arm7": EXPERIMENTS,
     "python -m harness +env=panda_mbm +planner=mpnet_nr problems=data/mbm/problems": PANDA_MBM,
@@ -105,10 +111,13 @@ TESTED = {
     "python -m harness.perf perf=tiny out=/tmp/p": PERF,
     "python -m harness.overhead +env=s2d +planner=bit_star": CLI + "test_overhead_benchmark",
     "python -m harness.bench_checkers arm7 rigid": CLI + "test_bench_checkers",
+    "python -m harness.bench_checkers --out reports/checkers": CLI + "test_bench_checkers",
     # docs/reports.md
     "python -m harness +env=s2d +planner=bit_star scale=tiny hydra.run.dir=outputs/tiny": NOTEBOOK,
     "MPNET_FIGURE=outputs/tiny/query.png jupyter execute examples/explore_a_run.ipynb": NOTEBOOK,
-    "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001]": MBM_RUN,
+    "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001] [--out DIR]": (
+        "tests/test_recheck.py::test_the_recheck_report_says_how_many_successes_were_verified"
+    ),
 }
 
 # Commands no test can run by their nature -> (why, what is run in their stead): a command of
@@ -410,3 +419,60 @@ def test_the_cluster_extra_is_in_the_dev_extra():
     """`pip install -e ".[cluster]"` installs nothing the suite (installed with dev) lacks."""
     extras = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert set(extras["cluster"]) <= set(extras["dev"])
+
+
+# Where the harness writes whatever a command names (Hydra's run and sweep folders, the cache),
+# and the keys and options by which a command names another folder.
+DEFAULT_OUTPUTS = ("outputs", "multirun", ".cache")
+OUTPUT_KEYS = ("hydra.run.dir", "hydra.sweep.dir", "out", "export_dir", "cache_dir")
+
+
+def written_folders() -> set[str]:
+    """The repository's top folders that the documented commands write into: the defaults, the
+    output keys' and `--out` values, harness.fetch_mbm's destination; `reports` (committed,
+    written only when named) aside."""
+    out = set(DEFAULT_OUTPUTS)
+    for _, command in documented_commands():
+        _, _, module, args = parse(command)
+        paths = [a.split("=", 1)[1] for a in args if a.split("=", 1)[0].lstrip("+") in OUTPUT_KEYS and "=" in a]
+        paths += [b for a, b in zip(args, args[1:]) if a == "--out"]
+        if module == "harness.fetch_mbm":
+            paths += [a for a in args if not a.startswith("-")][:1]
+        out |= {Path(p).parts[0] for p in paths if p and not p.startswith("/") and not _placeholder(Path(p).parts[0])}
+    return out - {"reports"}
+
+
+def _git(*args: str) -> subprocess.CompletedProcess:
+    if shutil.which("git") is None or not (REPO / ".git").exists():
+        pytest.skip("not a git checkout")
+    return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True)
+
+
+def test_folders_the_documented_commands_write_are_ignored_by_git():
+    folders = written_folders()
+    assert {"data", "runs"} <= folders  # harness.fetch_mbm data/mbm, hydra.run.dir=runs/prm
+    ignored = {f for f in folders if _git("check-ignore", "--no-index", "-q", f"{f}/probe").returncode == 0}
+    assert ignored == folders, f"not in .gitignore: {sorted(folders - ignored)}"
+    for tracked in ("mpnet/data/probe", "tests/data/probe"):  # the root's data/ only
+        assert _git("check-ignore", "--no-index", "-q", tracked).returncode == 1, tracked
+
+
+# A citation of design notes kept outside the repository: it points at nothing in a clone.
+ELSEWHERE = re.compile(r"\bDESIGN\b|\.\./shared|§")
+
+
+def test_docs_and_code_cite_only_files_a_clone_has():
+    """Code, docs, tests and configs (not reports/, generated; not docs/research/, whose § are
+    its own sections) cite files of the repository, never notes kept beside it."""
+    listed = _git("ls-files", "--cached", "--others", "--exclude-standard").stdout.splitlines()
+    bad = []
+    for name in listed:
+        path = REPO / name
+        if name.startswith(("reports/", "docs/research/")) or path == Path(__file__) or not path.is_file():
+            continue
+        try:
+            text = path.read_text()
+        except UnicodeDecodeError:  # weights, logs
+            continue
+        bad += [f"{name}:{i}: {line.strip()}" for i, line in enumerate(text.splitlines(), 1) if ELSEWHERE.search(line)]
+    assert not bad, "\n".join(bad)

@@ -1,4 +1,4 @@
-"""Problem files (DESIGN §6): loading, validation errors, dump/load round trip."""
+"""Problem files (docs/environments.md): loading, validation errors, dump/load round trip."""
 
 from __future__ import annotations
 

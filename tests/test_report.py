@@ -1,4 +1,4 @@
-"""`python -m harness.report` (DESIGN §6 "Report"): statistics from known logs, Table I with
+"""`python -m harness.report` (docs/reports.md): statistics from known logs, Table I with
 and without the paper's numbers, figures, the OMPL benchmark database, bad files."""
 
 from __future__ import annotations

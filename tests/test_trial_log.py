@@ -1,4 +1,4 @@
-"""The per-run trial log (DESIGN §6, §8, §9): MCAP topics and schemas, Foxglove scenes,
+"""The per-run trial log (docs/reports.md, docs/reliability.md): MCAP topics and schemas, Foxglove scenes,
 crash safety, resume without duplicates, the Rerun recording and queries.csv."""
 
 from __future__ import annotations
@@ -620,13 +620,14 @@ def test_judge_decides_success():
     assert claimed["success"] is False and claimed["failure"] == "recheck_no_path"  # a claim is not trusted
 
 
-# ------------------------------------------------------------- check_trials structure
+# ------------------------------------------------------ an independent checker's structure
 
 
 def test_structure_independent_checker_relies_on(tmp_path):
-    """What ../shared/tools/check_trials.py reads, asserted directly: a finalised file whose
-    /run names the env, a /workspace for each query's (split, workspace_id), unique query
-    keys, and successful paths running from start to goal through free space."""
+    """What an independent checker of the log (one with its own geometry) reads, asserted
+    directly: a finalised file whose /run names the env, a /workspace for each query's (split,
+    workspace_id), unique query keys, and successful paths running from start to goal through
+    free space."""
     for env in ("s2d", "rigid", "c3d"):
         d = tmp_path / env
         path = log_some(d, env, n=4)
@@ -973,7 +974,7 @@ def test_plain_converts_numpy_and_non_finite():
 
 
 def test_logging_is_cheap(tmp_path):
-    """DESIGN §8: a query's log costs well under a millisecond (loose bound for slow CI)."""
+    """docs/performance.md: a query's log costs well under a millisecond (loose bound for slow CI)."""
     spec = SPECS["s2d"]
     times = []
     with TrialLog(tmp_path, make_run(), spec, rerun=False) as log:

@@ -1,14 +1,17 @@
 """No tracebacks from user input: a bad config value, planner setting, output or cache
 folder, or problem file is one line on stderr naming the key, file or folder, and a
-non-zero exit; checked before any expensive set-up."""
+non-zero exit (2 for a mistake in the command, docs/reliability.md "Exit status"); checked
+before any expensive set-up, and a refused run leaves no run folder behind."""
 
 from __future__ import annotations
 
 import json
+import os
 
 import pytest
+from omegaconf import OmegaConf
 
-from harness.cli import UsageError, check_keys, check_output_dirs, check_plus
+from harness.cli import UsageError, check_files, check_groups, check_keys, check_output_dirs, check_plus
 from harness.cli_help import ENTRIES
 from harness.settings import settings_of
 
@@ -214,4 +217,117 @@ def test_cli_user_errors_are_one_line(tmp_path, run_cli):
         assert len(p.stderr.strip().splitlines()) == 1 and needle in p.stderr, p.stderr
     assert not (tmp_path / "c").exists()
     p = run_cli("harness.train", "+env=s2d", "scale=tiny", f"cache_dir={tmp_path / 'afile'}", "jobs=-3", check=False)
-    assert p.returncode == 1 and p.stderr.strip() == "error: config key jobs: expected an integer >= 1, got -3"
+    assert p.returncode == 2 and p.stderr.strip() == "error: config key jobs: expected an integer >= 1, got -3"
+
+
+@pytest.mark.parametrize(
+    "argv,close",
+    [
+        (["+env=s2dd", "+planner=bit_star"], "unknown env 's2dd' (did you mean s2d? choices: arm7, c2d"),
+        (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar' (did you mean bit_star? choices: bit_star,"),
+        (["-m", "+env=s2d,rigd", "+planner=bit_star"], "unknown env 'rigd' (did you mean rigid? choices:"),
+    ],
+)
+def test_unknown_choice_names_the_closest_one(argv, close):
+    with pytest.raises(UsageError) as info:
+        check_groups(argv, ("env", "planner"))
+    assert str(info.value).startswith(close) and "hydra.searchpath" in str(info.value)
+
+
+def test_missing_problem_file_is_named_before_any_work(compose_config, tmp_path):
+    """On the command line (before Hydra makes a run folder), and in the composed config (a
+    path given some other way, as `python -m harness` makes it absolute)."""
+    with pytest.raises(UsageError, match=r"^problems=no/such/file\.json: no such file or folder$"):
+        check_files([*BENCH, "problems=no/such/file.json"])
+    with pytest.raises(UsageError, match=r"^problems=b\.json: no such file"):
+        check_files(["-m", *BENCH, f"problems={tmp_path},b.json"])
+    check_files([*BENCH, f"problems={tmp_path}", "problems=null", "~problems"])  # a folder (MotionBenchMaker's)
+    cfg = compose_config([*BENCH, "scale=tiny", f"problems={tmp_path / 'none.json'}"])
+    with pytest.raises(UsageError, match=f"^problems={tmp_path / 'none.json'}: no such file or folder$"):
+        settings_of(cfg)
+
+
+def test_missing_problem_file_is_one_line_exit_2_and_no_run_folder(run_cli, tmp_path):
+    p = run_cli("harness", *BENCH, "problems=no/such/file.json", cwd=tmp_path, check=False)
+    assert (p.returncode, p.stderr) == (2, "error: problems=no/such/file.json: no such file or folder\n")
+    assert list(tmp_path.iterdir()) == []  # no outputs/<date>/<time>/
+
+
+@pytest.mark.slow  # the CLI in subprocesses
+def test_a_refused_run_leaves_no_run_folder(run_cli, tmp_path):
+    """Mistakes found in the job, after Hydra made its folder: exit 2, and the folder is removed
+    with those made for it; one that was there before is kept (emptied of Hydra's files if it
+    was empty), and a sweep's job folder goes too."""
+    for mistake in ("budget_s=abc", "seed=-1", "splits=[bogus]"):
+        p = run_cli("harness", *BENCH, "scale=tiny", mistake, cwd=tmp_path, check=False)
+        assert p.returncode == 2 and len(p.stderr.splitlines()) == 1 and "config key" in p.stderr, p.stderr
+        assert list(tmp_path.iterdir()) == [], mistake
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "notes.txt").write_text("mine")
+    refused = ("harness", *BENCH, "scale=tiny", "seed=-1")
+    for folder in ("new/nested", "empty", "full"):
+        assert run_cli(*refused, f"hydra.run.dir={tmp_path / folder}", cwd=tmp_path, check=False).returncode == 2
+    assert not (tmp_path / "new").exists() and list((tmp_path / "empty").iterdir()) == []
+    assert (tmp_path / "full" / "notes.txt").read_text() == "mine"
+    p = run_cli(*refused, f"hydra.sweep.dir={tmp_path / 'sweep'}", "-m", cwd=tmp_path, check=False)
+    assert p.returncode == 2 and not (tmp_path / "sweep" / "s2d" / "bit_star" / "seed-1").exists()
+
+
+class NoNameArgument:
+    """A planner of one's own whose constructor takes no `name`, and whose object has one."""
+
+    name = "its_own_name"
+
+    def __init__(self, tries: int = 1):
+        self.tries = int(tries)
+
+    def solve(self, problem, budget_s):
+        from mpnet.planners.base import EXACT, NO_SOLUTION, Result, check_endpoints
+
+        if (invalid := check_endpoints(problem)) is not None:
+            return invalid
+        if problem.checker.motion_valid(problem.start, problem.goal):
+            return Result([problem.start.tolist(), problem.goal.tolist()], EXACT)
+        return Result(None, NO_SOLUTION)
+
+
+@pytest.mark.parametrize(
+    "section,label",
+    [
+        ({"name": "mine", "tries": 2}, "mine"),  # the config's name, though the constructor takes none
+        ({"tries": 2}, "its_own_name"),  # no name in the config: the object's
+    ],
+)
+def test_an_own_planner_is_labelled_by_its_config_or_its_own_name(section, label, compose_config):
+    cfg = compose_config([*BENCH, "scale=tiny"])
+    cfg.planner = OmegaConf.create({"_target_": f"{__name__}.NoNameArgument", **section})
+    run = settings_of(cfg)
+    planner = run.planner.make({"env": run.env.spec, "seed": run.seed})
+    assert planner.tries == 2 and run.planner.label(planner) == label
+
+
+@pytest.mark.slow  # the CLI in subprocesses
+def test_an_own_planner_is_logged_under_its_label(run_cli, tmp_path, problems_dir):
+    """README "Benchmark your own planner" with a constructor that takes no `name`: the run's
+    /run message and summary name it by its config's `name`, else by its object's."""
+    import inspect
+
+    from harness.log import MCAP_NAME, read_log
+
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "own_planner.py").write_text(inspect.getsource(NoNameArgument))
+    planners = tmp_path / "conf" / "planner"
+    planners.mkdir(parents=True)
+    (planners / "own_named.yaml").write_text("_target_: own_planner.NoNameArgument\nname: own_named\ntries: 2\n")
+    (planners / "own_nameless.yaml").write_text("_target_: own_planner.NoNameArgument\ntries: 2\n")
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(tmp_path / "pkg"), os.environ.get("PYTHONPATH")]))}
+    for planner, label in (("own_named", "own_named"), ("own_nameless", "its_own_name")):
+        run = tmp_path / planner
+        p = run_cli(
+            "harness", "+env=s2d", f"+planner={planner}", f"hydra.searchpath=[file://{tmp_path / 'conf'}]",
+            f"problems={problems_dir / 's2d.json'}", "rerun=false", "progress=false", f"hydra.run.dir={run}", env=env,
+        )  # fmt: skip
+        assert f"s2d / {label} / seed 0: {run}" in p.stdout
+        msgs, _ = read_log(run / MCAP_NAME, ("/run",))
+        assert msgs[0].data["planner"] == label

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -80,6 +81,11 @@ def logged_partial(partial: dict | None, most: int = PARTIAL_MAX_STATES) -> dict
 def plan_query(planner: Planner, problem: Problem, budget_s: float) -> dict:
     """Solve one query, timed: the record's fields. `failure` is None when the planner
     claims an exact path within the budget; the log process re-checks that claim."""
+    # A fresh time slice for the query: on a loaded machine the scheduler preempts a process that
+    # has used its slice, and what the harness did since the last query (a planner's diagnostics,
+    # logging) used some of it; without this, a planner with more work between queries (MPNet)
+    # waited more inside its queries than one with less (BIT*). A no-op on an idle machine.
+    os.sched_yield()
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     try:
         res = planner.solve(problem, budget_s)

@@ -11,7 +11,7 @@ from omegaconf import DictConfig, OmegaConf
 from harness.artifacts import ensure_models, ensure_testset, training_paths
 from harness.bench.loop import CostTarget, QueryTiming, first_problem, run_bench, warm_up
 from harness.bench.summary import format_summary, summarize
-from harness.cli import UsageError
+from harness.cli import RunRefused, UsageError, refuse, status_of
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
 from harness.provenance import run_info
 from harness.settings import RunSettings, settings_of
@@ -104,7 +104,7 @@ def bench(
     pre_query = None if target is None else CostTarget(target.make(runtime))
     testset, split = build_testset(run)
     if pre_query is None and run.planner.stop == "cost" and any(q.reference_cost is None for q in testset.queries):
-        raise UsageError(
+        raise RunRefused(
             "planner.stop=cost needs a reference cost for every query "
             "(give `reference_cost` per query in a problem file)"
         )
@@ -113,8 +113,9 @@ def bench(
         warm_up(planner, problem)  # every library the queries use is loaded now: its pool is recorded
     pools = thread_pools()
     if extra := extra_threads(pools):
-        raise UsageError(f"a timed run needs one thread per pool, and {'; '.join(extra)} (harness.threads)")
-    info = run_info(run.env.name, run.planner.name, run.seed, split, run.config_yaml)
+        raise RunRefused(f"a timed run needs one thread per pool, and {'; '.join(extra)} (harness.threads)")
+    name = run.planner.label(planner)
+    info = run_info(run.env.name, name, run.seed, split, run.config_yaml)
     info["threads"] = pools
     info["settings"] = run.results
     info["facts"] = {**run.facts, "training_paths_built": training_paths(run) if used_networks else None}
@@ -128,7 +129,7 @@ def bench(
         for ws in testset.workspaces:
             logged = log.logged_obstacles.get((ws.split, ws.id))
             if logged is not None and logged != ws.obstacles_json():
-                raise UsageError(
+                raise RunRefused(
                     f"resume=true: workspace {ws.id!r} ({ws.split}) in {run_dir} was logged with "
                     f"other obstacles; resume only the same test set or problem file"
                 )
@@ -157,31 +158,27 @@ def bench(
         timing.log_cpu_s = log.child_cpu_s
         timing.log_peak_rss_mb = log.child_peak_rss_mb
     if not quiet:
-        print(f"{run.env.name} / {run.planner.name} / seed {run.seed}: {run_dir}")
+        print(f"{run.env.name} / {name} / seed {run.seed}: {run_dir}")
         print(format_summary(summarize(tally)) if len(tally) else "no queries to run")
     return tally
 
 
 def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
-    """bench(), with the user's mistakes as one line and exit status 1."""
+    """bench(), with the user's mistakes and a refused or failed run as one line and its exit
+    status (harness.cli.refuse: 2 for a mistake in the command, 1 for the others)."""
     try:
         bench(cfg, run_dir, **kwargs)
-    except (ProblemFileError, UsageError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(1)
+    except (ProblemFileError, UsageError, ResumeRefused) as e:
+        refuse(e, status_of(e), run_dir)
     except FileExistsError as e:
-        print(f"error: {e} (or choose another hydra.run.dir)", file=sys.stderr)
-        sys.exit(1)
-    except ResumeRefused as e:
-        print(f"error: {e}", file=sys.stderr)
-        sys.exit(1)
+        refuse(f"{e} (or choose another hydra.run.dir)", 1, run_dir)
     except LogProcessDied as e:
-        print(
-            f"error: {e}: every query it received is in {run_dir / MCAP_NAME}; "
+        refuse(
+            f"{e}: every query it received is in {run_dir / MCAP_NAME}; "
             f"run the same command with resume=true to finish the run",
-            file=sys.stderr,
+            1,
+            run_dir,
         )
-        sys.exit(1)
 
 
 def bench_in_child(container: dict, run_dir: str, overrides: list[str] | None = None) -> None:

@@ -1,4 +1,4 @@
-"""The per-run trial log (DESIGN §6, §8, §9), one job per module:
+"""The per-run trial log (docs/reports.md, docs/reliability.md), one job per module:
 
 - schemas: the JSON Schemas of /run, /workspace, /query and Foxglove's /scene
 - mcap_io: plain JSON values, MCAP writing helpers, `read_log` (also of a killed run's file)

@@ -1,5 +1,5 @@
 """`trials.mcap` at the byte level: plain JSON values, the writer's channels, and the reader
-that also reads a file whose writer was killed (DESIGN §6, §9)."""
+that also reads a file whose writer was killed (docs/reliability.md, "Results you can trust")."""
 
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 Writing a query to MCAP, Foxglove, Rerun and CSV costs ~150 us of Python and the fine
 re-check ~0.3 ms: together half the time BIT* needs for an s2d query. The bench loop
 only hands each finished query to this process over a pipe (~20 us), which judges it
-(DESIGN §5), logs it and tallies it for the summary. Being apart also makes the
+(mpnet.motion.verify_path), logs it and tallies it for the summary. Being apart also makes the
 judge independent of the planner's process, and the only place where `success` is decided.
 
 Crash safety holds: the child ignores Ctrl-C and SIGTERM and finalises when the bench

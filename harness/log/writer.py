@@ -1,5 +1,5 @@
 """Per-run trial log: `trials.mcap` (the record), `trials.rrd` (a Rerun recording) and
-`queries.csv` (a flat table), written as queries finish (DESIGN §6, §8, §9).
+`queries.csv` (a flat table), written as queries finish (docs/reports.md, docs/reliability.md).
 
 Why it is shaped this way:
 - The MCAP file is the record the report and `check_trials.py` read. Each query is

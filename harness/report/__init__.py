@@ -1,6 +1,6 @@
 """`python -m harness.report DIR... [--label NAME=DIR]... [--out OUT] [--force] [--paper]`: the paper's
-tables, figures and an OMPL benchmark database, regenerated from trial logs alone (DESIGN §6
-"Report"), into DIR/report/ unless --out names another folder; never into a folder the report did
+tables, figures and an OMPL benchmark database, regenerated from trial logs alone (docs/reports.md,
+"The report"), into DIR/report/ unless --out names another folder; never into a folder the report did
 not make (build.MARKER) without --force. Labelled runs are shown as `planner [NAME]`, never pooled.
 
 Only the `trials.mcap` files found under the given directories are read (topics `/run`,

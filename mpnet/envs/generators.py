@@ -1,4 +1,4 @@
-"""Seeded workspace generators (DESIGN §4); each env names its generator in the registry.
+"""Seeded workspace generators (docs/environments.md); each env names its generator in the registry.
 
 Workspace ids follow the original MPNet split: ids 0-99 are the training workspaces
 (the "seen" test split draws from them), ids 100-109 the "unseen" ones. s2d, c2d and

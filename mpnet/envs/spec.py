@@ -1,5 +1,5 @@
 """An environment as one object: its state space, robot, workspace generator and point
-cloud sampler, plus the fixed facts the stages share (DESIGN §4)."""
+cloud sampler, plus the fixed facts the stages share (docs/environments.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The env registry: each env's space, robot, generator and cloud (DESIGN §4). A new
+"""The env registry: each env's space, robot, generator and cloud (docs/environments.md). A new
 kind of robot adds its space, robot and checker classes and an entry here."""
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ from torch import nn
 
 from mpnet.models.numpy_nets import Normalizer, NumpyEnet, NumpyPnet, _flat_cloud  # noqa: F401 (re-exported)
 
-# The public MPNet code's sizes for simple 2D (DESIGN §1).
+# The public MPNet code's sizes for simple 2D (ahq1993/MPNet; conf/scale/paper.yaml sets them).
 ENET_HIDDEN = (512, 256, 128)
 ENET_LATENT = 28
 PNET_HIDDEN = (1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32)
