@@ -34,13 +34,40 @@ def main(cfg: DictConfig) -> None:
     root = Path(cfg.export_dir) if cfg.export_dir else SHIPPED.parent
     out = root / SHIPPED.name / name
     paths = training_paths(run)  # before the export: it may read the set being replaced
-    meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config, training_paths=paths)
+    built = {"models": _built(manifest), "data": _built(_data_manifest(run, key_config))}
+    meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config, training_paths=paths, built=built)
     print(f"exported: {out} ({meta['weights']['bytes'] / 1e6:.1f} MB, key {meta['key']}, from {folder})")
     ts_folder, ts_manifest, _ = ensure_testset_artifact(run, progress=run.progress)
     ts_out = root / SHIPPED_TESTSETS.name / name
     ts_meta = export_testset(ts_folder, ts_manifest, ts_out)
     size = sum(f["bytes"] for f in ts_meta["files"].values())
     print(f"exported: {ts_out} ({size / 1e6:.2f} MB, key {ts_meta['key']}, from {ts_folder})")
+
+
+BUILT_FIELDS = ("build_wall_s", "created_at", "git_rev", "machine")
+
+
+def _built(manifest: dict | None) -> dict | None:
+    """An artifact's build as its manifest says: wall time, when, revision, machine (and, for
+    data, the expert paths' count and planning seconds)."""
+    if not manifest:
+        return None
+    out = {k: manifest[k] for k in BUILT_FIELDS if k in manifest}
+    expert = manifest.get("expert")
+    if isinstance(expert, dict):
+        out["expert"] = {k: expert[k] for k in ("paths", "planning_seconds") if k in expert}
+    return out
+
+
+def _data_manifest(run, key_config: dict) -> dict | None:
+    """The manifest of the dataset the networks were trained on, when the cache has it."""
+    from mpnet.data.store import ArtifactError, read_manifest
+
+    folder = run.cache_dir / "data" / key_config["data"]
+    try:
+        return read_manifest(folder, folder.name, verify=False)
+    except ArtifactError:
+        return None
 
 
 if __name__ == "__main__":

@@ -152,6 +152,7 @@ def _quiet_lightning(seed: int) -> None:
     L.seed_everything(seed, workers=True, verbose=False)
 
 
+@training_threads()
 def fit_enet(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
     """Enet as a contractive autoencoder on the training and extra layouts' clouds, into
     its own artifact folder (with the random state Pnet's fit goes on from). Returns the
@@ -170,6 +171,7 @@ def load_encoder(enet_folder: Path):
     return EnetModule.load_from_checkpoint(enet_folder / ENET_FILE, map_location="cpu").encoder
 
 
+@training_threads()
 def fit_models(
     spec: EnvSpec,
     data: Dataset,
@@ -182,11 +184,6 @@ def fit_models(
     """Pnet on the frozen codes of the Enet artifact `enet` (its folder and manifest), whose
     checkpoint the models folder gets a copy of; or, with `end_to_end` (the paper's arm) and
     no `enet`, Enet and Pnet together on Pnet's loss. Returns the manifest fields."""
-    with training_threads():
-        return _fit_models(spec, data, params, lightning, folder, progress, enet)
-
-
-def _fit_models(spec, data, params, lightning, folder, progress, enet) -> dict:
     from mpnet.models import Enet
 
     _quiet_lightning(params["seed"])

@@ -57,8 +57,10 @@ def run_info(env: str, planner: str, seed: int, split: str, config_yaml: str) ->
 
 
 def artifact_provenance() -> dict:
-    """Manifest fields of an artifact built now (git runs only when something is built)."""
-    return {"git_rev": git_rev(), "versions": versions()}
+    """Manifest fields of an artifact built now (git runs only when something is built): the
+    revision, versions and machine, so that a build time quoted from it says where it ran."""
+    m = machine_info()
+    return {"git_rev": m["git_rev"], "versions": m["versions"], "machine": f"{m['cpu']} ({m['cpus']} CPUs)"}
 
 
 def machine_info() -> dict:

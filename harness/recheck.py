@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 from harness.log.mcap_io import read_log
+from harness.report.readme import RECHECK_FILE
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import verify_path
@@ -117,8 +118,8 @@ def write_report(out: Path, total: int, bad: int, unreadable: int, summary: str,
         "```",
         "",
     ]
-    (out / "recheck.md").write_text("\n".join(text))
-    return out / "recheck.md"
+    (out / RECHECK_FILE).write_text("\n".join(text))
+    return out / RECHECK_FILE
 
 
 if __name__ == "__main__":

@@ -62,7 +62,11 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
     (data,) = [d for d in (cache / "data").iterdir() if d.is_dir()]
     built = json.loads((data / "manifest.json").read_text())["expert"]["paths"]
-    assert read_meta(tmp_path / "sets" / "pretrained" / "s2d-tiny")["training_paths"] == built > 0
+    meta = read_meta(tmp_path / "sets" / "pretrained" / "s2d-tiny")
+    assert meta["training_paths"] == built > 0
+    # the build and training times a doc may quote, with where and at which revision they ran
+    assert meta["built"]["data"]["expert"]["paths"] == built and meta["built"]["models"]["build_wall_s"] > 0
+    assert {"git_rev", "machine", "created_at"} <= set(meta["built"]["models"]) & set(meta["built"]["data"])
     shipped = tmp_path / "shipped"
     shipped.mkdir()
     write_checkpoint(tmp_path / "sets" / "pretrained" / "s2d-tiny", shipped / "pnet.ckpt")

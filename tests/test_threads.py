@@ -80,3 +80,22 @@ def test_each_query_starts_on_a_fresh_time_slice(monkeypatch):
     ws = make_workspace(spec, 0, "seen")
     loop.plan_query(Planner(), Problem(spec, ws, spec.make_checker(ws), np.zeros(2), np.ones(2)), 1.0)
     assert events[:3] == ["yield", "clock", "solve"]
+
+
+def test_training_a_run_does_first_uses_every_core_again():
+    """A bench run that trains its networks on first use (single-threaded for its queries)
+    trains Enet and Pnet on every core, and is single-threaded again after."""
+    import torch
+
+    from harness import fit
+    from harness.threads import training_threads
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        seen = []
+        training_threads()(lambda: seen.append(torch.get_num_threads()))()
+        assert seen == [len(os.sched_getaffinity(0))] and torch.get_num_threads() == 1
+        assert all(hasattr(f, "__wrapped__") for f in (fit.fit_enet, fit.fit_models))  # both fits so wrapped
+    finally:
+        torch.set_num_threads(before)

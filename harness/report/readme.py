@@ -3,8 +3,10 @@ output is, how its numbers are computed and how they compare with the paper's.""
 
 from __future__ import annotations
 
+import re
 import textwrap
 from collections.abc import Iterable
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -185,6 +187,24 @@ def reference_notes(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
     return out
 
 
+RECHECK_FILE = "recheck.md"  # written into a report folder by `python -m harness.recheck LOGS --out FOLDER`
+
+
+def recheck_bullet(out: Path) -> str:
+    """What the folder's re-check says ("N successes, N verified"), or how to make one: a
+    report's "0 false successes" is quoted from its recheck.md, never from memory."""
+    try:
+        text = (out / RECHECK_FILE).read_text()
+    except OSError:
+        return (
+            f"Re-check: not in this folder; `python -m harness.recheck <the runs' folders> --out {out}` re-checks "
+            f"every success from its log alone and writes {RECHECK_FILE} (a later report links it)"
+        )
+    found = re.search(r"\*\*(\d+) successes, (\d+) verified\*\*", text)
+    said = f"{found[1]} successes, {found[2]} verified" if found else "unreadable"
+    return f"Re-check: [{RECHECK_FILE}]({RECHECK_FILE}): {said} (`python -m harness.recheck`)"
+
+
 def readme_text(
     n_files: int,
     n_queries: int,
@@ -267,6 +287,7 @@ from {n_files} trial logs ({n_queries} queries); do not edit by hand.
 - Runs started between {prov["from"]} and {prov["to"]} (UTC)
 - Scale: {", ".join(prov["scale"]) or "unknown"}; budget per query: {", ".join(prov["budget_s"]) or "unknown"} s
 - Versions: {vers}
+- {recheck_bullet(Path(out))}
 
 {regen_intro}:
 

@@ -24,11 +24,18 @@ _PLANNER_PARTS = ("pnet.", "encoder.")  # what load_pnet_checkpoint reads
 
 
 def export_pretrained(
-    pnet_ckpt: Path, out: Path, key: str, key_config: dict, training_paths: int | None = None
+    pnet_ckpt: Path,
+    out: Path,
+    key: str,
+    key_config: dict,
+    training_paths: int | None = None,
+    built: dict | None = None,
 ) -> dict:
     """Write a Pnet checkpoint's planner part into folder `out`; returns its meta.
     training_paths: how many expert paths it was trained on, where known (kept in the meta
-    for the runs that plan on the set: their learning curve's size)."""
+    for the runs that plan on the set: their learning curve's size). built: how the data and
+    the networks were built (wall time, revision, machine, from their manifests): the file
+    a quoted build or training time comes from."""
     hp, state = _load(pnet_ckpt, "cpu")
     arrays = {k: v.numpy() for k, v in state.items() if k.startswith(_PLANNER_PARTS)}
     odd = [k for k, a in arrays.items() if a.dtype != np.float32]
@@ -43,6 +50,7 @@ def export_pretrained(
         "hyper_parameters": hp,
         "weights": file_checksum(out / WEIGHTS),
         **({"training_paths": int(training_paths)} if training_paths is not None else {}),
+        **({"built": built} if built else {}),
     }
     (out / META).write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
     return meta
