@@ -43,15 +43,19 @@ def family_of(ws: Workspace) -> SceneFamily:
 
 
 def poses_of(family: SceneFamily, ws: Workspace) -> dict[str, np.ndarray]:
-    """Every object's 4 x 4 pose, read back from the workspace (the family's object order)."""
-    if len(ws.primitives) != len(family.objects):
+    """Every object's 4 x 4 pose, read back from the workspace by the objects' names (its
+    primitives are in a canonical order, not the family's)."""
+    named = {p.name: p for p in ws.primitives if p.name is not None}
+    missing = [o.name for o in family.objects if o.name not in named]
+    if missing:
         raise ValueError(
-            f"workspace {ws.id!r}: {len(ws.primitives)} obstacles, {family.name} has {len(family.objects)}"
+            f"workspace {ws.id!r}: not a generated {family.name} scene (its objects {', '.join(missing)} are not "
+            f"named among its {len(ws.primitives)} obstacles)"
         )
     out = {}
-    for o, p in zip(family.objects, ws.primitives):
+    for o in family.objects:
         m = np.eye(4)
-        m[:3, :3], m[:3, 3] = p.rotation(), p.center
+        m[:3, :3], m[:3, 3] = named[o.name].rotation(), named[o.name].center
         out[o.name] = m
     return out
 

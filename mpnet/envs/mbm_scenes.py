@@ -105,10 +105,10 @@ class SceneFamily:
             p = poses[o.name]
             quat = tuple(Rotation.from_matrix(p[:3, :3]).as_quat())
             if o.type == "box":
-                out.append(Primitive("box", p[:3, 3], o.dims, quat))
+                out.append(Primitive("box", p[:3, 3], o.dims, quat, name=o.name))
             else:
                 height, radius = o.dims
-                out.append(Primitive.cylinder(p[:3, 3], radius, height, quat))
+                out.append(Primitive("cylinder", p[:3, 3], (2 * radius, 2 * radius, height), quat, name=o.name))
         return tuple(out)
 
     def link8_targets(self, poses: dict[str, np.ndarray], query: PoseQuery) -> dict[str, np.ndarray]:

@@ -9,7 +9,7 @@ and pybullet's order). An axis-aligned box is a box with the identity orientatio
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +42,10 @@ class Primitive:
     center: tuple[float, float, float]
     size: tuple[float, float, float]
     orientation: tuple[float, float, float, float] = IDENTITY
+    # Which object of a generated scene it is (MotionBenchMaker's object names: its queries name
+    # their targets): not geometry, so no part of equality, order, cloud or file; a workspace keeps
+    # its primitives in a canonical order, so a scene's objects are found by name, never by place.
+    name: str | None = field(default=None, compare=False)
 
     def __post_init__(self):
         if self.type not in TYPES:
