@@ -78,15 +78,20 @@ def reach(path: str | os.PathLike) -> list[Path]:
     return sorted(seen)
 
 
+@cache
+def _file_digest(path: Path, mtime_ns: int, size: int) -> bytes:
+    """sha256 of one file, read once per version of it (a module's kernels share its reach)."""
+    return hashlib.sha256(path.read_bytes()).digest()
+
+
 def reach_digest(path: str | os.PathLike) -> str:
     """sha256 over the text of every file in reach(path), each under its path in the package
     (so the stamp does not depend on where the package is installed)."""
     h = hashlib.sha256()
     for p in reach(path):
         rel = p.relative_to(ROOT).as_posix() if p.is_relative_to(ROOT) else p.name
-        data = p.read_bytes()
-        h.update(f"{rel}\0{len(data)}\0".encode())
-        h.update(data)
+        st = p.stat()
+        h.update(f"{rel}\0".encode() + _file_digest(p, st.st_mtime_ns, st.st_size))
     return h.hexdigest()
 
 
