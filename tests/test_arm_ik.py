@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from mpnet.envs.arm_ik import IKTarget, jacobian, meets, solve
+from mpnet.envs import ik_kernels
+from mpnet.envs.arm_ik import IKTarget, chain_arrays, jacobian, meets, solve
 from mpnet.envs.arm_model import load_arm_model
 
 MODEL = load_arm_model("panda")
@@ -59,3 +60,47 @@ def test_valid_rejects_solutions():
     pose = MODEL.link_transforms(rng.uniform(LOWER, UPPER))[MODEL.kinematics.index("panda_link8")]
     target = IKTarget("panda_link8", pose, np.full(3, 0.01), np.full(3, 0.01))
     assert solve(MODEL, target, rng, attempts=5, valid=lambda q: False) is None
+
+
+def _rotations():
+    """Random rotations, and the ones a rotation vector is delicate at: none, tiny, near pi."""
+    yield np.eye(3)
+    for v in ([1e-9, 0, 0], [0, 2e-4, -1e-4], [np.pi - 1e-9, 0, 0], [0, 0, np.pi], [1.0, 1.0, 1.0]):
+        yield Rotation.from_rotvec(v).as_matrix()
+    yield from Rotation.random(200, random_state=3).as_matrix()
+
+
+def test_compiled_rotation_vector_is_scipys():
+    for R in _rotations():
+        ours, theirs = ik_kernels.rotvec(np.ascontiguousarray(R)), Rotation.from_matrix(R).as_rotvec()
+        assert np.allclose(ours, theirs, atol=1e-9) or np.isclose(np.linalg.norm(theirs), np.pi)
+        # at pi, v and -v are the same rotation
+        assert np.allclose(Rotation.from_rotvec(ours).as_matrix(), R, atol=1e-9)
+
+
+@settings(deadline=None, max_examples=30)
+@given(st.integers(0, 2**31 - 1))
+def test_compiled_chain_pose_and_tolerance_are_the_models(seed):
+    """The kernel's tip pose is the model's link_transforms; its tolerance test is meets'."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(LOWER, UPPER)
+    origins, coords, kinds, axes = chain_arrays(MODEL, "panda_link8")
+    n = len(origins)
+    T = ik_kernels.chain_pose(q, origins, coords, kinds, axes, np.zeros((n, 3)), np.zeros((n, 3)))
+    assert np.allclose(T, MODEL.link_transforms(q)[MODEL.kinematics.index("panda_link8")], atol=1e-12)
+    pose = MODEL.link_transforms(rng.uniform(LOWER, UPPER))[MODEL.kinematics.index("panda_link8")]
+    pose[:3, 3] = T[:3, 3] + rng.uniform(-0.01, 0.01, 3)
+    target = IKTarget("panda_link8", pose, np.full(3, 0.012), np.full(3, rng.uniform(0.1, 3.2)))
+    assert ik_kernels.meets_pose(T, pose, target.position_tol, target.orientation_tol) == meets(MODEL, q, target)
+
+
+def test_the_first_restart_that_succeeds_is_returned_and_later_ones_are_not_solved():
+    """Attempt order decides: from a seed that meets the target, the first attempt (aimed at a
+    pose drawn within the tolerances, a small step away) succeeds and no other is solved."""
+    rng = np.random.default_rng(5)
+    q0 = rng.uniform(LOWER, UPPER)
+    pose = MODEL.link_transforms(q0)[MODEL.kinematics.index("panda_link8")]
+    target = IKTarget("panda_link8", pose, np.full(3, 0.01), np.full(3, 0.01))
+    calls = []
+    q = solve(MODEL, target, rng, seed_q=q0, attempts=200, valid=lambda q: calls.append(q) or True)
+    assert len(calls) == 1 and np.abs(q - q0).max() < 0.05

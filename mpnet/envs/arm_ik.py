@@ -2,10 +2,10 @@
 panda_link8 at the target objects, solved by IK as MBM solves them: random restarts, a
 tolerance box and per-axis orientation tolerances, kept only when valid).
 
-Damped least squares on the geometric Jacobian, from the model's own kinematics (numpy, the
-restarts batched as arrays: a failed 200-restart call takes ~0.2 s, not seconds, which is what
-generating thousands of scenes needs). Why not a library: KDL (MBM's solver) has no maintained PyPI wheel, and
-the packaged IK solvers (ikpy, pinocchio) would bring their own URDF reading, not the model's.
+Damped least squares on the geometric Jacobian, from the model's own kinematics, compiled
+(mpnet/envs/ik_kernels.py: one restart at a time, in attempt order, until one succeeds).
+Why not a library: KDL (MBM's solver) has no maintained PyPI wheel, and the packaged IK
+solvers (ikpy, pinocchio) would bring their own URDF reading, not the model's.
 """
 
 from __future__ import annotations
@@ -14,7 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mpnet.envs.arm_model import PRISMATIC, ArmModel
+from mpnet.envs import ik_kernels
+from mpnet.envs.arm_model import PRISMATIC, REVOLUTE, ArmModel
+from mpnet.envs.ik_kernels import dls, meets_pose
+
+assert (ik_kernels.REVOLUTE, ik_kernels.PRISMATIC) == (REVOLUTE, PRISMATIC)
 
 
 @dataclass(frozen=True)
@@ -83,40 +87,16 @@ def _path(model: ArmModel, link: str) -> list[int]:
     return out[::-1]
 
 
-def _batch_jacobian(model: ArmModel, Q: np.ndarray, path: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """(B x 4 x 4 poses, B x 6 x dof Jacobians) of the path's last frame for B joint vectors:
-    the chain walked once for all of them (IK's restarts run side by side)."""
-    kin = model.kinematics
-    B = len(Q)
-    T = np.broadcast_to(np.eye(4), (B, 4, 4)).copy()
-    axes, origins, kinds, coords = [], [], [], []
-    for i in path:
-        f = kin.frames[i]
-        T = T @ f.origin
-        if f.coordinate < 0:
-            continue
-        v = Q[:, f.coordinate]
-        m = np.broadcast_to(np.eye(4), (B, 4, 4)).copy()
-        if f.kind == PRISMATIC:
-            m[:, :3, 3] = v[:, None] * f.axis
-        else:
-            x, y, z = f.axis
-            K = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
-            m[:, :3, :3] += np.sin(v)[:, None, None] * K + (1 - np.cos(v))[:, None, None] * (K @ K)
-        axes.append(T[:, :3, :3] @ f.axis)
-        origins.append(T[:, :3, 3].copy())
-        kinds.append(f.kind)
-        coords.append(f.coordinate)
-        T = T @ m
-    J = np.zeros((B, 6, model.dof))
-    p = T[:, :3, 3]
-    for axis, origin, kind, c in zip(axes, origins, kinds, coords):
-        if kind == PRISMATIC:
-            J[:, :3, c] = axis
-        else:
-            J[:, :3, c] = np.cross(axis, p - origin)
-            J[:, 3:, c] = axis
-    return T, J
+def chain_arrays(model: ArmModel, link: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The frames from the base to `link` as ik_kernels' arrays: origins (n x 4 x 4), driving
+    coordinates (-1: none), kinds, axes (n x 3)."""
+    frames = [model.kinematics.frames[i] for i in _path(model, link)]
+    return (
+        np.array([f.origin for f in frames], float),
+        np.array([f.coordinate for f in frames], np.int64),
+        np.array([f.kind for f in frames], np.int64),
+        np.array([f.axis for f in frames], float),
+    )
 
 
 def solve(
@@ -134,15 +114,18 @@ def solve(
     """A joint vector within the model's limits that meets `target` and that `valid(q)`
     accepts, or None after `attempts` starts: the first from seed_q (if given), the others
     uniform within the limits (MBM: 200 attempts, random restarts). Each attempt aims at a
-    pose drawn within the tolerances, as MBM's IK query does. The first `batch` attempts run
-    side by side as arrays, then all the rest; the first success in attempt order is returned."""
+    pose drawn within the tolerances, as MBM's IK query does. The attempts are drawn `batch`
+    at a time (the first `batch`, then all the rest) and solved one by one in attempt order
+    (ik_kernels.dls); the first that succeeds is returned."""
     # Imported where IK runs: scipy.spatial costs ~0.25 s, and every process that imports
     # mpnet.envs (a run's, its log process) would pay it for IK that only data building does.
     from scipy.spatial.transform import Rotation
 
     lower = np.array([b[0] for b in model.limits])
     upper = np.array([b[1] for b in model.limits])
-    path = _path(model, target.link)
+    origins, coords, kinds, axes = chain_arrays(model, target.link)
+    pose = np.ascontiguousarray(target.pose, float)
+    ptol, otol = np.asarray(target.position_tol, float), np.asarray(target.orientation_tol, float)
     for first in (0, batch) if attempts > batch else (0,):
         B = min(batch, attempts) if first == 0 else attempts - batch
         Q = rng.uniform(lower, upper, size=(B, model.dof))
@@ -151,20 +134,8 @@ def solve(
         aim_p = target.pose[:3, 3] + rng.uniform(-target.position_tol / 2, target.position_tol / 2, size=(B, 3))
         turn = Rotation.from_rotvec(rng.uniform(-1, 1, (B, 3)) * target.orientation_tol).as_matrix()
         aim_R = target.pose[:3, :3] @ turn
-        eye = damping**2 * np.eye(6)
-        for _ in range(iterations):
-            T, J = _batch_jacobian(model, Q, path)
-            e = np.concatenate(
-                [aim_p - T[:, :3, 3], Rotation.from_matrix(aim_R @ T[:, :3, :3].transpose(0, 2, 1)).as_rotvec()],
-                axis=1,
-            )
-            moving = np.linalg.norm(e, axis=1) >= 1e-6
-            if not moving.any():
-                break
-            Jt = J.transpose(0, 2, 1)
-            dq = (Jt @ np.linalg.solve(J @ Jt + eye, e[:, :, None]))[:, :, 0]
-            Q = np.where(moving[:, None], np.clip(Q + dq, lower, upper), Q)
-        for q in Q:
-            if meets(model, q, target) and (valid is None or valid(q)):
+        for b in range(B):
+            q, T = dls(Q[b], aim_p[b], aim_R[b], lower, upper, origins, coords, kinds, axes, iterations, damping)
+            if meets_pose(T, pose, ptol, otol) and (valid is None or valid(q)):
                 return q
     return None

@@ -1,0 +1,69 @@
+"""Issue 42, item 3: CPU seconds per panda_mbm expert path, at the revision of the code it
+imports (run it with PYTHONPATH=<a checkout> to measure another revision). Builds training
+scenes 0..N-1 and their expert paths in this one process, as one expert chunk does (15 MBM
+queries per scene, the best of 3 RRT-Connect runs, contracted, kept by env.expert.check),
+after a warm-up that compiles the kernels; appends a row to reports/panda_mbm_expert_rate/
+README.md. Run it alone on an idle machine.
+
+    PYTHONPATH=<checkout> python docs/research/panda_mbm_expert_rate.py [--scenes 14] [--check planner]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from ompl import util as ou
+
+from harness.provenance import git_rev, machine_info
+from mpnet.data.expert import workspace_paths
+from mpnet.envs.specs import get_spec
+
+HEADER = [
+    "# panda_mbm's expert: CPU seconds per path",
+    "",
+    "Rows appended by `docs/research/panda_mbm_expert_rate.py`, one process, one job at a time on an otherwise "
+    "idle machine: training scenes 0..N-1 drawn (scene CPU-s), then 15 MBM-style queries each, the shortest of "
+    "3 RRT-Connect runs (2 s each), contracted, kept when they pass `check` (judge: pybullet's re-check at "
+    "0.002 rad; planner: the sphere checker's certified motions). Item 3's bar: 0.29 CPU-s a path "
+    "(50,000 paths in 2 h on two cores).",
+    "",
+    "| revision | date | machine | check | scenes | scene CPU-s | paths | expert CPU-s | CPU-s / path | with scenes |",
+    "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--scenes", type=int, default=14)
+    ap.add_argument("--check", default="planner", choices=["planner", "judge"])
+    ap.add_argument("--out", type=Path, default=Path("reports/panda_mbm_expert_rate"))
+    args = ap.parse_args()
+    ou.setLogLevel(ou.LOG_WARN)
+    ou.RNG.setSeed(1)
+    spec = get_spec("panda_mbm")
+    kw = dict(iterations=3, max_seconds=2.0, blocked_only=False, contract=True, planner="rrt_connect", check=args.check)
+    spec.generator.make(0, "train", 0)  # warm-up: IK kernels
+    t0 = time.process_time()
+    scenes = [spec.generator.make(i, "train", 0) for i in range(args.scenes)]
+    scene_s = time.process_time() - t0
+    workspace_paths(spec, scenes[0], 0, 1, 0, **kw)  # warm-up: the checker's kernels
+    t0 = time.process_time()
+    paths = sum(len(workspace_paths(spec, ws, i, 15, 0, **kw).workspace) for i, ws in enumerate(scenes))
+    expert_s = time.process_time() - t0
+    m = machine_info()
+    row = (
+        f"| {git_rev()[:12]} | {m.get('date', '')[:10]} | {m.get('cpu', '')} ({m.get('cpus', '')} CPUs) | "
+        f"{args.check} | {args.scenes} | {scene_s:.1f} | {paths} | {expert_s:.1f} | {expert_s / paths:.3f} | "
+        f"{(expert_s + scene_s) / paths:.3f} |"
+    )
+    out = args.out / "README.md"
+    args.out.mkdir(parents=True, exist_ok=True)
+    lines = out.read_text().splitlines() if out.exists() else HEADER
+    out.write_text("\n".join([*lines, row]) + "\n")
+    print(row)
+
+
+if __name__ == "__main__":
+    main()
