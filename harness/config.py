@@ -146,6 +146,7 @@ NETWORK_KEYS = {
     "pnet_hidden": list,
     "enet_hidden": list,
     "latent": int,
+    "voxels": int,
     "dagger_rounds": int,
     "dagger_queries": int,
     "dagger_states": int,
@@ -201,7 +202,7 @@ def _networks(nets, where: str) -> dict:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 1:
                 raise UsageError(f"config key {name}: expected a number in [0, 1), got {value!r}")
         elif kind is int:
-            _integer(name, value, 2 if key == "min_waypoints" else 1)
+            _integer(name, value, 2 if key in ("min_waypoints", "voxels") else 1)
         elif kind is list:
             value = list(value) if OmegaConf.is_list(value) or isinstance(value, list) else value
             if (
@@ -403,7 +404,13 @@ def model_params(cfg: DictConfig) -> dict:
         params["end_to_end"] = True
     if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
         params["limit_batches"] = int(f.limit_batches)
-    return params | networks_params(cfg)  # a planner's own networks (absent: the keys stay)
+    params |= networks_params(cfg)  # a planner's own networks (absent: the keys stay)
+    if params.get("voxels") and not params.get("end_to_end"):
+        raise UsageError(
+            "config key networks.voxels (env.networks or planner.networks): a voxel Enet trains end to end "
+            "with Pnet (scale.fit.end_to_end: true, the arm's); this scale pretrains Enet as an autoencoder"
+        )
+    return params
 
 
 ENET_KEYS = ("enet_hidden", "latent", "ae_epochs", "batch_size", "seed", "lr", "optimizer", "lam", "val_fraction")

@@ -189,7 +189,8 @@ def fit_models(
     _quiet_lightning(params["seed"])
     flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
     if enet is None:
-        encoder = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"])
+        grid = [int(params["voxels"])] * spec.workspace_dim if params.get("voxels") else None
+        encoder = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"], voxels=grid)
         pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, frozen=False)
         return {
             "files": [PNET_FILE],

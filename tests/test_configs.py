@@ -144,14 +144,26 @@ def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(se
     ]
     options = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr", *recipe]))
     assert options == {**plain, "bounded": True, "bidirectional": False, "dropout": 0.1}
+    voxels = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.voxels=16"]))
+    assert voxels == {**plain, "voxels": 16}
+
+
+def test_a_voxel_encoder_is_refused_where_enet_is_an_autoencoder(settings):
+    """Only an end-to-end fit trains a voxel Enet (it has no decoder): s2d's scales pretrain
+    Enet as the paper's autoencoder, so the option is one line naming the key; a grid of one
+    cell is refused too."""
+    with pytest.raises(UsageError, match="networks.voxels.*end to end"):
+        settings(["+env=s2d", "+planner=mpnet_nr", "+planner.networks.voxels=8"])
+    with pytest.raises(UsageError, match="planner.networks.voxels: expected an integer >= 2"):
+        settings(["+env=arm7", "+planner=mpnet_nr", "+planner.networks.voxels=1"])
 
 
 def test_a_planners_network_options_name_its_variant():
     from harness.log.facts import planner_facts
 
-    nets = {"waypoint_step": 0.5, "bounded": True, "bidirectional": False, "dropout": 0.1}
+    nets = {"waypoint_step": 0.5, "bounded": True, "bidirectional": False, "dropout": 0.1, "voxels": 16}
     facts = planner_facts({"hybrid": False, "replanning": "original", "networks": nets})
-    assert facts["base"] == "mpnet_nr" and facts["variant"] == "dense+bounded+forward+dropout0.1"
+    assert facts["base"] == "mpnet_nr" and facts["variant"] == "dense+bounded+forward+dropout0.1+voxels16"
 
 
 @pytest.mark.parametrize("env", ["s2d", "arm7"])

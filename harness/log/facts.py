@@ -91,7 +91,8 @@ def planner_facts(p) -> dict | None:
 def network_variant(networks) -> list[str]:
     """The tags of a planner's own networks (its `networks:` recipe options): dense (resampled
     expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>, sized
-    (other network sizes), paper_recipe (the scale's recipe, not the env's)."""
+    (other network sizes), paper_recipe (the scale's recipe, not the env's), voxels<cells>
+    (Enet reads a voxel grid of the cloud)."""
     if not isinstance(networks, dict):
         return []
     out = ["paper_recipe"] if networks.get("recipe") == "paper" else []
@@ -109,6 +110,8 @@ def network_variant(networks) -> list[str]:
         out.append("sized")
     if networks.get("dagger_rounds"):
         out.append(f"dagger{int(networks['dagger_rounds'])}")
+    if networks.get("voxels"):
+        out.append(f"voxels{int(networks['voxels'])}")
     return out
 
 

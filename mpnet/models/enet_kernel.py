@@ -15,11 +15,13 @@ import numpy as np
 from mpnet.jit import njit
 from mpnet.models.numpy_nets import NumpyEnet, _flat_cloud
 from mpnet.models.pnet_kernel import affine
+from mpnet.models.voxels import n_cells, occupancy_into
 
 
 class EnetKernel:
     """A NumpyEnet's arrays as the kernel takes them; `encode(cloud) -> z` with NumpyEnet's
-    meaning (one cloud, flattened or as points; a new array each call)."""
+    meaning (one cloud, flattened or as points; a new array each call; a voxel Enet's grid
+    filled by mpnet.models.voxels.occupancy_into)."""
 
     def __init__(self, enet: NumpyEnet):
         if any(w.shape[1] == 1 for w in enet.weights):  # numpy takes a dot product there: other sums
@@ -31,7 +33,9 @@ class EnetKernel:
         dummy = np.empty(self.in_dim, np.float32)
         scale = None if enet.normalizer is None else enet.normalizer._scale_for(dummy)  # one entry: broadcast
         self.scale = None if scale is None else np.ascontiguousarray(np.broadcast_to(scale, self.in_dim), np.float32)
+        self.voxels = None if enet.voxels is None else np.asarray(enet.voxels, np.int64)
         self._h = np.empty(self.in_dim, np.float32)
+        self._grid = None if enet.voxels is None else np.empty(n_cells(enet.voxels), np.float32)
         self._layers = tuple(np.empty(w.shape[1], np.float32) for w in self.weights)
 
     def encode(self, cloud) -> np.ndarray:
@@ -43,7 +47,11 @@ class EnetKernel:
             self._h[:] = x
         else:
             _divide(x, self.scale, self._h)
-        return enet_encode(self._h, self.weights, self.biases, self.alphas, self._layers)
+        h = self._h
+        if self.voxels is not None:
+            occupancy_into(h, self.voxels, self._grid)
+            h = self._grid
+        return enet_encode(h, self.weights, self.biases, self.alphas, self._layers)
 
     __call__ = encode
 

@@ -25,6 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from mpnet.models.numpy_nets import Normalizer, NumpyEnet, NumpyPnet, _flat_cloud  # noqa: F401 (re-exported)
+from mpnet.models.voxels import grid_cells, n_cells, strides
 
 # The public MPNet code's sizes for simple 2D (ahq1993/MPNet; conf/scale/paper.yaml sets them).
 ENET_HIDDEN = (512, 256, 128)
@@ -50,17 +51,48 @@ def _mlp(sizes: Sequence[int]) -> nn.Sequential:
 
 
 class Enet(nn.Module):
-    """Encoder: ``in_dim -> hidden... -> latent`` (s2D: 2800 -> 512 -> 256 -> 128 -> 28)."""
+    """Encoder: ``in_dim -> hidden... -> latent`` (s2D: 2800 -> 512 -> 256 -> 128 -> 28).
 
-    def __init__(self, in_dim: int, hidden: Sequence[int] = ENET_HIDDEN, latent: int = ENET_LATENT):
+    ``voxels`` (cells per axis; a named recipe option, :mod:`mpnet.models.voxels`): the MLP
+    reads the occupancy of a grid over the normalised workspace instead of the flattened
+    cloud, ``prod(voxels) -> hidden... -> latent``; it still takes the cloud (``in_dim``)."""
+
+    def __init__(
+        self,
+        in_dim: int,
+        hidden: Sequence[int] = ENET_HIDDEN,
+        latent: int = ENET_LATENT,
+        voxels: Sequence[int] | None = None,
+    ):
         super().__init__()
         self.in_dim = _ints([in_dim], "in_dim")[0]
         self.hidden = _ints(hidden, "hidden")
         self.latent = _ints([latent], "latent")[0]
-        self.net = _mlp((self.in_dim, *self.hidden, self.latent))
+        self.voxels = grid_cells(voxels)
+        if self.voxels is not None and self.in_dim % len(self.voxels):
+            raise ValueError(f"in_dim {self.in_dim} is not a cloud of {len(self.voxels)}-D points")
+        first = self.in_dim if self.voxels is None else n_cells(self.voxels)
+        self.net = _mlp((first, *self.hidden, self.latent))
+        if self.voxels is not None:
+            self.register_buffer("_half", torch.tensor(self.voxels, dtype=torch.float64) / 2.0, persistent=False)
+            self.register_buffer("_cells", torch.tensor(self.voxels, dtype=torch.float64), persistent=False)
+            self.register_buffer("_strides", torch.from_numpy(strides(self.voxels)), persistent=False)
 
     def forward(self, cloud: torch.Tensor) -> torch.Tensor:
-        return self.net(cloud)
+        return self.net(cloud if self.voxels is None else self.occupancy(cloud))
+
+    def occupancy(self, cloud: torch.Tensor) -> torch.Tensor:
+        """mpnet.models.voxels.occupancy in torch (the same cells: float64 from float32)."""
+        dim, total = len(self.voxels), n_cells(self.voxels)
+        lead = cloud.shape[:-1]
+        pts = cloud.reshape(-1, cloud.shape[-1] // dim, dim).to(torch.float64)
+        k = torch.floor((pts + 1.0) * self._half)
+        inside = ((k >= 0) & (k < self._cells)).all(-1)
+        flat = (torch.where(inside[..., None], k, 0).long() * self._strides).sum(-1)
+        flat = torch.where(inside, flat, total)  # the dropped points' column, cut below
+        out = torch.zeros(pts.shape[0], total + 1, dtype=cloud.dtype, device=cloud.device)
+        out.scatter_(1, flat, 1.0)
+        return out[:, :total].reshape(*lead, total)
 
     def linears(self) -> list[nn.Linear]:
         return [m for m in self.net if isinstance(m, nn.Linear)]
@@ -69,7 +101,8 @@ class Enet(nn.Module):
         return [m.weight for m in self.net if isinstance(m, nn.PReLU)]
 
     def config(self) -> dict[str, Any]:
-        return {"in_dim": self.in_dim, "hidden": list(self.hidden), "latent": self.latent}
+        out = {"in_dim": self.in_dim, "hidden": list(self.hidden), "latent": self.latent}
+        return out if self.voxels is None else out | {"voxels": list(self.voxels)}  # absent: the paper's
 
 
 class Decoder(nn.Module):
@@ -85,6 +118,8 @@ class Decoder(nn.Module):
 
     @classmethod
     def mirror(cls, encoder: Enet) -> Decoder:
+        if encoder.voxels is not None:
+            raise ValueError("a voxel Enet trains end to end with Pnet: it has no autoencoder")
         return cls(encoder.in_dim, encoder.hidden, encoder.latent)
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
@@ -104,6 +139,8 @@ class ContractiveAE(nn.Module):
 
     def __init__(self, encoder: Enet, decoder: Decoder, lam: float = 1e-3):
         super().__init__()
+        if encoder.voxels is not None:
+            raise ValueError("a voxel Enet trains end to end with Pnet: it has no autoencoder")
         if decoder.out_dim != encoder.in_dim or decoder.latent != encoder.latent:
             raise ValueError(
                 f"decoder {decoder.latent}->{decoder.out_dim} does not mirror encoder "

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from mpnet.models.voxels import grid_cells, occupancy
+
 
 def _is_tensor(x) -> bool:
     """A torch tensor? Only if torch is imported: nothing else can have made one."""
@@ -288,7 +290,7 @@ def _flat_cloud(cloud, in_dim: int):
 
 class NumpyEnet:
     """An Enet's weights as float32 numpy arrays: ``encode(cloud) -> z`` (cloud already
-    normalised unless a ``normalizer`` is given)."""
+    normalised unless a ``normalizer`` is given); a voxel Enet's occupancy first."""
 
     def __init__(self, enet, normalizer: Normalizer | None = None):
         lins = enet.linears()
@@ -297,6 +299,7 @@ class NumpyEnet:
         self.alphas = [np.float32(_np(a).item()) for a in enet.prelu_weights()]
         self.normalizer = normalizer
         self.in_dim = enet.in_dim
+        self.voxels = getattr(enet, "voxels", None)
 
     def __call__(self, cloud) -> np.ndarray:
         return self.encode(cloud)
@@ -306,6 +309,8 @@ class NumpyEnet:
         h = _flat_cloud(np.asarray(cloud, dtype=np.float32), self.in_dim)
         if self.normalizer is not None:
             h = self.normalizer.normalize(h).astype(np.float32, copy=False)
+        if self.voxels is not None:
+            h = occupancy(h, self.voxels)
         last = len(self.weights) - 1
         for i, (w, b) in enumerate(zip(self.weights, self.biases)):
             h = h @ w
@@ -343,6 +348,7 @@ class EnetArrays:
     def __init__(self, config: dict, state: dict[str, np.ndarray]):
         n = len(config["hidden"]) + 1
         self.in_dim = int(config["in_dim"])
+        self.voxels = grid_cells(config.get("voxels"))
         self._linears = [Layer(state[f"net.{2 * i}.weight"], state[f"net.{2 * i}.bias"]) for i in range(n)]
         self._alphas = [state[f"net.{2 * i + 1}.weight"] for i in range(n - 1)]
 
