@@ -285,9 +285,12 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         cloud_scale=spec.workspace_scale(),
     )
     features = np.ascontiguousarray(flat_train, np.float32)
+    kind = "codes" if frozen else "clouds"
     if frozen:
         with torch.no_grad():  # the encoder is frozen: each workspace's code once, not once per batch
             features = module.encode(torch.from_numpy(features)).numpy()
+    elif enet.voxels is not None:  # each workspace's grid once (the clouds never change), not once per batch
+        features, kind = module.grids(features), "grids"
     dm = MPNetDataModule(
         features,
         pairs.ws_index,
@@ -298,7 +301,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         params["val_fraction"],
         params["seed"],
         groups=pairs.path_id,
-        features="codes" if frozen else "clouds",
+        features=kind,
     )
     bar = _bar(progress, "Pnet" if frozen else "Enet+Pnet", epochs, 2 if frozen else 1, 2 if frozen else 1)
     trainer, ckpt = _trainer(

@@ -128,3 +128,27 @@ def test_refusals():
 def test_the_paper_encoder_keeps_its_config():
     """No `voxels` key unless asked: the shipped networks' configs and keys stay."""
     assert Enet(12, (4,), 2).config() == {"in_dim": 12, "hidden": [4], "latent": 2}
+
+
+def test_a_batch_of_grids_gives_the_loss_of_its_clouds():
+    """Training reads each workspace's grid computed once (PnetModule.grids, the planner's
+    numpy occupancy); the same batch as clouds, voxelised by torch, gives the same loss and
+    the same encoder gradient."""
+    from mpnet.models.datamodule import MPNetDataModule
+
+    enet, pnet = _voxel_nets(5)
+    module = PnetModule(pnet, enet, freeze_encoder=False, state_scale=[3.0] * 7, cloud_scale=[1.5, 1.5, 1.5])
+    rng = np.random.default_rng(6)
+    clouds = rng.uniform(-1.8, 1.8, (4, 180)).astype(np.float32)
+    ws = np.repeat(np.arange(4), 5)
+    xs = [rng.uniform(-2, 2, (20, 7)).astype(np.float32) for _ in range(3)]
+    grads = []
+    for feats, kind in ((clouds, "clouds"), (module.grids(clouds), "grids")):
+        dm = MPNetDataModule(feats, ws, *xs, batch_size=20, val_fraction=0.0, features=kind)
+        dm.setup()
+        batch = dm.train_set.__getitems__(list(range(20)))
+        module.zero_grad()
+        loss, _ = module.batch_loss(batch, stochastic=False)
+        loss.backward()
+        grads.append((loss.item(), module.encoder.linears()[0].weight.grad.clone()))
+    assert grads[0][0] == grads[1][0] and torch.equal(grads[0][1], grads[1][1])

@@ -154,7 +154,8 @@ class MPNetDataModule(_Base):
 
     ``features="codes"``: ``clouds`` holds each workspace's Enet code instead (a frozen
     encoder's codes never change, so encoding them once saves most of Pnet's training time
-    when batches span many workspaces)."""
+    when batches span many workspaces); ``features="grids"``: each workspace's voxel occupancy
+    (a voxel Enet's input, computed once: ``PnetModule.grids``)."""
 
     def __init__(
         self,
@@ -171,8 +172,8 @@ class MPNetDataModule(_Base):
         features: str = "clouds",
     ):
         super().__init__(batch_size, val_fraction, seed, num_workers)
-        if features not in ("clouds", "codes"):
-            raise ValueError(f"features must be 'clouds' or 'codes', got {features!r}")
+        if features not in ("clouds", "codes", "grids"):
+            raise ValueError(f"features must be 'clouds', 'codes' or 'grids', got {features!r}")
         self.features = features
         self.clouds = _float_tensor(clouds, features, 2)
         ws = np.asarray(ws_index)

@@ -17,10 +17,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import lightning as L
+import numpy as np
 import torch
 import torch.nn.functional as F
 
 from mpnet.models.networks import ContractiveAE, Enet, Normalizer, Pnet
+from mpnet.models.voxels import occupancy
 
 OPTIMIZERS = ("adagrad", "adam")
 
@@ -111,8 +113,8 @@ class PnetModule(L.LightningModule):
     Batches are dicts ``{"clouds": (k, D), "ws": (B,) index into clouds, "x_t", "x_goal",
     "x_next": (B, state_dim)}`` (what :class:`MPNetDataModule` yields: each workspace's
     cloud is encoded once per batch), the same with ``"codes"`` (k, latent) in place of
-    ``"clouds"`` (a frozen encoder's codes, computed once), or tuples ``(cloud (B, D), x_t,
-    x_goal, x_next)``.
+    ``"clouds"`` (a frozen encoder's codes, computed once), with ``"grids"`` (a voxel Enet's
+    occupancy, computed once: :meth:`grids`), or tuples ``(cloud (B, D), x_t, x_goal, x_next)``.
     """
 
     def __init__(
@@ -171,6 +173,14 @@ class PnetModule(L.LightningModule):
         """Raw flattened cloud(s) -> ``Z``."""
         return self.encoder(self.cloud_norm.normalize(cloud))
 
+    def grids(self, clouds) -> np.ndarray:
+        """A voxel Enet's inputs, (n, cells) float32, of raw flattened clouds (n, D): normalised
+        as encode does, then mpnet.models.voxels.occupancy, the planner's own grid."""
+        if self.encoder.voxels is None:
+            raise ValueError("only a voxel Enet reads a grid")
+        flat = np.asarray(clouds, np.float32)
+        return occupancy(self.cloud_norm.normalize(flat).astype(np.float32, copy=False), self.encoder.voxels)
+
     def forward(
         self, cloud: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor, stochastic: bool = True
     ) -> torch.Tensor:
@@ -199,6 +209,9 @@ class PnetModule(L.LightningModule):
             if not self.freeze_encoder:
                 raise ValueError("precomputed codes need a frozen encoder (freeze_encoder=True)")
             z = batch["codes"]
+        elif isinstance(batch, dict) and "grids" in batch:
+            with torch.set_grad_enabled(torch.is_grad_enabled() and not self.freeze_encoder):
+                z = self.encoder.from_grid(batch["grids"])
         elif self.freeze_encoder:
             with torch.no_grad():
                 z = self.encode(clouds)

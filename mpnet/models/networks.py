@@ -81,6 +81,12 @@ class Enet(nn.Module):
     def forward(self, cloud: torch.Tensor) -> torch.Tensor:
         return self.net(cloud if self.voxels is None else self.occupancy(cloud))
 
+    def from_grid(self, grid: torch.Tensor) -> torch.Tensor:
+        """A voxel Enet's code from the occupancy itself (training computes it once per workspace)."""
+        if self.voxels is None:
+            raise ValueError("only a voxel Enet reads a grid")
+        return self.net(grid)
+
     def occupancy(self, cloud: torch.Tensor) -> torch.Tensor:
         """mpnet.models.voxels.occupancy in torch (the same cells: float64 from float32)."""
         dim, total = len(self.voxels), n_cells(self.voxels)
