@@ -223,7 +223,8 @@ def test_valid_file_loads(env):
     for w, rw in zip(ts.workspaces, raw["workspaces"]):
         assert w.id == rw["id"] and w.split == "file"
         assert w.centers.shape == w.sizes.shape == (len(rw["obstacles"]), spec.workspace_dim)
-        assert np.array_equal(w.centers, [o["center"] for o in rw["obstacles"]])
+        boxes = sorted(zip(map(tuple, w.centers.tolist()), map(tuple, w.sizes.tolist())))  # the canonical order
+        assert boxes == sorted((tuple(o["center"]), tuple(o["size"])) for o in rw["obstacles"])
         assert np.all(w.sizes > 0)
         qs = [q for q in ts.queries if q.workspace_id == w.id]
         assert [q.id for q in qs] == [f"{w.id}/{i}" for i in range(len(rw["queries"]))]
