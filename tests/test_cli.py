@@ -685,6 +685,25 @@ def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_
         assert len(queries) == 4 and recheck(msgs) == sum(q["success"] for q in queries)
 
 
+def test_the_mbm_experiment_runs_the_planners_it_names(tmp_path, run_cli, sweeps_cache, mbm_dir):
+    """docs/arm.md's MotionBenchMaker experiment at tiny scale, one problem of each sample set:
+    seven runs, the paper's recipe tagged as such in the report, every success re-checked."""
+    sweep = tmp_path / "sweep"
+    run_cli(
+        "harness", "-m", "+experiment=panda_mbm_mbm", f"problems={mbm_dir}", "problems_per_set=1", "budget_s=1",
+        "scale=tiny", "rerun=false", "progress=false", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
+    )  # fmt: skip
+    files = sorted(sweep.rglob("trials.mcap"))
+    assert len(files) == 7
+    for f in files:
+        _, msgs = read_mcap(f)
+        queries = [m for t, m in msgs if t == "/query"]
+        assert len(queries) == 3 and recheck(msgs) == sum(q["success"] for q in queries)
+    run_cli("harness.report", str(sweep), "--out", str(tmp_path / "report"))
+    ablations = (tmp_path / "report" / "ablations.csv").read_text()
+    assert "paper_recipe" in ablations and "mpnet_nr_random" in ablations
+
+
 def test_the_arm_in_two_minutes(tmp_path, run_cli, sweeps_cache, mbm_dir):
     """docs/arm.md's first commands at tiny scale: panda_mbm's MPNet-NR and -HR on the sample
     problems, one of each set (problems_per_set), every success re-checked."""

@@ -85,6 +85,9 @@ TESTED = {
     "python -m harness.train +env=panda_mbm +planner=mpnet_nr_dense": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_nr_dense_clip problems=data/mbm/problems": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_hr_rrtc_clip problems=data/mbm/problems": PANDA_MBM,
+    "python -m harness -m +experiment=panda_mbm_mbm problems=data/mbm/problems": (
+        CLI + "test_the_mbm_experiment_runs_the_planners_it_names"
+    ),
     (
         "python -m harness +env=panda_mbm +planner=mpnet_nr +planner.networks.bounded=true "
         "+planner.networks.dagger_rounds=1"
