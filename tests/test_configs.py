@@ -198,11 +198,24 @@ def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settin
 
 def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(settings):
     """env.networks is the env's default recipe: under every planner's own options key by key;
-    `recipe: paper` trains on the scale's own; sizes and min_waypoints are checked."""
+    `recipe: paper` trains on the env's paper_networks, or the scale's own where it has none;
+    sizes and min_waypoints are checked. (arm7 carries neither recipe; panda_mbm both.)"""
     from harness.artifacts import models_key_config
 
-    def key(*o):
-        return models_key_config(settings(["+env=panda_mbm", *o]))
+    def key(*o, env="arm7"):
+        return models_key_config(settings([f"+env={env}", *o]))
+
+    mbm = key("+planner=mpnet_nr", env="panda_mbm")
+    assert {k: mbm.get(k) for k in ("bounded", "waypoint_step", "equal_steps", "dropout")} == {
+        "bounded": True,
+        "waypoint_step": 0.5,
+        "equal_steps": True,
+        "dropout": 0.1,
+    }
+    mbm_paper = key("+planner=mpnet_nr_paper", env="panda_mbm")
+    assert mbm_paper == key("+planner=mpnet_nr", "+planner.networks.recipe=paper", env="panda_mbm")
+    assert (mbm_paper["bidirectional"], mbm_paper["min_waypoints"], mbm_paper["latent"]) == (False, 10, 60)
+    assert "bounded" not in mbm_paper and mbm_paper["dropout"] == 0.5  # the scale's: the paper's rate
 
     plain = key("+planner=mpnet_nr")
     env = ["+env.networks.bounded=true", "+env.networks.dropout=0.2"]
@@ -226,4 +239,4 @@ def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(se
         ("+env.networks.bogus=1", "env.networks.bogus"),
     ):
         with pytest.raises(UsageError, match=name):
-            settings(["+env=panda_mbm", "+planner=mpnet_nr", bad])
+            settings(["+env=arm7", "+planner=mpnet_nr", bad])
