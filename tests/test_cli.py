@@ -667,6 +667,15 @@ def test_the_findings_equal_quality_and_arm7_experiments_run(tmp_path, run_cli, 
         assert next(m for t, m in msgs if t == "/run")["planner"] == planner
 
 
+def sweep_runs(sweep):
+    """Each trials.mcap under a sweep folder, in path order: (its queries, its successes re-checked)."""
+    out = []
+    for f in sorted(sweep.rglob("trials.mcap")):
+        _, msgs = read_mcap(f)
+        out.append(([m for t, m in msgs if t == "/query"], recheck(msgs)))
+    return out
+
+
 def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_cache):
     """docs/arm.md's panda_mbm commands at tiny scale: the dense networks trained, then MPNet,
     its ablation and its named variants (a short budget: tiny networks rarely connect)."""
@@ -678,12 +687,10 @@ def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_
         "harness", "-m", "+env=panda_mbm", f"+planner={planners}", *common, "splits=[unseen]", "budget_s=1",
         "rerun=false", f"hydra.sweep.dir={sweep}",
     )  # fmt: skip
-    files = sorted(sweep.rglob("trials.mcap"))
-    assert len(files) == 6
-    for f in files:
-        _, msgs = read_mcap(f)
-        queries = [m for t, m in msgs if t == "/query"]
-        assert len(queries) == 4 and recheck(msgs) == sum(q["success"] for q in queries)
+    runs = sweep_runs(sweep)
+    assert len(runs) == 6
+    for queries, rechecked in runs:
+        assert len(queries) == 4 and rechecked == sum(q["success"] for q in queries)
 
 
 def test_the_mbm_experiment_runs_the_planners_it_names(tmp_path, run_cli, sweeps_cache, mbm_dir):
@@ -694,12 +701,10 @@ def test_the_mbm_experiment_runs_the_planners_it_names(tmp_path, run_cli, sweeps
         "harness", "-m", "+experiment=panda_mbm_mbm", f"problems={mbm_dir}", "problems_per_set=1", "budget_s=1",
         "scale=tiny", "rerun=false", "progress=false", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
     )  # fmt: skip
-    files = sorted(sweep.rglob("trials.mcap"))
-    assert len(files) == 7
-    for f in files:
-        _, msgs = read_mcap(f)
-        queries = [m for t, m in msgs if t == "/query"]
-        assert len(queries) == 3 and recheck(msgs) == sum(q["success"] for q in queries)
+    runs = sweep_runs(sweep)
+    assert len(runs) == 7
+    for queries, rechecked in runs:
+        assert len(queries) == 3 and rechecked == sum(q["success"] for q in queries)
     run_cli("harness.report", str(sweep), "--out", str(tmp_path / "report"))
     ablations = (tmp_path / "report" / "ablations.csv").read_text()
     assert "paper_recipe" in ablations and "mpnet_nr_random" in ablations
