@@ -40,9 +40,12 @@ def _batches(spec, most: int | None = None) -> list[list[Problem]]:
     return out
 
 
+# HR without fallback restarts: a restart comes after 0.5 s of the machine's time, so the same
+# seeds restart RRT* at another iteration on a busier machine (the comparison of two batches
+# below failed one run in three with the retrained rigid networks); without, a run is its seeds'.
 @pytest.mark.parametrize(
     "env,settings",
-    [("s2d", {"name": "mpnet_nr"}), ("rigid", {"name": "mpnet_hr", "hybrid": True}),
+    [("s2d", {"name": "mpnet_nr"}), ("rigid", {"name": "mpnet_hr", "hybrid": True, "fallback_restart_s": None}),
      pytest.param("arm7", {"name": "mpnet_nr_forgiving", "replanning": "forgiving"}, marks=pytest.mark.slow)],
 )  # fmt: skip
 def test_a_batch_answers_every_query_with_a_free_path_between_its_ends(env, settings, tmp_path):
