@@ -123,8 +123,11 @@ PLANNER_HOOKS = ("cost_target", "networks")
 # What a planner's `networks` may set: the training knobs of a named variant of the networks
 # (e.g. mpnet_nr_dense), overriding the scale's; the models' cache key then differs.
 # equal_steps: Pnet's epochs scaled by (the scale's pairs / these pairs), for the same number of
-# gradient steps as the scale's networks.
-NETWORK_KEYS = {"waypoint_step": float, "equal_steps": bool}
+# gradient steps as the scale's networks. bounded: Pnet's output softsign-bounded inside the
+# state bounds (centred normaliser). bidirectional: false trains on each path forward only
+# (the public code's pairs; true adds the reversed path). dropout: Pnet's rate (the scale's
+# model.dropout otherwise), at training and at planning time.
+NETWORK_KEYS = {"waypoint_step": float, "equal_steps": bool, "bounded": bool, "bidirectional": bool, "dropout": float}
 
 
 def networks_params(cfg: DictConfig) -> dict:
@@ -142,6 +145,9 @@ def networks_params(cfg: DictConfig) -> dict:
         if NETWORK_KEYS[key] is bool:
             if not isinstance(value, bool):
                 raise UsageError(f"config key planner.networks.{key}: expected true or false, got {value!r}")
+        elif key == "dropout":
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 1:
+                raise UsageError(f"config key planner.networks.dropout: expected a number in [0, 1), got {value!r}")
         else:
             _number(f"planner.networks.{key}", value)
         out[key] = NETWORK_KEYS[key](value)

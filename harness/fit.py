@@ -250,23 +250,34 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
     import torch
 
     from mpnet.models import MPNetDataModule, Pnet, PnetModule, waypoint_pairs
+    from mpnet.models.numpy_nets import Normalizer
 
     t1 = time.perf_counter()
     pairs = waypoint_pairs(  # the planner's angles
-        data.paths.paths(), data.paths.workspace, space=spec.space, waypoint_step=params.get("waypoint_step")
+        data.paths.paths(),
+        data.paths.workspace,
+        bidirectional=params.get("bidirectional", True),
+        space=spec.space,
+        waypoint_step=params.get("waypoint_step"),
     )
     epochs = params["pnet_epochs"]
     if params.get("equal_steps"):  # as many gradient steps as the scale's networks take on the plain pairs
         plain = sum(2 * (len(p) - 1) for p in data.paths.paths() if len(p) >= 2)  # waypoint_pairs' count
         epochs = max(1, round(epochs * plain / len(pairs.x_t)))
-    pnet = Pnet(params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"])
+    bounded = bool(params.get("bounded"))
+    pnet = Pnet(
+        params["latent"] + 2 * spec.state_dim, spec.state_dim, params["pnet_hidden"], params["dropout"], bounded
+    )
+    # a bounded Pnet's (-1, 1) is the bounds exactly: the centred normaliser
+    norm = Normalizer.centred(spec.space.bounds) if bounded else Normalizer(spec.space.scale())
     module = PnetModule(
         pnet,
         enet,
         lr=params["lr"],
         optimizer=params["optimizer"],
         freeze_encoder=frozen,
-        state_scale=spec.space.scale(),
+        state_scale=norm.to_list(),
+        state_offset=norm.offset_list() if bounded else None,
         cloud_scale=spec.workspace_scale(),
     )
     features = np.ascontiguousarray(flat_train, np.float32)

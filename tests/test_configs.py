@@ -126,6 +126,9 @@ def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(se
         ("+planner.networks.bogus=1", "planner.networks.bogus"),
         ("planner.networks.waypoint_step=-1", "planner.networks.waypoint_step"),
         ("planner.networks.equal_steps=yes", "planner.networks.equal_steps"),
+        ("+planner.networks.dropout=1.0", "planner.networks.dropout"),
+        ("+planner.networks.dropout=true", "planner.networks.dropout"),
+        ("+planner.networks.bounded=1", "planner.networks.bounded"),
     ):
         with pytest.raises(UsageError, match=key):
             settings(["+env=panda_mbm", "+planner=mpnet_nr_dense", override])
@@ -134,6 +137,21 @@ def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(se
     )
     assert dense == {**plain, "waypoint_step": 0.5, "equal_steps": True}
     assert models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_hr_dense"])) == dense
+    recipe = [
+        "+planner.networks.bounded=true",
+        "+planner.networks.bidirectional=false",
+        "+planner.networks.dropout=0.1",
+    ]
+    options = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr", *recipe]))
+    assert options == {**plain, "bounded": True, "bidirectional": False, "dropout": 0.1}
+
+
+def test_a_planners_network_options_name_its_variant():
+    from harness.log.facts import planner_facts
+
+    nets = {"waypoint_step": 0.5, "bounded": True, "bidirectional": False, "dropout": 0.1}
+    facts = planner_facts({"hybrid": False, "replanning": "original", "networks": nets})
+    assert facts["base"] == "mpnet_nr" and facts["variant"] == "dense+bounded+forward+dropout0.1"
 
 
 @pytest.mark.parametrize("env", ["s2d", "arm7"])

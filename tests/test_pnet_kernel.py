@@ -35,14 +35,51 @@ def _same_steps(net: NumpyPnet, rng: np.random.Generator, n: int = 30) -> None:
     hidden=st.lists(st.integers(2, 40), min_size=1, max_size=4),
     dropout=st.sampled_from([0.0, 0.25, 0.3, 0.5]),  # 0.5 folds its scale into the weights
     alpha=st.sampled_from([0.25, -0.3, 1.5]),  # outside [0, 1]: PReLU as a select, not a max
+    bounded=st.booleans(),  # softsign output, centred normaliser (a recipe option)
 )
-def test_the_compiled_step_is_numpys_bit_for_bit(seed, dim, hidden, dropout, alpha):
+def test_the_compiled_step_is_numpys_bit_for_bit(seed, dim, hidden, dropout, alpha, bounded):
     torch.manual_seed(seed % 2**31)
-    net = Pnet(8 + 2 * dim, dim, hidden, dropout=dropout).eval()
+    net = Pnet(8 + 2 * dim, dim, hidden, dropout=dropout, bounded=bounded).eval()
     for act in net.acts:
         torch.nn.init.constant_(act.weight, alpha)
-    scale = np.random.default_rng(seed).uniform(0.5, 20.0, dim)
-    _same_steps(NumpyPnet(net, Normalizer(scale)), np.random.default_rng(seed))
+    r = np.random.default_rng(seed)
+    scale = r.uniform(0.5, 20.0, dim)
+    offset = r.uniform(-3.0, 3.0, dim) if bounded else None
+    _same_steps(NumpyPnet(net, Normalizer(scale, offset)), np.random.default_rng(seed))
+
+
+def test_a_bounded_pnet_proposes_inside_the_bounds_in_torch_numpy_and_compiled():
+    """The Panda's asymmetric joint limits: whatever the weights, every proposal of a bounded
+    Pnet with the centred normaliser lies inside them (the unbounded one's do not)."""
+    from mpnet.models import PnetModule
+    from mpnet.models.networks import Enet
+
+    lower = np.array([-2.9, -1.76, -2.9, -3.07, -2.9, -0.02, -2.9])
+    upper = np.array([2.9, 1.76, 2.9, -0.07, 2.9, 3.75, 2.9])
+    norm = Normalizer.centred(list(zip(lower, upper)))
+    assert np.allclose(norm.normalize(lower), -1) and np.allclose(norm.normalize(upper), 1)
+    assert np.allclose(norm.denormalize(norm.normalize((lower + upper) / 3)), (lower + upper) / 3)
+    torch.manual_seed(0)
+    rng = np.random.default_rng(0)
+    for bounded in (True, False):
+        net = Pnet(8 + 14, 7, (32, 16), dropout=0.3, bounded=bounded).eval()
+        for lin in net.linears:
+            torch.nn.init.normal_(lin.weight, std=2.0)  # outputs far outside [-1, 1] before softsign
+        module = PnetModule(
+            net, Enet(30, (16,), 8), state_scale=norm.to_list(), state_offset=norm.offset_list(), cloud_scale=1.0
+        )
+        numpy_net = NumpyPnet(net, norm)
+        kernel = PnetKernel(numpy_net)
+        z = rng.standard_normal(8).astype(np.float32)
+        X, G = rng.uniform(lower, upper, (50, 7)), rng.uniform(lower, upper, (50, 7))
+        with torch.no_grad():
+            raw = module(
+                torch.zeros(30), torch.as_tensor(X, dtype=torch.float32), torch.as_tensor(G, dtype=torch.float32)
+            )
+        outs = [raw.numpy(), numpy_net.step(z, X, G, rng)]
+        outs.append(np.array([kernel.step(z, x, g, np.random.default_rng(i)) for i, (x, g) in enumerate(zip(X, G))]))
+        inside = [bool(np.all((o >= lower) & (o <= upper))) for o in outs]
+        assert inside == [bounded] * 3
 
 
 @pytest.mark.parametrize("folder", sorted(SHIPPED.iterdir()), ids=lambda p: p.name)

@@ -76,9 +76,7 @@ def planner_facts(p) -> dict | None:
             variant.append("clip")
         if p.get("compiled") is False:  # the numpy reference (a config without the key predates the choice)
             variant.append("numpy")
-        networks = p.get("networks")
-        if isinstance(networks, dict) and networks.get("waypoint_step") is not None:
-            variant.append("dense")
+        variant += network_variant(p.get("networks"))
         fallback = p.get("fallback", "rrt_star")
         if p["hybrid"] is True and fallback != "rrt_star":  # the paper's HR replans with RRT*
             variant.append("rrtc" if fallback == "rrt_connect" else f"fallback_{fallback}")
@@ -87,6 +85,23 @@ def planner_facts(p) -> dict | None:
         return out
     if p.get("algorithm"):
         out["algorithm"] = str(p["algorithm"])
+    return out
+
+
+def network_variant(networks) -> list[str]:
+    """The tags of a planner's own networks (its `networks:` recipe options): dense (resampled
+    expert paths), bounded, forward (no reversed paths), dropout<rate>."""
+    if not isinstance(networks, dict):
+        return []
+    out = []
+    if networks.get("waypoint_step") is not None:
+        out.append("dense")
+    if networks.get("bounded") is True:
+        out.append("bounded")
+    if networks.get("bidirectional") is False:
+        out.append("forward")
+    if networks.get("dropout") is not None:
+        out.append(f"dropout{float(networks['dropout']):g}")
     return out
 
 

@@ -61,6 +61,8 @@ ABLATIONS = {
     "rrtc": "RRT-Connect instead of the paper's RRT* as hybrid replanning's classical planner",
     "clip": "Pnet's proposal clipped into the joint bounds (planner.clip)",
     "dense": "networks trained on the expert paths resampled at a fixed step (planner.networks.waypoint_step)",
+    "bounded": "Pnet's output bounded inside the state bounds by a softsign (planner.networks.bounded)",
+    "forward": "Pnet trained on each expert path forward only (planner.networks.bidirectional=false)",
     "numpy": "the planning loop in numpy (planner.compiled=false), the reference the compiled default is tested "
     "against: the same method and answers, its time compared",
 }

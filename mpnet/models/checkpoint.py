@@ -106,7 +106,12 @@ def load_pnet_checkpoint(path: str | os.PathLike, map_location="cpu") -> Planner
     pnet, encoder = Pnet(**hp["pnet"]), Enet(**hp["encoder"])
     pnet.load_state_dict(_sub_state(state, "pnet."))
     encoder.load_state_dict(_sub_state(state, "encoder."))
-    return PlannerNets(encoder.eval(), pnet.eval(), Normalizer(hp["state_scale"]), Normalizer(hp["cloud_scale"]))
+    return PlannerNets(
+        encoder.eval(),
+        pnet.eval(),
+        Normalizer(hp["state_scale"], hp.get("state_offset")),
+        Normalizer(hp["cloud_scale"]),
+    )
 
 
 def load_pnet_numpy(path: str | os.PathLike) -> tuple[NumpyEnet, NumpyPnet]:
@@ -121,7 +126,9 @@ def load_pnet_numpy(path: str | os.PathLike) -> tuple[NumpyEnet, NumpyPnet]:
         )
     except (KeyError, TypeError, ValueError) as e:
         raise CheckpointError(f"{path}: not a PnetModule checkpoint (weights: {type(e).__name__} {e})") from None
-    return NumpyEnet(enet, Normalizer(hp["cloud_scale"])), NumpyPnet(pnet, Normalizer(hp["state_scale"]))
+    return NumpyEnet(enet, Normalizer(hp["cloud_scale"])), NumpyPnet(
+        pnet, Normalizer(hp["state_scale"], hp.get("state_offset"))
+    )
 
 
 def load_enet_checkpoint(path: str | os.PathLike, map_location="cpu") -> tuple[ContractiveAE, Normalizer]:

@@ -126,6 +126,7 @@ class PnetModule(L.LightningModule):
         state_scale: Sequence[float] | float,
         cloud_scale: Sequence[float] | float,
         val_stochastic: bool = False,
+        state_offset: Sequence[float] | None = None,
     ):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
@@ -137,9 +138,11 @@ class PnetModule(L.LightningModule):
             raise ValueError(f"unknown optimizer {optimizer!r}; choices: {', '.join(OPTIMIZERS)}")
         self.pnet = pnet
         self.encoder = encoder
-        self.state_norm = Normalizer(state_scale)
+        self.state_norm = Normalizer(state_scale, state_offset)
         if self.state_norm.scale.size not in (1, state_dim):
             raise ValueError(f"state_scale has {self.state_norm.scale.size} entries, state_dim is {state_dim}")
+        if pnet.bounded and self.state_norm.offset is None and state_offset is None:
+            raise ValueError("a bounded Pnet needs the centred normaliser (state_offset: the bounds' centre)")
         self.cloud_norm = Normalizer(cloud_scale)
         self.freeze_encoder = bool(freeze_encoder)
         if self.freeze_encoder:
@@ -155,6 +158,7 @@ class PnetModule(L.LightningModule):
                 "cloud_scale": self.cloud_norm.to_list(),
                 "val_stochastic": bool(val_stochastic),
             }
+            | ({"state_offset": [float(v) for v in state_offset]} if state_offset is not None else {})
         )
 
     # -- inference in raw coordinates ---------------------------------------------------

@@ -140,10 +140,23 @@ class Pnet(nn.Module):
     with probability ``dropout`` after every hidden layer except the last hidden one (the
     paper's "all hidden layers except the last one"; s2D: not after 64 -> 32).
     ``in_dim = latent + 2 * state_dim``.
+
+    ``bounded`` (a named recipe option, not the paper's): the output passes through softsign,
+    ``x / (1 + |x|)``, into (-1, 1), which a centred normaliser maps inside the state bounds:
+    no proposal leaves the joint limits. Softsign, not tanh: its division and absolute value
+    are exact IEEE operations, so numpy and the compiled kernel give the same bits.
     """
 
-    def __init__(self, in_dim: int, out_dim: int, hidden: Sequence[int] = PNET_HIDDEN, dropout: float = 0.5):
+    def __init__(
+        self,
+        in_dim: int,
+        out_dim: int,
+        hidden: Sequence[int] = PNET_HIDDEN,
+        dropout: float = 0.5,
+        bounded: bool = False,
+    ):
         super().__init__()
+        self.bounded = bool(bounded)
         self.in_dim = _ints([in_dim], "in_dim")[0]
         self.out_dim = _ints([out_dim], "out_dim")[0]
         self.hidden = _ints(hidden, "hidden")
@@ -164,14 +177,16 @@ class Pnet(nn.Module):
             x = act(self.linears[i](x))
             if drop and i < self.n_dropout:
                 x = F.dropout(x, self.p, training=True)
-        return self.linears[-1](x)
+        x = self.linears[-1](x)
+        return F.softsign(x) if self.bounded else x
 
     def step(self, z: torch.Tensor, x_t: torch.Tensor, x_goal: torch.Tensor, stochastic: bool = True) -> torch.Tensor:
         """Convenience: ``forward(cat(z, x_t, x_goal))`` along the last dimension."""
         return self(torch.cat((z, x_t, x_goal), dim=-1), stochastic)
 
     def config(self) -> dict[str, Any]:
-        return {"in_dim": self.in_dim, "out_dim": self.out_dim, "hidden": list(self.hidden), "dropout": self.p}
+        out = {"in_dim": self.in_dim, "out_dim": self.out_dim, "hidden": list(self.hidden), "dropout": self.p}
+        return out | {"bounded": True} if self.bounded else out  # absent: the configs saved before it
 
 
 def pnet_numpy(pnet: Pnet, normalizer: Normalizer | None = None) -> NumpyPnet:

@@ -34,12 +34,25 @@ class Normalizer:
     (keeping a float dtype) and torch tensors (on their device and dtype).
     """
 
-    def __init__(self, scale: Sequence[float] | float):
+    def __init__(self, scale: Sequence[float] | float, offset: Sequence[float] | None = None):
         s = np.atleast_1d(np.asarray(scale, dtype=np.float64)).reshape(-1)
         if s.size == 0 or not np.all(np.isfinite(s)) or np.any(s <= 0):
             raise ValueError(f"scale must be finite and positive, got {scale!r}")
         self.scale = s
+        self.offset = None  # subtracted before the scale (a centred normaliser: a bounded Pnet's states)
+        if offset is not None:
+            o = np.atleast_1d(np.asarray(offset, dtype=np.float64)).reshape(-1)
+            if o.size != s.size or not np.all(np.isfinite(o)):
+                raise ValueError(f"offset must be finite, one per scale ({s.size}), got {offset!r}")
+            self.offset = o if np.any(o != 0) else None
         self._cache: dict[tuple, Any] = {}
+
+    @classmethod
+    def centred(cls, bounds: Sequence[Sequence[float]]) -> Normalizer:
+        """The bounds onto [-1, 1] exactly: offset the centre, scale the half range (what a
+        bounded Pnet's output, in (-1, 1), needs to stay inside the bounds)."""
+        lo, hi = (np.array([float(b[i]) for b in bounds]) for i in (0, 1))
+        return cls((hi - lo) / 2.0, (hi + lo) / 2.0)
 
     @classmethod
     def from_bounds(cls, bounds: Sequence[Sequence[float]]) -> Normalizer:
@@ -54,34 +67,48 @@ class Normalizer:
     def to_list(self) -> list[float]:
         return [float(v) for v in self.scale]
 
+    def offset_list(self) -> list[float] | None:
+        return None if self.offset is None else [float(v) for v in self.offset]
+
     def __repr__(self) -> str:
-        return f"Normalizer({self.to_list()})"
+        off = "" if self.offset is None else f", offset={self.offset_list()}"
+        return f"Normalizer({self.to_list()}{off})"
 
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, Normalizer) and np.array_equal(self.scale, other.scale)
+        return (
+            isinstance(other, Normalizer)
+            and np.array_equal(self.scale, other.scale)
+            and (self.offset is None) == (other.offset is None)
+            and (self.offset is None or np.array_equal(self.offset, other.offset))
+        )
 
-    def _scale_for(self, x):
+    def _scale_for(self, x, which: str = "scale"):
         d = x.shape[-1] if x.ndim else 1
         n = self.scale.size
         if n != 1 and d % n:
             raise ValueError(f"last dimension {d} is not a multiple of the scale's {n}")
         if _is_tensor(x):
-            key = (d, x.dtype, x.device)
+            key = (which, d, x.dtype, x.device)
         else:
-            key = (d, x.dtype if np.issubdtype(x.dtype, np.floating) else np.float64)
+            key = (which, d, x.dtype if np.issubdtype(x.dtype, np.floating) else np.float64)
         s = self._cache.get(key)
         if s is None:
-            s = self.scale if n == 1 or d == n else np.tile(self.scale, d // n)
-            s = sys.modules["torch"].as_tensor(s, dtype=key[1], device=key[2]) if len(key) == 3 else s.astype(key[1])
+            s = getattr(self, which)
+            s = s if n == 1 or d == n else np.tile(s, d // n)
+            s = sys.modules["torch"].as_tensor(s, dtype=key[2], device=key[3]) if len(key) == 4 else s.astype(key[2])
             self._cache[key] = s
         return s
 
     def normalize(self, x):
         x = x if _is_tensor(x) else np.asarray(x)
+        if self.offset is not None:
+            x = x - self._scale_for(x, "offset")
         return x / self._scale_for(x)
 
     def denormalize(self, x):
         x = x if _is_tensor(x) else np.asarray(x)
+        if self.offset is not None:
+            return x * self._scale_for(x) + self._scale_for(x, "offset")
         return x * self._scale_for(x)
 
 
@@ -135,6 +162,7 @@ class NumpyPnet:
         self._alpha0 = [np.array(a, np.float32) for a in self.alphas]  # a 0-d array multiplies faster than a scalar
         self.in_dim, self.out_dim = pnet.in_dim, pnet.out_dim
         self.state_dim = pnet.out_dim
+        self.bounded = bool(getattr(pnet, "bounded", False))  # softsign on the output (Pnet's docstring)
         self.normalizer = normalizer
         if normalizer is not None:
             if normalizer.scale.size not in (1, self.out_dim):
@@ -143,6 +171,11 @@ class NumpyPnet:
             # scales x and goal at once in the one-state path
             self._inv2 = np.tile(np.broadcast_to(self._inv, (self.out_dim,)), 2)
             self._out = normalizer.scale.astype(np.float64)
+            offset = np.zeros(self.out_dim) if normalizer.offset is None else normalizer.offset
+            self._shift = np.broadcast_to(offset, (self.out_dim,)).astype(np.float32)  # x and goal's
+            self._shift2 = np.tile(self._shift, 2)
+            self._out_off = np.broadcast_to(offset, (self.out_dim,)).astype(np.float64)
+            self._centred = normalizer.offset is not None
         # buffers of the one-state path
         self._in = np.empty(self.in_dim, np.float32)
         self._bufs = [np.empty(w.shape[1], np.float32) for w in self.weights]
@@ -169,6 +202,8 @@ class NumpyPnet:
         h[zd : zd + d] = x
         h[zd + d :] = goal
         if self.normalizer is not None:
+            if self._centred:
+                h[zd:] -= self._shift2
             h[zd:] *= self._inv2
         masks, weights = None, self.weights
         if rng is not None and self.n_mask:
@@ -196,15 +231,28 @@ class NumpyPnet:
             if masks is not None and i < self.n_dropout:
                 o *= self._mask_views[i]
             h = o
-        if self.normalizer is not None:
-            return o * self._out
-        return o.copy()
+        return self._output(o)
+
+    def _output(self, o: np.ndarray) -> np.ndarray:
+        """The last layer's float32 output -> the step's result (float64 where a normaliser
+        maps it back): softsign if bounded, then scale and offset, as the compiled kernel."""
+        if self.normalizer is None:
+            return o / (np.float32(1.0) + np.abs(o)) if self.bounded else o.copy()
+        v = o.astype(np.float64)
+        if self.bounded:
+            v = v / (1.0 + np.abs(v))
+        v = v * self._out
+        if self._centred:
+            v += self._out_off
+        return v
 
     def _step_batch(self, z, x, goal, rng) -> np.ndarray:
         z = np.asarray(z, dtype=np.float32)
         x = np.asarray(x, dtype=np.float32)
         goal = np.asarray(goal, dtype=np.float32)
         if self.normalizer is not None:
+            if self._centred:
+                x, goal = x - self._shift, goal - self._shift
             x = x * self._inv
             goal = goal * self._inv
         if z.ndim < x.ndim:
@@ -225,9 +273,7 @@ class NumpyPnet:
             h = np.where(h >= 0, h, h * self.alphas[i])
             if masks is not None and i < self.n_dropout:
                 h *= masks[..., self._offsets[i] : self._offsets[i + 1]]
-        if self.normalizer is not None:
-            return h * self._out
-        return h
+        return self._output(h)
 
 
 def _flat_cloud(cloud, in_dim: int):
@@ -284,6 +330,7 @@ class PnetArrays:
     def __init__(self, config: dict, state: dict[str, np.ndarray]):
         hidden = [int(h) for h in config["hidden"]]
         self.in_dim, self.out_dim, self.p = int(config["in_dim"]), int(config["out_dim"]), float(config["dropout"])
+        self.bounded = bool(config.get("bounded", False))
         self.linears = [Layer(state[f"linears.{i}.weight"], state[f"linears.{i}.bias"]) for i in range(len(hidden) + 1)]
         self.acts = [Layer(state[f"acts.{i}.weight"]) for i in range(len(hidden))]
         self.n_dropout = max(len(hidden) - 1, 0)

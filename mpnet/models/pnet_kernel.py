@@ -35,8 +35,11 @@ class PnetKernel:
             np.float32(net.p),
             np.float32(1.0 if net._fold else net.keep_scale),  # the masks' scale (1: folded into weights)
             np.asarray(net._offsets, np.int64),
+            np.asarray(net._shift2, np.float32),
             np.asarray(net._inv2, np.float32),
             np.asarray(net._out, np.float64),
+            np.asarray(net._out_off, np.float64),
+            bool(net.bounded),
             bool(net._prelu_max),
         )
         self.zdim, self.state_dim = net._zdim, net.state_dim
@@ -83,6 +86,16 @@ def prelu(v, a, prelu_max):
 
 
 @njit(cache=True)
+def output(o, i, out_scale, out_off, bounded):
+    """Output i's float32 value -> the raw state's coordinate, as NumpyPnet._output: softsign
+    if bounded (in float64), times the scale, plus the offset (0 unless centred: x + 0.0 is x)."""
+    v = np.float64(o)
+    if bounded:
+        v = v / (1.0 + abs(v))
+    return v * out_scale[i % out_scale.shape[0]] + out_off[i]
+
+
+@njit(cache=True)
 def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     z,
     x,
@@ -94,8 +107,11 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     p,
     mask_scale,
     offsets,
+    shift2,
     inv2,
     out_scale,
+    out_off,
+    bounded,
     prelu_max,
     rng,
     dropout,
@@ -109,8 +125,8 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     for i in range(zd):
         h[i] = z[i]
     for i in range(d):
-        h[zd + i] = np.float32(x[i]) * inv2[i]
-        h[zd + d + i] = np.float32(goal[i]) * inv2[d + i]
+        h[zd + i] = (np.float32(x[i]) - shift2[i]) * inv2[i]
+        h[zd + d + i] = (np.float32(goal[i]) - shift2[d + i]) * inv2[d + i]
     n_dropout = offsets.shape[0] - 1
     n_mask = offsets[n_dropout]
     weights = dropped if dropout and n_mask > 0 else plain
@@ -136,7 +152,7 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
         src = o
     o = layers[last]
     for i in range(d):
-        out[i] = np.float64(o[i]) * out_scale[i % out_scale.shape[0]]
+        out[i] = output(o[i], i, out_scale, out_off, bounded)
 
 
 def batch_scratch(weights, rows: int) -> tuple:
@@ -147,8 +163,8 @@ def batch_scratch(weights, rows: int) -> tuple:
 
 
 @njit(cache=True)
-def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max, rng,
-              dropout, buf, out):  # fmt: skip
+def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off,
+              bounded, prelu_max, rng, dropout, buf, out):  # fmt: skip
     """out[:m] = Pnet(z, X[r], T[r]) for the first m rows as one matrix product per layer (batched
     planning): pnet_step's operations on rows, each row its own dropout mask (one draw of all
     rows' masks per call), so a row's result is what pnet_step gives with that row's mask."""
@@ -158,8 +174,8 @@ def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets
         for i in range(zd):
             H[r, i] = z[i]
         for i in range(d):
-            H[r, zd + i] = np.float32(X[r, i]) * inv2[i]
-            H[r, zd + d + i] = np.float32(T[r, i]) * inv2[d + i]
+            H[r, zd + i] = (np.float32(X[r, i]) - shift2[i]) * inv2[i]
+            H[r, zd + d + i] = (np.float32(T[r, i]) - shift2[d + i]) * inv2[d + i]
     n_dropout = offsets.shape[0] - 1
     n_mask = offsets[n_dropout]
     on = dropout and n_mask > 0
@@ -189,4 +205,4 @@ def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets
     o = layers[last]
     for r in range(m):
         for i in range(d):
-            out[r, i] = np.float64(o[r, i]) * out_scale[i % out_scale.shape[0]]
+            out[r, i] = output(o[r, i], i, out_scale, out_off, bounded)

@@ -291,10 +291,11 @@ def _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new):
     straight_step)."""
     kind, clip, length, lower, upper, half = prop
     if kind == PNET:
-        plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max = net
+        (plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off, bounded,
+         prelu_max) = net  # fmt: skip
         pnet_step(
-            z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max,
-            rng, dropout, buf, new,
+            z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off,
+            bounded, prelu_max, rng, dropout, buf, new,
         )  # fmt: skip
         _settle(env, prop, new)
     elif kind == RANDOM:
@@ -352,7 +353,7 @@ def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, ne
     time, their proposals from one pnet_rows call per step. memos: (keys, verdicts, used) with a
     leading query axis; counts (B, 3); scratch: (X, T, Y) of (B, d); live: the queries to run
     (endpoints valid); out: n (B, 2) tree sizes, steps (B,), connected (B,), trace (B, S, 2, d)."""
-    plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max = net
+    plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off, bounded, prelu_max = net
     keys, verdicts, used = memos
     X, T, Y = scratch
     B = starts.shape[0]
@@ -379,8 +380,8 @@ def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, ne
         if m == 0:
             break
         pnet_rows(
-            z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, inv2, out_scale, prelu_max, rng,
-            dropout, buf, Y,
+            z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off,
+            bounded, prelu_max, rng, dropout, buf, Y,
         )  # fmt: skip
         for r in range(m):
             b = rows[r]
