@@ -126,8 +126,16 @@ PLANNER_HOOKS = ("cost_target", "networks")
 # gradient steps as the scale's networks. bounded: Pnet's output softsign-bounded inside the
 # state bounds (centred normaliser). bidirectional: false trains on each path forward only
 # (the public code's pairs; true adds the reversed path). dropout: Pnet's rate (the scale's
-# model.dropout otherwise), at training and at planning time.
-NETWORK_KEYS = {"waypoint_step": float, "equal_steps": bool, "bounded": bool, "bidirectional": bool, "dropout": float}
+# model.dropout otherwise), at training and at planning time. input_noise: each training state
+# moved by Gaussian noise of this standard deviation (state units; DART-style), the target kept.
+NETWORK_KEYS = {
+    "waypoint_step": float,
+    "equal_steps": bool,
+    "bounded": bool,
+    "bidirectional": bool,
+    "dropout": float,
+    "input_noise": float,
+}
 
 
 def networks_params(cfg: DictConfig) -> dict:

@@ -278,6 +278,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         freeze_encoder=frozen,
         state_scale=norm.to_list(),
         state_offset=norm.offset_list() if bounded else None,
+        input_noise=params.get("input_noise", 0.0),
         cloud_scale=spec.workspace_scale(),
     )
     features = np.ascontiguousarray(flat_train, np.float32)

@@ -520,3 +520,21 @@ def test_folded_dropout_scale_is_bit_identical(p):
     for x in np.random.default_rng(1).uniform(-3, 3, size=(50, 2)):
         a, b = folded.step(z, x, -x, rng_a), plain.step(z, x, -x, rng_b)
         assert np.array_equal(a, b)
+
+
+def test_input_noise_moves_only_the_training_states():
+    """The DART-style recipe option: training batches see x_t moved by N(0, noise^2) (so the loss
+    changes), validation and the zero default see the states as given; it is saved with the
+    module and a negative noise is refused."""
+    torch.manual_seed(0)
+    batch = (torch.randn(64, 120), torch.randn(64, 2), torch.randn(64, 2), torch.randn(64, 2))
+    noisy = PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), input_noise=3.0, **SCALES_2D)
+    plain = PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), **SCALES_2D)
+    plain.load_state_dict(noisy.state_dict())
+    with torch.no_grad():
+        clean = plain.batch_loss(batch, stochastic=False)[0]
+        assert torch.equal(noisy.batch_loss(batch, stochastic=False)[0], clean)  # validation: no noise
+        assert not torch.equal(noisy.batch_loss(batch, stochastic=False, noise=noisy.input_noise)[0], clean)
+    assert noisy.hparams["input_noise"] == 3.0 and "input_noise" not in plain.hparams
+    with pytest.raises(ValueError, match="input_noise"):
+        PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), input_noise=-1.0, **SCALES_2D)

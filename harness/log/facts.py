@@ -90,7 +90,7 @@ def planner_facts(p) -> dict | None:
 
 def network_variant(networks) -> list[str]:
     """The tags of a planner's own networks (its `networks:` recipe options): dense (resampled
-    expert paths), bounded, forward (no reversed paths), dropout<rate>."""
+    expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>."""
     if not isinstance(networks, dict):
         return []
     out = []
@@ -102,6 +102,8 @@ def network_variant(networks) -> list[str]:
         out.append("forward")
     if networks.get("dropout") is not None:
         out.append(f"dropout{float(networks['dropout']):g}")
+    if networks.get("input_noise"):
+        out.append(f"noise{float(networks['input_noise']):g}")
     return out
 
 

@@ -127,6 +127,7 @@ class PnetModule(L.LightningModule):
         cloud_scale: Sequence[float] | float,
         val_stochastic: bool = False,
         state_offset: Sequence[float] | None = None,
+        input_noise: float = 0.0,
     ):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
@@ -159,7 +160,11 @@ class PnetModule(L.LightningModule):
                 "val_stochastic": bool(val_stochastic),
             }
             | ({"state_offset": [float(v) for v in state_offset]} if state_offset is not None else {})
+            | ({"input_noise": float(input_noise)} if input_noise else {})
         )
+        if not 0.0 <= float(input_noise) < float("inf"):
+            raise ValueError(f"input_noise must be a finite number >= 0, got {input_noise}")
+        self.input_noise = float(input_noise)
 
     # -- inference in raw coordinates ---------------------------------------------------
     def encode(self, cloud: torch.Tensor) -> torch.Tensor:
@@ -183,8 +188,13 @@ class PnetModule(L.LightningModule):
         cloud, x_t, x_goal, x_next = batch
         return cloud, None, x_t, x_goal, x_next
 
-    def batch_loss(self, batch, stochastic: bool) -> tuple[torch.Tensor, int]:
+    def batch_loss(self, batch, stochastic: bool, noise: float = 0.0) -> tuple[torch.Tensor, int]:
+        """MSE in normalised coordinates; ``noise`` (raw units, a recipe option): each x_t moved
+        by N(0, noise^2) per coordinate, the target kept (DART-style: the expert's next waypoint
+        from near the state, as the closed loop reaches states near the expert's)."""
         clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
+        if noise:
+            x_t = x_t + noise * torch.randn_like(x_t)
         if isinstance(batch, dict) and "codes" in batch:
             if not self.freeze_encoder:
                 raise ValueError("precomputed codes need a frozen encoder (freeze_encoder=True)")
@@ -201,7 +211,7 @@ class PnetModule(L.LightningModule):
         return F.mse_loss(pred, s.normalize(x_next)), x_t.shape[0]
 
     def training_step(self, batch, batch_idx: int) -> torch.Tensor:
-        loss, n = self.batch_loss(batch, stochastic=True)
+        loss, n = self.batch_loss(batch, stochastic=True, noise=self.input_noise)
         self.log("train_loss", loss, on_step=True, on_epoch=True, prog_bar=True, batch_size=n)
         return loss
 
