@@ -18,7 +18,7 @@ from dataclasses import replace
 from omegaconf import DictConfig, OmegaConf
 
 from harness.cli import UsageError, missing_file
-from mpnet.data.expert import EXPERTS
+from mpnet.data.expert import EXPERTS, PAIRS
 from mpnet.envs.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
@@ -305,6 +305,10 @@ def check_env(env_cfg: DictConfig) -> None:
     if env_cfg.expert.get("planner", "rrt_star") not in EXPERTS:
         raise UsageError(
             f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {env_cfg.expert.planner!r}"
+        )
+    if env_cfg.expert.get("pairs", "env") not in PAIRS:
+        raise UsageError(
+            f"config key env.expert.pairs: expected one of {', '.join(PAIRS)}, got {env_cfg.expert.pairs!r}"
         )
     chunk = env_cfg.expert.get("chunk", 1)
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:

@@ -46,6 +46,7 @@ class ExpertSettings:
     blocked_only: bool
     contract: bool
     chunk: int
+    pairs: str = "env"  # mpnet.data.expert.PAIRS: the env's own start/goal pairs, or uniform
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,7 @@ class EnvSettings:
                 blocked_only=bool(expert.get("blocked_only", True)),
                 contract=bool(expert.get("contract", False)),
                 chunk=int(expert.get("chunk", 1)),
+                pairs=str(expert.get("pairs", "env")),
             ),
             reference_bit_star_s=None if reference is None else float(reference.bit_star_s),
             geometry=geometry_params(env_cfg),
@@ -190,6 +192,7 @@ def data_params(env: EnvSettings, train) -> DataParams:
         geometry=env.geometry | planner_range,
         expert_chunk=expert.chunk,
         expert_planner=expert.planner,
+        expert_pairs=expert.pairs,
     )
 
 

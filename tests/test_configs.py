@@ -165,3 +165,20 @@ def test_the_validation_step_is_in_the_cache_keys_when_changed(env, compose_conf
     )
     keys = [settings_of(c).data.key_config() for c in (default, same, finer)]
     assert keys[0] == keys[1] != keys[2]
+
+
+def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settings):
+    """env.expert.pairs=uniform (arm7's recipe on panda_mbm's scenes): the data key says so (the
+    default's key is as before), the test set keeps the env's own queries, a bogus value is one
+    line naming the key."""
+    from mpnet.data.expert import PAIRS
+    from mpnet.envs.spec import random_pairs
+
+    plain, uniform = (settings(["+env=panda_mbm", *o]) for o in ([], ["+env.expert.pairs=uniform"]))
+    assert "expert_pairs" not in plain.data.key_config()
+    assert uniform.data.key_config() == {**plain.data.key_config(), "expert_pairs": "uniform"}
+    assert uniform.env.reference_params() == plain.env.reference_params()
+    assert PAIRS["uniform"](plain.env.spec) is random_pairs
+    assert PAIRS["env"](plain.env.spec) == plain.env.spec.pairs != random_pairs
+    with pytest.raises(UsageError, match="env.expert.pairs"):
+        settings(["+env=panda_mbm", "+env.expert.pairs=bogus"])

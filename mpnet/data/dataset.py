@@ -46,12 +46,13 @@ class DataParams:
     geometry: dict | None = None  # the env's motion step and planning margin, where it has them
     expert_chunk: int = 1  # workspaces per expert process (OMPL's RNG is seeded per chunk)
     expert_planner: str = "rrt_star"  # or rrt_connect (mpnet.data.expert.EXPERTS)
+    expert_pairs: str = "env"  # or uniform (mpnet.data.expert.PAIRS)
 
     def key_config(self) -> dict:
         key = {"format": FORMAT, **self.__dict__}
         if not self.geometry:  # envs without them keep their keys
             key.pop("geometry")
-        for name, default in (("expert_chunk", 1), ("expert_planner", "rrt_star")):
+        for name, default in (("expert_chunk", 1), ("expert_planner", "rrt_star"), ("expert_pairs", "env")):
             if key[name] == default:  # keys of the datasets built before these existed
                 key.pop(name)
         return key
@@ -78,6 +79,7 @@ def _expert_paths(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> Expert
         contract=p.expert_contract,
         chunk_size=p.expert_chunk,
         planner=p.expert_planner,
+        pairs=p.expert_pairs,
         **kwargs,
     )
 

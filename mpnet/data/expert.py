@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.envs.spec import EnvSpec
+from mpnet.envs.spec import EnvSpec, random_pairs
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
 
@@ -130,6 +130,11 @@ def rrt_connect_path(spec: EnvSpec, checker, start, goal, runs: int, max_seconds
 
 EXPERTS = {"rrt_star": rrt_star_path, "rrt_connect": rrt_connect_path}
 
+# Where expert paths' start/goal pairs come from: the env's own (its test queries' kind:
+# MotionBenchMaker's for panda_mbm, uniform states elsewhere), or uniform valid states in any
+# env (arm7's recipe on panda_mbm's scenes: no IK, every part of the joint space).
+PAIRS = {"env": lambda spec: spec.pairs, "uniform": lambda spec: random_pairs}
+
 
 def dedupe(path: list) -> list:
     """The path without states equal to the one before them (the original's data generator
@@ -153,9 +158,10 @@ def workspace_paths(
     max_tries: int = 50,
     contract: bool = False,
     planner: str = "rrt_star",
+    pairs: str = "env",
 ) -> ExpertPaths:
-    """`count` expert paths between valid start/goal pairs of one workspace (the env's
-    `pairs`: random states, or MotionBenchMaker's queries); fewer when its pairs run out.
+    """`count` expert paths between valid start/goal pairs of one workspace (PAIRS: the env's
+    own, random states or MotionBenchMaker's queries, or uniform); fewer when they run out.
 
     blocked_only keeps the pairs whose straight line is blocked, as every test query's
     is: a free pair only teaches Pnet to step onto the goal. contract: lazy states
@@ -166,7 +172,7 @@ def workspace_paths(
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
     states, lengths, costs, raws, raw_states = [], [], [], [], 0
-    for s, g in itertools.islice(spec.pairs(spec, ws, checker, rng), count * max_tries):
+    for s, g in itertools.islice(PAIRS[pairs](spec)(spec, ws, checker, rng), count * max_tries):
         if len(lengths) == count:
             break
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
@@ -201,7 +207,7 @@ def workspace_paths(
 
 def chunk_worker(args: tuple) -> ExpertPaths:
     """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path."""
-    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only, contract, planner = args
+    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only, contract, planner, pairs = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
@@ -209,7 +215,17 @@ def chunk_worker(args: tuple) -> ExpertPaths:
     return ExpertPaths.concat(
         [
             workspace_paths(
-                spec, ws, idx, count, seed, iterations, max_seconds, blocked_only, contract=contract, planner=planner
+                spec,
+                ws,
+                idx,
+                count,
+                seed,
+                iterations,
+                max_seconds,
+                blocked_only,
+                contract,
+                planner=planner,
+                pairs=pairs,
             )
             for idx, ws in workspaces
         ],
@@ -252,6 +268,7 @@ def expert_paths(
     shard: tuple[int, int] | None = None,
     plan: bool = True,
     planner: str = "rrt_star",
+    pairs: str = "env",
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
@@ -265,7 +282,19 @@ def expert_paths(
 
     chunks = chunks_of(len(workspaces), chunk_size, shard)
     tasks = {
-        k: (spec, [workspaces[i] for i in c], count, seed, k, iterations, max_seconds, blocked_only, contract, planner)
+        k: (
+            spec,
+            [workspaces[i] for i in c],
+            count,
+            seed,
+            k,
+            iterations,
+            max_seconds,
+            blocked_only,
+            contract,
+            planner,
+            pairs,
+        )
         for k, c in chunks.items()
     }
     results: dict[int, ExpertPaths | None] = {}
