@@ -120,45 +120,81 @@ def _check_training(cfg: DictConfig) -> None:
 # planner (time to equal quality) and the networks' training variant (`networks`).
 PLANNER_HOOKS = ("cost_target", "networks")
 
-# What a planner's `networks` may set: the training knobs of a named variant of the networks
-# (e.g. mpnet_nr_dense), overriding the scale's; the models' cache key then differs.
+# What a planner's `networks` (and an env's, its default recipe) may set: the training knobs
+# of a named recipe of the networks, overriding the scale's; the models' cache key then differs.
+# waypoint_step: expert paths resampled so that consecutive states are at most this far apart;
+# min_waypoints: ... and have at least this many states (MoveIt's interpolation: 10).
 # equal_steps: Pnet's epochs scaled by (the scale's pairs / these pairs), for the same number of
 # gradient steps as the scale's networks. bounded: Pnet's output softsign-bounded inside the
 # state bounds (centred normaliser). bidirectional: false trains on each path forward only
 # (the public code's pairs; true adds the reversed path). dropout: Pnet's rate (the scale's
 # model.dropout otherwise), at training and at planning time. input_noise: each training state
 # moved by Gaussian noise of this standard deviation (state units; DART-style), the target kept.
+# pnet_hidden, enet_hidden, latent: the networks' sizes (the scale's otherwise).
 NETWORK_KEYS = {
     "waypoint_step": float,
+    "min_waypoints": int,
     "equal_steps": bool,
     "bounded": bool,
     "bidirectional": bool,
     "dropout": float,
     "input_noise": float,
+    "pnet_hidden": list,
+    "enet_hidden": list,
+    "latent": int,
 }
+# A planner's `networks: {recipe: paper}` trains on the scale's own recipe, not the env's.
+RECIPES = ("env", "paper")
 
 
 def networks_params(cfg: DictConfig) -> dict:
-    """The planner's `networks` overrides, checked (UsageError naming the key)."""
+    """The networks' recipe options, checked (UsageError naming the key): the env's
+    `networks` (its default recipe), then the planner's over them key by key; a planner's
+    `recipe: paper` drops the env's."""
     planner = cfg.get("planner")
-    nets = planner.get("networks") if planner is not None else None
+    mine = _networks(planner.get("networks") if planner is not None else None, "planner.networks")
+    recipe = mine.pop("recipe", "env")
+    env = cfg.get("env")
+    base = _networks(env.get("networks") if env is not None else None, "env.networks")
+    base.pop("recipe", None)
+    return (base if recipe == "env" else {}) | mine
+
+
+def _networks(nets, where: str) -> dict:
     if nets is None:
         return {}
     if not OmegaConf.is_dict(nets):
-        raise UsageError(f"config key planner.networks: expected a mapping of {', '.join(NETWORK_KEYS)}, got {nets!r}")
+        raise UsageError(f"config key {where}: expected a mapping of {', '.join(NETWORK_KEYS)}, got {nets!r}")
     out = {}
     for key, value in nets.items():
+        name = f"{where}.{key}"
+        if key == "recipe":
+            if value not in RECIPES:
+                raise UsageError(f"config key {name}: expected one of {', '.join(RECIPES)}, got {value!r}")
+            out[key] = str(value)
+            continue
         if key not in NETWORK_KEYS:
-            raise UsageError(f"config key planner.networks.{key}: unknown (expected one of {', '.join(NETWORK_KEYS)})")
-        if NETWORK_KEYS[key] is bool:
+            raise UsageError(f"config key {name}: unknown (expected one of {', '.join(NETWORK_KEYS)}, recipe)")
+        kind = NETWORK_KEYS[key]
+        if kind is bool:
             if not isinstance(value, bool):
-                raise UsageError(f"config key planner.networks.{key}: expected true or false, got {value!r}")
+                raise UsageError(f"config key {name}: expected true or false, got {value!r}")
         elif key == "dropout":
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 1:
-                raise UsageError(f"config key planner.networks.dropout: expected a number in [0, 1), got {value!r}")
+                raise UsageError(f"config key {name}: expected a number in [0, 1), got {value!r}")
+        elif kind is int:
+            _integer(name, value, 2 if key == "min_waypoints" else 1)
+        elif kind is list:
+            value = list(value) if OmegaConf.is_list(value) or isinstance(value, list) else value
+            if (
+                not isinstance(value, list)
+                or not value
+                or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)
+            ):
+                raise UsageError(f"config key {name}: expected a list of layer widths (integers >= 1), got {value!r}")
         else:
-            _number(f"planner.networks.{key}", value)
-        out[key] = NETWORK_KEYS[key](value)
+            _number(name, value)
+        out[key] = [int(v) for v in value] if kind is list else kind(value)
     return out
 
 

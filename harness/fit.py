@@ -259,6 +259,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         bidirectional=params.get("bidirectional", True),
         space=spec.space,
         waypoint_step=params.get("waypoint_step"),
+        min_waypoints=params.get("min_waypoints"),
     )
     epochs = params["pnet_epochs"]
     if params.get("equal_steps"):  # as many gradient steps as the scale's networks take on the plain pairs

@@ -182,3 +182,30 @@ def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settin
     assert PAIRS["env"](plain.env.spec) == plain.env.spec.pairs != random_pairs
     with pytest.raises(UsageError, match="env.expert.pairs"):
         settings(["+env=panda_mbm", "+env.expert.pairs=bogus"])
+
+
+def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(settings):
+    """env.networks is the env's default recipe: under every planner's own options key by key;
+    `recipe: paper` trains on the scale's own; sizes and min_waypoints are checked."""
+    from harness.artifacts import models_key_config
+
+    def key(*o):
+        return models_key_config(settings(["+env=panda_mbm", *o]))
+
+    plain = key("+planner=mpnet_nr")
+    env = ["+env.networks.bounded=true", "+env.networks.dropout=0.2"]
+    assert key("+planner=mpnet_nr", *env) == {**plain, "bounded": True, "dropout": 0.2}
+    dense = key("+planner=mpnet_nr_dense")
+    assert key("+planner=mpnet_nr_dense", *env) == {**dense, "bounded": True, "dropout": 0.2}
+    paper = ["+planner.networks.recipe=paper", "+planner.networks.min_waypoints=10", "+planner.networks.latent=60"]
+    assert key("+planner=mpnet_nr", *env, *paper) == {**plain, "min_waypoints": 10, "latent": 60}
+    sized = key("+planner=mpnet_nr", "+planner.networks.pnet_hidden=[64,32]")
+    assert sized == {**plain, "pnet_hidden": [64, 32]}
+    for bad, name in (
+        ("+planner.networks.recipe=mine", "planner.networks.recipe"),
+        ("+planner.networks.min_waypoints=1", "planner.networks.min_waypoints"),
+        ("+planner.networks.pnet_hidden=[64,0]", "planner.networks.pnet_hidden"),
+        ("+env.networks.bogus=1", "env.networks.bogus"),
+    ):
+        with pytest.raises(UsageError, match=name):
+            settings(["+env=panda_mbm", "+planner=mpnet_nr", bad])

@@ -538,3 +538,22 @@ def test_input_noise_moves_only_the_training_states():
     assert noisy.hparams["input_noise"] == 3.0 and "input_noise" not in plain.hparams
     with pytest.raises(ValueError, match="input_noise"):
         PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), input_noise=-1.0, **SCALES_2D)
+
+
+def test_min_waypoints_resamples_each_path_to_at_least_that_many_states():
+    """The paper's Baxter paths were MoveIt's interpolated trajectories (at least 10 states):
+    every path gets at least min_waypoints states (its own kept, in order), and
+    waypoint_step still bounds the spacing where it is shorter."""
+    rng = np.random.default_rng(0)
+    paths = [np.cumsum(rng.uniform(-1, 1, (n, 3)), axis=0) for n in (2, 3, 5, 14)]
+    for n in (2, 10, 25):
+        pairs = waypoint_pairs(paths, list(range(4)), bidirectional=False, min_waypoints=n)
+        counts = np.bincount(pairs.path_id, minlength=4) + 1  # states = forward pairs + 1
+        assert np.all(counts >= np.array([max(n, len(p)) if n > 2 else len(p) for p in paths]))
+        for i, p in enumerate(paths):
+            states = np.vstack([pairs.x_t[pairs.path_id == i], pairs.x_next[pairs.path_id == i][-1:]])
+            assert all(any(np.allclose(q, s) for s in states) for q in p)  # the path's own states stay
+    fine = waypoint_pairs(paths, list(range(4)), bidirectional=False, min_waypoints=3, waypoint_step=0.1)
+    assert np.max(np.linalg.norm(fine.x_next - fine.x_t, axis=1)) <= 0.1 + 1e-9
+    with pytest.raises(ValueError, match="min_waypoints"):
+        waypoint_pairs(paths, list(range(4)), min_waypoints=1)

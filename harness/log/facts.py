@@ -90,11 +90,12 @@ def planner_facts(p) -> dict | None:
 
 def network_variant(networks) -> list[str]:
     """The tags of a planner's own networks (its `networks:` recipe options): dense (resampled
-    expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>."""
+    expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>, sized
+    (other network sizes), paper_recipe (the scale's recipe, not the env's)."""
     if not isinstance(networks, dict):
         return []
-    out = []
-    if networks.get("waypoint_step") is not None:
+    out = ["paper_recipe"] if networks.get("recipe") == "paper" else []
+    if networks.get("waypoint_step") is not None or networks.get("min_waypoints") is not None:
         out.append("dense")
     if networks.get("bounded") is True:
         out.append("bounded")
@@ -104,6 +105,8 @@ def network_variant(networks) -> list[str]:
         out.append(f"dropout{float(networks['dropout']):g}")
     if networks.get("input_noise"):
         out.append(f"noise{float(networks['input_noise']):g}")
+    if any(networks.get(k) is not None for k in ("pnet_hidden", "enet_hidden", "latent")):
+        out.append("sized")
     return out
 
 

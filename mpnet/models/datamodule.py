@@ -257,12 +257,30 @@ def resample_path(path: np.ndarray, step: float, space=None) -> np.ndarray:
     return np.concatenate([*parts, path[-1:]])
 
 
+def _resample_step(path: np.ndarray, space, waypoint_step: float | None, min_waypoints: int | None) -> float | None:
+    """The step resample_path takes for this path: waypoint_step, or shorter where the path
+    would have fewer than min_waypoints states (its length over min_waypoints - 1)."""
+    if min_waypoints is None:
+        return waypoint_step
+    if min_waypoints < 2:
+        raise ValueError(f"min_waypoints must be at least 2, got {min_waypoints}")
+    if space is None:
+        length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+    else:
+        length = float(sum(space.distance(a, b) for a, b in zip(path[:-1], path[1:])))
+    if length <= 0:
+        return waypoint_step
+    step = length / (min_waypoints - 1)
+    return step if waypoint_step is None else min(step, waypoint_step)
+
+
 def waypoint_pairs(
     paths: Sequence[np.ndarray],
     ws_index: Sequence[int],
     bidirectional: bool = True,
     space=None,
     waypoint_step: float | None = None,
+    min_waypoints: int | None = None,
 ) -> Pairs:
     """Expert paths -> Pnet samples, as the public code: for a path ``x_0..x_T`` every
     ``(x_j, x_T) -> x_{j+1}``; with ``bidirectional`` also the reversed path (the planner grows
@@ -273,7 +291,9 @@ def waypoint_pairs(
     ``x_j + difference(x_j, x_{j+1})``, the next state as the motion reaches it from ``x_j``
     (an angle may leave [-pi, pi) by less than a step; the planner wraps Pnet's output).
 
-    With ``waypoint_step``, each path is first resampled (:func:`resample_path`)."""
+    With ``waypoint_step``, each path is first resampled (:func:`resample_path`); with
+    ``min_waypoints`` too, at a step short enough to give it at least that many states (as
+    MoveIt interpolates a planned path to at least 10: the paper's Baxter expert paths)."""
     if len(paths) != len(ws_index):
         raise ValueError(f"{len(paths)} paths but {len(ws_index)} workspace indices")
     cols: dict[str, list] = {"ws": [], "x_t": [], "x_goal": [], "x_next": [], "pid": []}
@@ -287,8 +307,9 @@ def waypoint_pairs(
             raise ValueError(f"path {pid} has state_dim {path.shape[1]}, expected {dim}")
         if len(path) < 2:
             continue
-        if waypoint_step is not None:
-            path = resample_path(path, waypoint_step, space)
+        step = _resample_step(path, space, waypoint_step, min_waypoints)
+        if step is not None:
+            path = resample_path(path, step, space)
         for p in (path, path[::-1]) if bidirectional else (path,):
             k = len(p) - 1
             x_t, x_next, goal = p[:-1], p[1:], p[-1:]
