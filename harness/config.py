@@ -143,21 +143,24 @@ NETWORK_KEYS = {
     "enet_hidden": list,
     "latent": int,
 }
-# A planner's `networks: {recipe: paper}` trains on the scale's own recipe, not the env's.
-RECIPES = ("env", "paper")
+# A planner's `networks: {recipe: ...}`: the env's recipe (env.networks, the default) or the
+# paper's for this env (env.paper_networks: the paper's arm recipe on the arm; the scale's own,
+# which is the paper's, where an env has none).
+RECIPES = {"env": "networks", "paper": "paper_networks"}
 
 
 def networks_params(cfg: DictConfig) -> dict:
-    """The networks' recipe options, checked (UsageError naming the key): the env's
-    `networks` (its default recipe), then the planner's over them key by key; a planner's
-    `recipe: paper` drops the env's."""
+    """The networks' recipe options, checked (UsageError naming the key): the recipe the
+    planner names (`recipe`, env by default: env.networks), then the planner's own options
+    over it key by key."""
     planner = cfg.get("planner")
     mine = _networks(planner.get("networks") if planner is not None else None, "planner.networks")
-    recipe = mine.pop("recipe", "env")
+    key = RECIPES[mine.pop("recipe", "env")]
     env = cfg.get("env")
-    base = _networks(env.get("networks") if env is not None else None, "env.networks")
-    base.pop("recipe", None)
-    return (base if recipe == "env" else {}) | mine
+    base = _networks(env.get(key) if env is not None else None, f"env.{key}")
+    if "recipe" in base:
+        raise UsageError(f"config key env.{key}.recipe: an env's recipe cannot name another")
+    return base | mine
 
 
 def _networks(nets, where: str) -> dict:

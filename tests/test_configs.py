@@ -199,6 +199,12 @@ def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(se
     assert key("+planner=mpnet_nr_dense", *env) == {**dense, "bounded": True, "dropout": 0.2}
     paper = ["+planner.networks.recipe=paper", "+planner.networks.min_waypoints=10", "+planner.networks.latent=60"]
     assert key("+planner=mpnet_nr", *env, *paper) == {**plain, "min_waypoints": 10, "latent": 60}
+    arm = ["+env.paper_networks.bidirectional=false", "+env.paper_networks.min_waypoints=10"]
+    assert key("+planner=mpnet_nr", *env, *arm, "+planner.networks.recipe=paper") == {
+        **plain,
+        "bidirectional": False,
+        "min_waypoints": 10,
+    }
     sized = key("+planner=mpnet_nr", "+planner.networks.pnet_hidden=[64,32]")
     assert sized == {**plain, "pnet_hidden": [64, 32]}
     for bad, name in (
