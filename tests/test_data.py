@@ -33,6 +33,18 @@ def test_expert_paths_valid_and_reproducible(env):
     assert len(c.states) < len(a.states) == a.raw_states == c.raw_states  # contraction drops states
 
 
+def test_a_chunk_plans_its_paths_with_either_pairs_in_process():
+    """chunk_worker's arguments reach workspace_paths by name (a positional slip once made
+    every chunk plan nothing: `contract` landed in `max_tries`)."""
+    from mpnet.data.expert import chunk_worker
+
+    spec = get_spec("s2d")
+    wss = [(0, make_workspace(spec, 0, "train"))]
+    for pairs in ("env", "uniform"):
+        got = chunk_worker((spec, wss, 3, 5, 0, 200, 1.0, True, True, "rrt_star", pairs))
+        assert len(got) == 3 and np.all(got.cost <= got.raw_cost + 1e-9)
+
+
 def test_dedupe_drops_repeated_states_only():
     from mpnet.data.expert import dedupe
 

@@ -223,7 +223,7 @@ def chunk_worker(args: tuple) -> ExpertPaths:
                 iterations,
                 max_seconds,
                 blocked_only,
-                contract,
+                contract=contract,
                 planner=planner,
                 pairs=pairs,
             )
