@@ -14,6 +14,7 @@ from tqdm import tqdm
 
 from harness.cli import RunRefused
 from harness.config import enet_params
+from harness.dagger import with_dagger
 from harness.provenance import artifact_provenance
 from harness.settings import RunSettings
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset, reusable, seed_chunks
@@ -306,6 +307,8 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
             data = load_dataset(data_folder, data_manifest)
         except ArtifactError as e:  # damaged since it was verified: the user's one line, not a traceback
             raise RunRefused(str(e)) from None
+        if params.get("dagger_rounds"):  # the recipe option: the paths labelled from the rollouts too
+            data = with_dagger(run, data, progress, ensure_models)
         if enet_config is None:
             return fit_models(spec, data, params, lightning, folder, progress)
         enet_folder, enet_manifest, built = _ensure(

@@ -28,7 +28,10 @@ CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
 MULTIRUN_FLAGS = ("-m", "--multirun")
 ADDED_GROUPS = ("env", "planner", "experiment")  # no default: chosen with +group=NAME
 # Keys the code reads when present (harness/config.py env_spec) that not every env declares.
-OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin")
+OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin", "env.expert.pairs")
+# Maps that take any of their options with + whether a config has them or not (the networks'
+# recipe options: harness.config.NETWORK_KEYS checks the names).
+OPEN_MAPS = ("planner.networks.", "env.networks.", "env.paper_networks.")
 # Hydra's flags that take the next argument as their value.
 VALUE_FLAGS = ("-c", "--cfg", "-p", "--package", "-cn", "--config-name", "-cp", "--config-path", "-cd", "--config-dir")
 HELP_FLAGS = ("-h", "--help")
@@ -288,6 +291,8 @@ def check_keys(argv: list[str], config_name: str) -> None:
         return
     for key, bare, value in keys:
         found = "known" if bare in OPTIONAL_KEYS else _lookup(cfg, bare)
+        if found == "unknown" and bare.startswith(OPEN_MAPS):
+            found = "open"
         if found == "known" and key.startswith("+") and not key.startswith("++") and bare not in OPTIONAL_KEYS:
             raise UsageError(f"write {bare}={value} ({bare} is already in the config; + adds a new key)")
         if found == "open" and not key.startswith(("+", "~")):

@@ -130,7 +130,10 @@ PLANNER_HOOKS = ("cost_target", "networks")
 # (the public code's pairs; true adds the reversed path). dropout: Pnet's rate (the scale's
 # model.dropout otherwise), at training and at planning time. input_noise: each training state
 # moved by Gaussian noise of this standard deviation (state units; DART-style), the target kept.
-# pnet_hidden, enet_hidden, latent: the networks' sizes (the scale's otherwise).
+# pnet_hidden, enet_hidden, latent: the networks' sizes (the scale's otherwise). dagger_rounds:
+# rounds of DAgger (harness.dagger): each rolls out the networks of the round before on
+# dagger_queries expert queries per training scene and adds the expert's paths from
+# dagger_states of the states each first NeuralPlanner run visited (budget dagger_budget_s).
 NETWORK_KEYS = {
     "waypoint_step": float,
     "min_waypoints": int,
@@ -142,7 +145,13 @@ NETWORK_KEYS = {
     "pnet_hidden": list,
     "enet_hidden": list,
     "latent": int,
+    "dagger_rounds": int,
+    "dagger_queries": int,
+    "dagger_states": int,
+    "dagger_budget_s": float,
 }
+# DAgger's settings when a recipe asks for rounds and leaves them out (in the models key).
+DAGGER_DEFAULTS = {"dagger_queries": 5, "dagger_states": 3, "dagger_budget_s": 2.0}
 # A planner's `networks: {recipe: ...}`: the env's recipe (env.networks, the default) or the
 # paper's for this env (env.paper_networks: the paper's arm recipe on the arm; the scale's own,
 # which is the paper's, where an env has none).
@@ -160,7 +169,12 @@ def networks_params(cfg: DictConfig) -> dict:
     base = _networks(env.get(key) if env is not None else None, f"env.{key}")
     if "recipe" in base:
         raise UsageError(f"config key env.{key}.recipe: an env's recipe cannot name another")
-    return base | mine
+    out = base | mine
+    if "dagger_rounds" in out:
+        out = DAGGER_DEFAULTS | out
+    elif any(k.startswith("dagger_") for k in out):
+        raise UsageError("config key planner.networks.dagger_rounds: DAgger's settings given without its rounds")
+    return out
 
 
 def _networks(nets, where: str) -> dict:

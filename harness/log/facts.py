@@ -107,6 +107,8 @@ def network_variant(networks) -> list[str]:
         out.append(f"noise{float(networks['input_noise']):g}")
     if any(networks.get(k) is not None for k in ("pnet_hidden", "enet_hidden", "latent")):
         out.append("sized")
+    if networks.get("dagger_rounds"):
+        out.append(f"dagger{int(networks['dagger_rounds'])}")
     return out
 
 
