@@ -28,7 +28,7 @@ CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
 MULTIRUN_FLAGS = ("-m", "--multirun")
 ADDED_GROUPS = ("env", "planner", "experiment")  # no default: chosen with +group=NAME
 # Keys the code reads when present (harness/config.py env_spec) that not every env declares.
-OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin", "env.expert.pairs")
+OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin", "env.expert.pairs", "env.expert.check")
 # Maps that take any of their options with + whether a config has them or not (the networks'
 # recipe options: harness.config.NETWORK_KEYS checks the names).
 OPEN_MAPS = ("planner.networks.", "env.networks.", "env.paper_networks.")

@@ -18,7 +18,7 @@ from dataclasses import replace
 from omegaconf import DictConfig, OmegaConf
 
 from harness.cli import UsageError, missing_file
-from mpnet.data.expert import EXPERTS, PAIRS
+from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
 from mpnet.envs.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
@@ -358,6 +358,10 @@ def check_env(env_cfg: DictConfig) -> None:
     if env_cfg.expert.get("planner", "rrt_star") not in EXPERTS:
         raise UsageError(
             f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {env_cfg.expert.planner!r}"
+        )
+    if env_cfg.expert.get("check", "judge") not in CHECKS:
+        raise UsageError(
+            f"config key env.expert.check: expected one of {', '.join(CHECKS)}, got {env_cfg.expert.check!r}"
         )
     if env_cfg.expert.get("pairs", "env") not in PAIRS:
         raise UsageError(

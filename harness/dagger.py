@@ -50,6 +50,7 @@ def aggregated_paths(run, data, progress: bool, ensure_models) -> ExpertPaths:
         "expert": env.expert.planner,
         "iterations": env.expert.iterations,
         "max_seconds": env.expert.max_seconds,
+        **({"check": env.expert.check} if env.expert.check != "judge" else {}),
     }
 
     def build(folder: Path) -> dict:
@@ -66,6 +67,7 @@ def aggregated_paths(run, data, progress: bool, ensure_models) -> ExpertPaths:
             env.expert.planner,
             env.expert.iterations,
             env.expert.max_seconds,
+            env.expert.check,
         )
         seed = int(np.random.default_rng([env.data_seed, 23, k]).integers(1, 2**31 - 1))
         print(f"DAgger round {k}: rolling out {prev_folder.name} on {len(items)} scenes", file=sys.stderr)

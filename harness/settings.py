@@ -47,6 +47,7 @@ class ExpertSettings:
     contract: bool
     chunk: int
     pairs: str = "env"  # mpnet.data.expert.PAIRS: the env's own start/goal pairs, or uniform
+    check: str = "judge"  # mpnet.data.expert.CHECKS: what a kept path passes
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,7 @@ class EnvSettings:
                 contract=bool(expert.get("contract", False)),
                 chunk=int(expert.get("chunk", 1)),
                 pairs=str(expert.get("pairs", "env")),
+                check=str(expert.get("check", "judge")),
             ),
             reference_bit_star_s=None if reference is None else float(reference.bit_star_s),
             geometry=geometry_params(env_cfg),
@@ -193,6 +195,7 @@ def data_params(env: EnvSettings, train) -> DataParams:
         expert_chunk=expert.chunk,
         expert_planner=expert.planner,
         expert_pairs=expert.pairs,
+        expert_check=expert.check,
     )
 
 

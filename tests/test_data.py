@@ -34,15 +34,19 @@ def test_expert_paths_valid_and_reproducible(env):
 
 
 def test_a_chunk_plans_its_paths_with_either_pairs_in_process():
-    """chunk_worker's arguments reach workspace_paths by name (a positional slip once made
-    every chunk plan nothing: `contract` landed in `max_tries`)."""
+    """chunk_worker's options reach workspace_paths by name (a positional slip once made
+    every chunk plan nothing: `contract` landed in `max_tries`); paths kept by the judge's
+    re-check or the planning checker's pass the judge."""
     from mpnet.data.expert import chunk_worker
 
     spec = get_spec("s2d")
     wss = [(0, make_workspace(spec, 0, "train"))]
     for pairs in ("env", "uniform"):
-        got = chunk_worker((spec, wss, 3, 5, 0, 200, 1.0, True, True, "rrt_star", pairs))
-        assert len(got) == 3 and np.all(got.cost <= got.raw_cost + 1e-9)
+        for check in ("judge", "planner"):
+            options = {"iterations": 200, "max_seconds": 1.0, "contract": True, "pairs": pairs, "check": check}
+            got = chunk_worker((spec, wss, 3, 5, 0, options))
+            assert len(got) == 3 and np.all(got.cost <= got.raw_cost + 1e-9)
+            assert all(verify_path(spec, wss[0][1], p, p[0], p[-1]) is None for p in got.paths())
 
 
 def test_dedupe_drops_repeated_states_only():

@@ -47,12 +47,18 @@ class DataParams:
     expert_chunk: int = 1  # workspaces per expert process (OMPL's RNG is seeded per chunk)
     expert_planner: str = "rrt_star"  # or rrt_connect (mpnet.data.expert.EXPERTS)
     expert_pairs: str = "env"  # or uniform (mpnet.data.expert.PAIRS)
+    expert_check: str = "judge"  # or planner (mpnet.data.expert.CHECKS)
 
     def key_config(self) -> dict:
         key = {"format": FORMAT, **self.__dict__}
         if not self.geometry:  # envs without them keep their keys
             key.pop("geometry")
-        for name, default in (("expert_chunk", 1), ("expert_planner", "rrt_star"), ("expert_pairs", "env")):
+        for name, default in (
+            ("expert_chunk", 1),
+            ("expert_planner", "rrt_star"),
+            ("expert_pairs", "env"),
+            ("expert_check", "judge"),
+        ):
             if key[name] == default:  # keys of the datasets built before these existed
                 key.pop(name)
         return key
@@ -80,6 +86,7 @@ def _expert_paths(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> Expert
         chunk_size=p.expert_chunk,
         planner=p.expert_planner,
         pairs=p.expert_pairs,
+        check=p.expert_check,
         **kwargs,
     )
 

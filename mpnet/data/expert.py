@@ -136,6 +136,24 @@ EXPERTS = {"rrt_star": rrt_star_path, "rrt_connect": rrt_connect_path}
 PAIRS = {"env": lambda spec: spec.pairs, "uniform": lambda spec: random_pairs}
 
 
+def planner_check(spec: EnvSpec, ws: Workspace, checker, path, start, goal) -> bool:
+    """The path's ends, bounds, states and motions by the planning checker itself."""
+    p = np.asarray(path, float)
+    if p.ndim != 2 or len(p) < 2 or not np.all(np.isfinite(p)) or np.abs(p[[0, -1]] - [start, goal]).max() > 1e-6:
+        return False
+    return all(spec.in_bounds(q) and checker.is_valid(q.tolist()) for q in p) and all(
+        checker.motion_valid(a.tolist(), b.tolist()) for a, b in zip(p[:-1], p[1:])
+    )
+
+
+def judge_check(spec: EnvSpec, ws: Workspace, checker, path, start, goal) -> bool:
+    return verify_path(spec, ws, path, start, goal) is None
+
+
+# What an expert path must pass to be kept (env.expert.check).
+CHECKS = {"judge": judge_check, "planner": planner_check}
+
+
 def dedupe(path: list) -> list:
     """The path without states equal to the one before them (the original's data generator
     drops repeated states the same way)."""
@@ -159,6 +177,7 @@ def workspace_paths(
     contract: bool = False,
     planner: str = "rrt_star",
     pairs: str = "env",
+    check: str = "judge",
 ) -> ExpertPaths:
     """`count` expert paths between valid start/goal pairs of one workspace (PAIRS: the env's
     own, random states or MotionBenchMaker's queries, or uniform); fewer when they run out.
@@ -167,7 +186,10 @@ def workspace_paths(
     is: a free pair only teaches Pnet to step onto the goal. contract: lazy states
     contraction of each path (off: RRT*'s vertex list, as the paper trained on). planner:
     rrt_star (`iterations` iterations), or rrt_connect (the best of `iterations` shortened
-    runs, see rrt_connect_path)."""
+    runs, see rrt_connect_path). check (CHECKS): what a path must pass to be kept: the
+    judge's fine re-check (verify_path), or the planning checker's own states and motions
+    (the arm's certified spheres: pybullet's re-check costs the arm's expert a third of its
+    time and stays the judge of logged results)."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
@@ -186,7 +208,7 @@ def workspace_paths(
         raw, n_raw = path_cost(spec, path), len(path)
         if contract:
             path = lazy_states_contraction(checker, path)
-        if len(path) < 2 or verify_path(spec, ws, path, s, g) is not None:
+        if len(path) < 2 or not CHECKS[check](spec, ws, checker, path, s, g):
             continue
         raw_states += n_raw
         states.append(np.asarray(path, float))
@@ -206,29 +228,15 @@ def workspace_paths(
 
 
 def chunk_worker(args: tuple) -> ExpertPaths:
-    """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path."""
-    spec, workspaces, count, seed, chunk, iterations, max_seconds, blocked_only, contract, planner, pairs = args
+    """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path
+    (workspace_paths' options by name)."""
+    spec, workspaces, count, seed, chunk, options = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
     return ExpertPaths.concat(
-        [
-            workspace_paths(
-                spec,
-                ws,
-                idx,
-                count,
-                seed,
-                iterations,
-                max_seconds,
-                blocked_only,
-                contract=contract,
-                planner=planner,
-                pairs=pairs,
-            )
-            for idx, ws in workspaces
-        ],
+        [workspace_paths(spec, ws, idx, count, seed, **options) for idx, ws in workspaces],
         spec.state_dim,
     )
 
@@ -269,6 +277,7 @@ def expert_paths(
     plan: bool = True,
     planner: str = "rrt_star",
     pairs: str = "env",
+    check: str = "judge",
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
@@ -281,22 +290,16 @@ def expert_paths(
     from concurrent.futures import ProcessPoolExecutor
 
     chunks = chunks_of(len(workspaces), chunk_size, shard)
-    tasks = {
-        k: (
-            spec,
-            [workspaces[i] for i in c],
-            count,
-            seed,
-            k,
-            iterations,
-            max_seconds,
-            blocked_only,
-            contract,
-            planner,
-            pairs,
-        )
-        for k, c in chunks.items()
+    options = {
+        "iterations": iterations,
+        "max_seconds": max_seconds,
+        "blocked_only": blocked_only,
+        "contract": contract,
+        "planner": planner,
+        "pairs": pairs,
+        "check": check,
     }
+    tasks = {k: (spec, [workspaces[i] for i in c], count, seed, k, options) for k, c in chunks.items()}
     results: dict[int, ExpertPaths | None] = {}
     for k in tasks:  # chunks a build cut short (or the other shards) already finished
         results[k] = _load_chunk(resume_dir, k)

@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.data.expert import EXPERTS, ExpertPaths, dedupe
+from mpnet.data.expert import CHECKS, EXPERTS, ExpertPaths, dedupe
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
-from mpnet.motion import path_cost, verify_path
+from mpnet.motion import path_cost
 from mpnet.planners.base import Problem, sub_seed
 from mpnet.planners.mpnet import from_checkpoint
 
@@ -39,6 +39,7 @@ class DaggerParams:
     expert: str
     iterations: int
     max_seconds: float
+    check: str = "judge"  # mpnet.data.expert.CHECKS, as the dataset's
 
 
 def visited(planner, problem: Problem, states: int, budget_s: float, rng: np.random.Generator) -> list:
@@ -65,7 +66,7 @@ def label(spec: EnvSpec, ws: Workspace, checker, pairs: list, p: DaggerParams) -
         if path is None:
             continue
         path = dedupe(path)
-        if len(path) >= 2 and verify_path(spec, ws, path, x, end) is None:
+        if len(path) >= 2 and CHECKS[p.check](spec, ws, checker, path, x, end):
             out.append(np.asarray(path, float))
     return out
 
