@@ -174,14 +174,14 @@ def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settin
     from mpnet.data.expert import PAIRS
     from mpnet.envs.spec import random_pairs
 
-    plain, uniform = (settings(["+env=panda_mbm", *o]) for o in ([], ["+env.expert.pairs=uniform"]))
+    plain, uniform = (settings(["+env=panda_mbm", *o]) for o in ([], ["env.expert.pairs=uniform"]))
     assert "expert_pairs" not in plain.data.key_config()
     assert uniform.data.key_config() == {**plain.data.key_config(), "expert_pairs": "uniform"}
     assert uniform.env.reference_params() == plain.env.reference_params()
     assert PAIRS["uniform"](plain.env.spec) is random_pairs
     assert PAIRS["env"](plain.env.spec) == plain.env.spec.pairs != random_pairs
     with pytest.raises(UsageError, match="env.expert.pairs"):
-        settings(["+env=panda_mbm", "+env.expert.pairs=bogus"])
+        settings(["+env=panda_mbm", "env.expert.pairs=bogus"])
 
 
 def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(settings):
