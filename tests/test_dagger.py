@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 from harness.cli import UsageError
 from mpnet.envs import get_spec
@@ -58,14 +59,26 @@ def test_dagger_settings_are_in_the_models_key_and_need_rounds(settings):
 
 
 @pytest.mark.slow  # trains twice and plans expert paths in spawned processes
-def test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts(tmp_path, run_cli):
-    common = ["+env=s2d", "scale=tiny", "+planner=mpnet_nr", f"cache_dir={tmp_path / 'cache'}"]
-    run_cli("harness.train", *common, "+planner.networks.dagger_rounds=1", f"hydra.run.dir={tmp_path / 'r'}")
-    dagger = [json.loads(p.read_text()) for p in (tmp_path / "cache" / "dagger").glob("*/manifest.json")]
+def test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts(tmp_path, run_cli, sweeps_cache):
+    """docs/arm.md's DAgger command at tiny scale: round 1 rolls out the round-0 networks (the
+    same recipe without DAgger), the expert labels what they visited, round 1 trains on more
+    pairs, and MPNet plans with round 1's networks."""
+    run_cli(
+        "harness", "+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.bounded=true",
+        "+planner.networks.dagger_rounds=1", "scale=tiny", "progress=false", "splits=[unseen]", "budget_s=1",
+        f"cache_dir={sweeps_cache}", f"hydra.run.dir={tmp_path / 'r'}",
+    )  # fmt: skip
+    (dagger,) = [json.loads(p.read_text()) for p in (sweeps_cache / "dagger").glob("*/manifest.json")]
     models = {
-        "dagger_rounds" in m["config"]: m
-        for m in (json.loads(p.read_text()) for p in (tmp_path / "cache" / "models").glob("*/manifest.json"))
+        m["key"]: m for m in (json.loads(p.read_text()) for p in (sweeps_cache / "models").glob("*/manifest.json"))
     }
-    assert len(dagger) == 1 and dagger[0]["paths"] > 0 and dagger[0]["config"]["round"] == 1
-    assert dagger[0]["config"]["models"] == models[False]["key"]  # round 1 rolled out the plain networks
-    assert models[True]["fit"]["pnet"]["pairs"] > models[False]["fit"]["pnet"]["pairs"]
+    round0 = models[dagger["config"]["models"]]
+    (round1,) = [m for m in models.values() if m["config"].get("dagger_rounds") == 1]
+    assert dagger["paths"] > 0 and dagger["config"]["round"] == 1
+    assert round0["config"] == {k: v for k, v in round1["config"].items() if not k.startswith("dagger_")}
+    assert round0["config"]["bounded"] is True
+    assert round1["fit"]["pnet"]["pairs"] > round0["fit"]["pnet"]["pairs"]
+    with open(tmp_path / "r" / "trials.mcap", "rb") as f:
+        msgs = [(c.topic, json.loads(m.data)) for _, c, m in make_reader(f).iter_messages()]
+    assert next(m for t, m in msgs if t == "/run")["planner"] == "mpnet_nr"
+    assert len([m for t, m in msgs if t == "/query"]) == 4

@@ -78,6 +78,10 @@ TESTED = {
     "python -m harness.train +env=panda_mbm +planner=mpnet_nr_dense": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_nr_dense_clip problems=data/mbm/problems": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_hr_rrtc_clip problems=data/mbm/problems": PANDA_MBM,
+    (
+        "python -m harness +env=panda_mbm +planner=mpnet_nr +planner.networks.bounded=true "
+        "+planner.networks.dagger_rounds=1"
+    ): "tests/test_dagger.py::test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts",
     # docs/cluster.md
     "python -m harness.train scale=tiny hydra/launcher=local -m +env=s2d,c2d": (
         "tests/test_cluster.py::test_a_training_sweep_on_the_local_launcher"
