@@ -582,6 +582,28 @@ def test_paper_scale_dry_run(tmp_path, env, run_cli):
     assert len(rows) == 4
 
 
+def test_the_report_of_the_headline_sweep_prints_what_fills_table1(tmp_path, run_cli, sweeps_cache):
+    """The README's headline sweep alone (two seeds, tiny): its report names Table I's missing
+    planners and prints a command that, run as printed, fills Table I's row."""
+    common = ["progress=false", "rerun=false", f"cache_dir={sweeps_cache}"]
+    first, second = tmp_path / "hr", tmp_path / "rest"
+    run_cli(
+        "harness", "+env=rigid", "+planner=mpnet_hr", "scale=tiny", *common, f"hydra.sweep.dir={first}", "-m",
+        "seed=0,1",
+    )  # fmt: skip
+    p = run_cli("harness.report", str(first), "--out", str(tmp_path / "r1"))
+    (line,) = [x for x in p.stdout.splitlines() if x.startswith("rigid: no runs of Table I's")]
+    assert "MPNet (NR), Informed-RRT*, BIT*" in line
+    assert "What these runs lack" in (tmp_path / "r1" / "table1.md").read_text()
+    args = shlex.split(line.split("to make them: ")[1])
+    assert args[:3] == ["python", "-m", "harness"]
+    run_cli(*args[2:], *common, f"hydra.sweep.dir={second}")  # as printed (plus where its logs go)
+    p = run_cli("harness.report", str(first), str(second), "--out", str(tmp_path / "r2"))
+    assert not [x for x in p.stdout.splitlines() if "Table I's" in x]
+    table = (tmp_path / "r2" / "table1.csv").read_text()
+    assert all(p in table for p in ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star"))
+
+
 def test_table1_experiment_and_report(tmp_path, run_cli, sweeps_cache):
     """The Table I sweep (narrowed to two planners and two seeds at tiny scale), then the
     report over its folder: every run is in results.csv and Table I, and its README gives the

@@ -69,3 +69,30 @@ def test_the_commands_run_exactly_the_logged_runs(runs):
     jobs = [job for c in commands for job in _runs_of(c)]
     assert len(jobs) == len(set(jobs)) == len(runs)  # no job twice, none extra
     assert set(jobs) == {(tuple(sorted(rest)), e, p, s) for e, p, s, rest in runs}
+
+
+def _run(env, planner, seed, *rest):
+    overrides = [f"+env={env}", f"+planner={planner}", f"seed={seed}", *rest]
+    return {"env": env, "planner": planner, "seed": seed, "overrides": overrides}
+
+
+def test_a_report_names_what_its_runs_lack_and_the_command_that_makes_it():
+    from harness.report.commands import missing_runs
+
+    hr = [_run("rigid", "mpnet_hr", s, "scale=quick") for s in (0, 1)]
+    (line,) = missing_runs(hr)  # no MPNet-NR: its ablations are not asked for
+    assert line.startswith("rigid: no runs of Table I's MPNet (NR), Informed-RRT*, BIT*")
+    cmd = line.split("to make them: ")[1]
+    assert _runs_of(cmd) == {
+        (("scale=quick",), "rigid", p, s) for p in ("mpnet_nr", "informed_rrt_star", "bit_star") for s in ("0", "1")
+    }
+    full = [_run("s2d", p, 0) for p in ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")]
+    (line,) = missing_runs(full)
+    assert "ablations" in line and _runs_of(line.split("to make them: ")[1]) == {
+        ((), "s2d", p, "0")
+        for p in ("mpnet_nr_random", "mpnet_nr_random_any", "mpnet_nr_straight", "mpnet_nr_zeros", "mpnet_nr_nodropout")
+    }
+    ablations = [_run("s2d", p, 0) for p in ("mpnet_nr_random", "mpnet_nr_random_any", "mpnet_nr_straight")]
+    ablations += [_run("s2d", p, 0) for p in ("mpnet_nr_zeros", "mpnet_nr_nodropout")]
+    assert missing_runs(full + ablations) == []
+    assert missing_runs([*hr[:1], {**hr[1], "overrides": None}]) == []  # a run without overrides: say nothing

@@ -77,6 +77,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: no queries in the {s['files']} readable trials.mcap under {', '.join(inputs)}", file=sys.stderr)
         return 1
     print(f"read {s['files']} trial logs ({s['queries']} queries), skipped {s['skipped']}")
+    for line in s.get("missing", []):
+        print(line)
     tables = "".join(
         f", {n}.{{md,csv}}" for n in ("quality", "ablations", "equal_quality") if out / f"{n}.csv" in s["outputs"]
     )

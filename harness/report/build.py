@@ -9,6 +9,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from harness.report.arena import write_benchmark_db
+from harness.report.commands import missing_runs
 from harness.report.diagnostics import diagnostics_table, render_diagnostics
 from harness.report.equal_quality import equal_quality_table
 from harness.report.facts import planner_facts
@@ -109,6 +110,9 @@ def write_report(
     t, layout = table1(main_res, facts, paper_df)
     t.to_csv(out / "table1.csv", index=False)
     md, tex = render_table1(t, layout, paper, facts, main_res, paper_df)
+    summary["missing"] = missing = missing_runs([tf.run for tf in files if tf.label is None])
+    if missing:  # the columns without runs, and the command that makes them
+        md += "\nWhat these runs lack:\n\n" + "".join(f"- {line}\n" for line in missing)
     (out / "table1.md").write_text(_noted(md, facts))
     (out / "table1.tex").write_text(_noted(tex, facts, "% "))
     sc = success_cost(main_res)
@@ -135,7 +139,7 @@ def write_report(
         "diagnostics": (diagnostics_table(files), lambda d: render_diagnostics(d, facts)),
         "problem_sets": (problem_set_table(q, facts), lambda d: render_problem_sets(d, facts)),
     }
-    extra = {"reference_notes": refs}
+    extra = {"reference_notes": refs, "missing": missing}
     for name, (df, render) in optional.items():
         for ext in ("md", "csv", "tex"):  # an earlier report's table must not outlive its data
             (out / f"{name}.{ext}").unlink(missing_ok=True)

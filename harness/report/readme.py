@@ -254,6 +254,12 @@ def readme_text(
     scale_text = "\n".join("- " + scale_bullet(*row) for row in prov.get("scales") or [("unknown", None, False)])
     judge_text = textwrap.fill(judge_bullet(prov.get("judges") or {}), 95, initial_indent="- ", subsequent_indent="  ")
     warn_text = "\n".join(f"- {w.removeprefix('warning: ')}" for w in warnings) or "none"
+    missing = extra.get("missing") or []
+    lack_text = (
+        "\n".join(textwrap.fill(line, 95, initial_indent="- ", subsequent_indent="  ") for line in missing)
+        if missing
+        else "nothing: every env has runs of Table I's four planners (and of MPNet-NR's ablations where it ran)."
+    )
     commands = prov.get("commands")
     if commands:
         regen_intro = "To regenerate them (the logs are not in git): the runs' own commands, as they logged them"
@@ -294,6 +300,14 @@ from {n_files} trial logs ({n_queries} queries); do not edit by hand.
 ```bash
 {regen}
 ```
+
+## What these runs lack
+
+Table I's columns (MPNet (NR), MPNet (HR), Informed-RRT*, BIT*) and MPNet-NR's ablations that
+have no run here, per env, and the command that makes them (the same env, seeds and other
+overrides as the env's runs):
+
+{lack_text}
 
 ## Warnings
 
