@@ -172,3 +172,18 @@ def test_labelled_report_from_tiny_runs(tmp_path, run_cli):
     assert (eq["queries"] == 4).all()
     emd = (out / "equal_quality.md").read_text().replace(" †", "")  # as table1.md's header
     assert "| BIT* [A] | cost ≤ 1 × MPNet (NR) [A]'s |" in emd and "| BIT* [B] | cost ≤ 1 × MPNet (NR) [B]'s |" in emd
+
+
+def test_a_run_of_its_own_recipe_is_labelled_by_it_never_pooled():
+    """`+planner=mpnet_nr +planner.networks.bounded=true` is not mpnet_nr's plain networks: the
+    report labels it by the options its name does not say (a named variant's own are said)."""
+    from harness.report.load import recipe_label
+
+    def run(planner, networks):
+        return {"planner": planner, "facts": {"planner_config": {"name": planner, "networks": networks}}}
+
+    assert recipe_label(run("mpnet_nr", None)) is None
+    assert recipe_label(run("mpnet_nr", {"bounded": True, "waypoint_step": 0.5})) == "dense+bounded"
+    assert recipe_label(run("mpnet_nr_dense", {"waypoint_step": 0.5, "equal_steps": True})) is None
+    assert recipe_label(run("mpnet_nr_zeros", {"bounded": True})) == "bounded"
+    assert recipe_label({"planner": "bit_star"}) is None

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from harness.log import MCAP_NAME, read_log
+from harness.log.facts import network_variant
 from harness.report.names import env_rank, labelled
 
 __all__ = [
@@ -140,12 +141,25 @@ def run_seed(run: dict) -> int | None:
     return seed if isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)) else None
 
 
+def recipe_label(run: dict) -> str | None:
+    """The label of a run whose planner trained its networks with recipe options its name does
+    not say (`+planner=mpnet_nr +planner.networks.bounded=true`: `mpnet_nr [bounded]`), so that
+    it is never pooled with the planner's plain runs; None for every other run."""
+    facts = run.get("facts") if isinstance(run.get("facts"), dict) else {}
+    config = facts.get("planner_config") if isinstance(facts.get("planner_config"), dict) else {}
+    tags = network_variant(config.get("networks"))
+    words = set(str(run.get("planner", "")).split("_"))
+    unsaid = [t for t in tags if t not in words]
+    return "+".join(unsaid) or None
+
+
 def load(
     dirs: Iterable[str | Path], labels: Iterable[tuple[str, str | Path]] = ()
 ) -> tuple[list[TrialFile], list[str], int]:
     """Readable trial files, warnings (one line each) and the number of files skipped. labels:
     (label, dir) pairs whose files carry that label (a file also under an unlabelled dir
-    keeps its label), so that runs of different revisions or settings are never pooled."""
+    keeps its label), so that runs of different revisions or settings are never pooled; an
+    unlabelled run of networks of its own recipe is labelled by it (recipe_label)."""
     label_of: dict[Path, tuple[Path, str | None]] = {}
     warns = []
     for label, d in [*labels, *((None, d) for d in dirs)]:
@@ -161,7 +175,7 @@ def load(
         if tf is None:
             skipped += 1
             continue
-        tf.label = label
+        tf.label = label if label is not None else recipe_label(tf.run)
         files.append(tf)
         if tf.queries and run_seed(tf.run) is None:
             warns.append(
