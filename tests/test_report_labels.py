@@ -187,3 +187,23 @@ def test_a_run_of_its_own_recipe_is_labelled_by_it_never_pooled():
     assert recipe_label(run("mpnet_nr_dense", {"waypoint_step": 0.5, "equal_steps": True})) is None
     assert recipe_label(run("mpnet_nr_zeros", {"bounded": True})) == "bounded"
     assert recipe_label({"planner": "bit_star"}) is None
+
+
+def test_a_run_of_its_own_recipe_is_one_row_of_the_ablations_beside_the_plain_one(tmp_path):
+    """Its own base (the label), listed once: the ablation table once showed it twice."""
+    import yaml
+
+    from harness.log.facts import facts_from_config
+    from harness.report.tables import ablation_table
+    from tests.test_report import planner_config
+
+    qs = [Q("seen", "0", i, i % 2 == 0, 0.1) for i in range(4)]
+    write_log(tmp_path / "plain", "s2d", "mpnet_nr", 0, qs)
+    write_log(tmp_path / "rnd", "s2d", "mpnet_nr_random", 0, qs)
+    config = planner_config("mpnet_nr", networks={"bounded": True})
+    write_log(tmp_path / "b", "s2d", "mpnet_nr", 0, qs, config=config, facts=facts_from_config(yaml.safe_load(config)))
+    files, _, _ = load([tmp_path])
+    assert sorted(tf.planner for tf in files) == ["mpnet_nr", "mpnet_nr [bounded]", "mpnet_nr_random"]
+    facts, _ = planner_facts(files)
+    rows = list(ablation_table(results_table(queries_frame(files), facts), facts)["planner"])
+    assert sorted(rows) == ["mpnet_nr", "mpnet_nr [bounded]", "mpnet_nr_random"]

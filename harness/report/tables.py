@@ -421,8 +421,9 @@ def ablation_table(res: pd.DataFrame, facts: Facts) -> pd.DataFrame:
         by = {p: r for p, r in zip(d["planner"], d.to_dict("records"))}
         bases = sorted({ab[0] for ab in map(facts.ablation, by) if ab}, key=facts.rank)
         for base in bases:
-            abl = sorted((p for p in by if (facts.ablation(p) or ("",))[0] == base), key=facts.rank)
-            if not abl:
+            # a labelled run of its own recipe is its own base (mpnet_nr [bounded]): one row, not two
+            abl = sorted((p for p in by if p != base and (facts.ablation(p) or ("",))[0] == base), key=facts.rank)
+            if not abl and base not in by:
                 continue
             for p in ([base] if base in by else []) + abl:
                 r = dict(by[p])
