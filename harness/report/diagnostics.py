@@ -41,7 +41,7 @@ def diagnostics_table(files: list[TrialFile]) -> pd.DataFrame:
     """One row per (env, split, planner) whose queries carry diagnostics."""
     acc: dict[tuple, dict] = {}
     for tf in files:
-        env, planner = str(tf.run["env"]), str(tf.run["planner"])
+        env, planner = str(tf.run["env"]), tf.planner  # with its label: labelled runs are never pooled
         for m in tf.queries:
             d = m.get("diagnostics")
             if not isinstance(d, dict):
