@@ -188,8 +188,8 @@ def workspace_paths(
     rrt_star (`iterations` iterations), or rrt_connect (the best of `iterations` shortened
     runs, see rrt_connect_path). check (CHECKS): what a path must pass to be kept: the
     judge's fine re-check (verify_path), or the planning checker's own states and motions
-    (the arm's certified spheres: pybullet's re-check costs the arm's expert a third of its
-    time and stays the judge of logged results)."""
+    (the arm's certified spheres: pybullet's re-check, sampled at the validation step, is a
+    large part of the arm expert's work, and stays the judge of logged results)."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
