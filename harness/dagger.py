@@ -15,12 +15,13 @@ from pathlib import Path
 import numpy as np
 
 from harness.cli import RunRefused
+from harness.config import DAGGER_DEFAULTS
 from harness.provenance import artifact_provenance
 from mpnet.data.expert import ExpertPaths, _load_chunk, save_chunk
 from mpnet.data.store import ArtifactError, ensure
 from mpnet.envs.generators import make_workspaces
 
-DAGGER_KEYS = ("dagger_rounds", "dagger_queries", "dagger_states", "dagger_budget_s")
+DAGGER_KEYS = ("dagger_rounds", *DAGGER_DEFAULTS)  # the rounds, then each round's settings
 
 
 def previous_round(run):

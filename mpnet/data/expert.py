@@ -49,6 +49,22 @@ class ExpertPaths:
         return [self.path(i) for i in range(len(self))]
 
     @staticmethod
+    def of(
+        paths: list[np.ndarray], workspace, cost, raw_cost, state_dim: int, seconds: float = 0.0, raw_states: int = 0
+    ) -> ExpertPaths:
+        """The paths (each (n_i, state_dim)) flattened, with their workspace rows and costs."""
+        lengths = [len(p) for p in paths]
+        return ExpertPaths(
+            np.concatenate(paths) if paths else np.zeros((0, state_dim)),
+            np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+            np.asarray(workspace, np.int64).reshape(-1),
+            np.asarray(cost, float).reshape(-1),
+            np.asarray(raw_cost, float).reshape(-1),
+            seconds,
+            raw_states,
+        )
+
+    @staticmethod
     def concat(parts: list[ExpertPaths], state_dim: int) -> ExpertPaths:
         if not parts:
             return ExpertPaths(
@@ -193,9 +209,9 @@ def workspace_paths(
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
-    states, lengths, costs, raws, raw_states = [], [], [], [], 0
+    states, costs, raws, raw_states = [], [], [], 0
     for s, g in itertools.islice(PAIRS[pairs](spec)(spec, ws, checker, rng), count * max_tries):
-        if len(lengths) == count:
+        if len(states) == count:
             break
         if not (checker.is_valid(s.tolist()) and checker.is_valid(g.tolist())):
             continue
@@ -212,19 +228,10 @@ def workspace_paths(
             continue
         raw_states += n_raw
         states.append(np.asarray(path, float))
-        lengths.append(len(path))
         costs.append(path_cost(spec, path))
         raws.append(raw)
-    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-    return ExpertPaths(
-        np.concatenate(states) if states else np.zeros((0, spec.state_dim)),
-        offsets,
-        np.full(len(lengths), ws_index, np.int64),
-        np.array(costs),
-        np.array(raws),
-        time.perf_counter() - t0,
-        raw_states,
-    )
+    workspace = [ws_index] * len(states)
+    return ExpertPaths.of(states, workspace, costs, raws, spec.state_dim, time.perf_counter() - t0, raw_states)
 
 
 def chunk_worker(args: tuple) -> ExpertPaths:
@@ -286,9 +293,6 @@ def expert_paths(
     again (the folder must belong to these arguments: the artifact store keys it).
     shard=(i, shards): only shard i's chunks (see chunks_of); plan=False: plan nothing,
     read every chunk from resume_dir (MissingChunks if some are not there)."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
     chunks = chunks_of(len(workspaces), chunk_size, shard)
     options = {
         "iterations": iterations,
@@ -308,20 +312,32 @@ def expert_paths(
     todo = [k for k in tasks if results[k] is None]
     if todo and not plan:
         raise MissingChunks(todo, len(chunks_of(len(workspaces), chunk_size)))
-    if todo:
-        with ProcessPoolExecutor(
-            max_workers=max(1, min(jobs, len(todo))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
-        ) as pool:
-            futures = {pool.submit(chunk_worker, tasks[k]): k for k in todo}
-            from concurrent.futures import as_completed
 
-            for fut in as_completed(futures):
-                k = futures[fut]
-                results[k] = fut.result()
-                save_chunk(resume_dir, k, results[k])
-                if progress is not None:
-                    progress(len(chunks[k]))
+    def done(k: int, paths: ExpertPaths) -> None:
+        results[k] = paths
+        save_chunk(resume_dir, k, paths)
+        if progress is not None:
+            progress(len(chunks[k]))
+
+    in_fresh_processes(chunk_worker, {k: tasks[k] for k in todo}, jobs, done)
     return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
+
+
+def in_fresh_processes(worker, tasks: dict, jobs: int, done) -> None:
+    """worker(tasks[k]) for every k, each in a fresh spawned process (OMPL's RNG is seeded per
+    task, and a process start costs less than state left behind), at most `jobs` at a time;
+    done(k, result) as each finishes."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    if not tasks:
+        return
+    with ProcessPoolExecutor(
+        max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
+    ) as pool:
+        futures = {pool.submit(worker, args): k for k, args in tasks.items()}
+        for fut in as_completed(futures):
+            done(futures[fut], fut.result())
 
 
 _FIELDS = ("states", "offsets", "workspace", "cost", "raw_cost")

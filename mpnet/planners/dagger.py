@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.data.expert import CHECKS, EXPERTS, ExpertPaths, dedupe
+from mpnet.data.expert import CHECKS, EXPERTS, ExpertPaths, dedupe, in_fresh_processes
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import path_cost
@@ -85,8 +85,9 @@ def chunk_worker(args: tuple) -> ExpertPaths:
     def cloud(ws):
         return spec.cloud(ws, per_block, data_seed)
 
-    planner = from_checkpoint(Path(models_dir), spec, seed, cloud, name="mpnet_nr", compiled=False)
-    states, lengths, costs, rows = [], [], [], []
+    # only the first NeuralPlanner run's proposals are labelled: no replanning after it
+    planner = from_checkpoint(Path(models_dir), spec, seed, cloud, name="mpnet_nr", compiled=False, replan_rounds=0)
+    states, costs, rows = [], [], []
     for row, ws, queries in items:
         checker = spec.make_checker(ws)
         rng = np.random.default_rng([seed, 17, row])
@@ -96,18 +97,9 @@ def chunk_worker(args: tuple) -> ExpertPaths:
             )
             for path in label(spec, ws, checker, visited(planner, problem, p.states, p.budget_s, rng), p):
                 states.append(path)
-                lengths.append(len(path))
                 costs.append(path_cost(spec, path))
                 rows.append(row)
-    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-    cost = np.array(costs, float)
-    return ExpertPaths(
-        np.concatenate(states) if states else np.zeros((0, spec.state_dim)),
-        offsets,
-        np.array(rows, np.int64),
-        cost,
-        cost.copy(),
-    )
+    return ExpertPaths.of(states, rows, costs, costs, spec.state_dim)
 
 
 def dagger_paths(
@@ -123,20 +115,14 @@ def dagger_paths(
 ) -> ExpertPaths:
     """Every chunk of `items` (chunk_worker's; cloud: (points_per_block, data_seed)) in fresh
     processes; the labelled paths in chunk order (the same whatever `jobs`)."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     chunks = [items[i : i + chunk_size] for i in range(0, len(items), chunk_size)]
     results: dict[int, ExpertPaths] = {}
-    with ProcessPoolExecutor(
-        max_workers=max(1, min(jobs, len(chunks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
-    ) as pool:
-        futures = {
-            pool.submit(chunk_worker, (spec, str(models_dir), cloud, c, p, seed, k)): k for k, c in enumerate(chunks)
-        }
-        for fut in as_completed(futures):
-            k = futures[fut]
-            results[k] = fut.result()
-            if progress is not None:
-                progress(len(chunks[k]))
+
+    def done(k: int, paths: ExpertPaths) -> None:
+        results[k] = paths
+        if progress is not None:
+            progress(len(chunks[k]))
+
+    tasks = {k: (spec, str(models_dir), cloud, c, p, seed, k) for k, c in enumerate(chunks)}
+    in_fresh_processes(chunk_worker, tasks, jobs, done)
     return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
