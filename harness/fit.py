@@ -278,7 +278,8 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         optimizer=params["optimizer"],
         freeze_encoder=frozen,
         state_scale=norm.to_list(),
-        state_offset=norm.offset_list() if bounded else None,
+        # the centre, zeros included (symmetric bounds: the normaliser keeps no offset, the module must know)
+        state_offset=(norm.offset_list() or [0.0] * spec.state_dim) if bounded else None,
         input_noise=params.get("input_noise", 0.0),
         cloud_scale=spec.workspace_scale(),
     )

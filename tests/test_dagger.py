@@ -82,3 +82,15 @@ def test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts(tmp
         msgs = [(c.topic, json.loads(m.data)) for _, c, m in make_reader(f).iter_messages()]
     assert next(m for t, m in msgs if t == "/run")["planner"] == "mpnet_nr"
     assert len([m for t, m in msgs if t == "/query"]) == 4
+
+
+@pytest.mark.slow  # trains at tiny scale in a subprocess
+def test_bounded_networks_train_on_symmetric_bounds(tmp_path, run_cli):
+    """s2d's bounds are centred on 0: the centred normaliser keeps no offset, and a bounded
+    Pnet's module once refused it ("needs the centred normaliser")."""
+    run_cli(
+        "harness.train", "+env=s2d", "scale=tiny", "+planner=mpnet_nr", "+planner.networks.bounded=true",
+        "progress=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.run.dir={tmp_path / 'r'}",
+    )  # fmt: skip
+    (manifest,) = [json.loads(p.read_text()) for p in (tmp_path / "cache" / "models").glob("*/manifest.json")]
+    assert manifest["config"]["bounded"] is True
