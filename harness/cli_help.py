@@ -24,7 +24,7 @@ class Entry:
     examples: tuple[str, ...]
 
 
-_BENCH_KEYS = ("seed", "budget_s", "splits", "problems", "rerun", "resume", "progress", "cache_dir")
+_BENCH_KEYS = ("seed", "budget_s", "splits", "problems", "problems_per_set", "rerun", "resume", "progress", "cache_dir")
 
 ENTRIES = {
     "harness": Entry(

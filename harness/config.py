@@ -22,6 +22,7 @@ from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
 from mpnet.envs.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
+from mpnet.mbm import is_mbm
 
 # Env knobs that change what the checker answers (envs whose checker samples motions: the
 # arm): they are part of every data and test-set cache key when the env config has them.
@@ -301,6 +302,13 @@ def check_run(cfg: DictConfig) -> None:
         )
     if message := missing_file("problems", cfg.get("problems")):
         raise UsageError(message)
+    if (per_set := cfg.get("problems_per_set")) is not None:
+        _integer("problems_per_set", per_set, 1)
+        if not cfg.get("problems") or not is_mbm(cfg.problems):
+            raise UsageError(
+                "config key problems_per_set: takes the first problems of each MotionBenchMaker problem set; "
+                "give problems=<a folder of them>"
+            )
     if cfg.env.get("scales") is not None and cfg.scale.name not in cfg.env.scales:
         raise UsageError(
             f"config key scale: env {cfg.env.name} has its sizes at scales {', '.join(cfg.env.scales)} "

@@ -154,6 +154,7 @@ class RunSettings:
     budget_s: float
     splits: tuple[str, ...]
     problems: str | None
+    problems_per_set: int | None  # MotionBenchMaker: the first N problems of each set
     rerun: bool
     resume: bool
     progress: bool
@@ -250,6 +251,7 @@ def settings_of(cfg: DictConfig) -> RunSettings:
         budget_s=float(cfg.budget_s),
         splits=tuple(str(s) for s in cfg.splits),
         problems=str(cfg.problems) if cfg.get("problems") else None,
+        problems_per_set=None if cfg.get("problems_per_set") is None else int(cfg.problems_per_set),
         rerun=bool(cfg.rerun),
         resume=bool(cfg.resume),
         progress=bool(cfg.progress),

@@ -155,12 +155,18 @@ def request_states(path: Path) -> tuple[list[float], list[float]]:
         ) from None
 
 
-def load_mbm(path: str | Path, spec: EnvSpec) -> TestSet:
-    """Every scene/request pair under `path` as one workspace and one query each."""
+def load_mbm(path: str | Path, spec: EnvSpec, per_set: int | None = None) -> TestSet:
+    """Every scene/request pair under `path` as one workspace and one query each; per_set:
+    only the first that many of each problem set (folder), by number."""
     if spec.state_dim != len(ARM_JOINTS) or spec.workspace_dim != 3:
         raise ProblemFileError(path, f"MotionBenchMaker's Panda problems need env arm7 or panda_mbm, not {spec.name}")
     workspaces, queries = [], []
+    taken: dict[str, int] = {}
     for pid, scene, request in _pairs(Path(path)):
+        folder = pid.rsplit("/", 1)[0]
+        if per_set is not None and taken.get(folder, 0) >= per_set:
+            continue
+        taken[folder] = taken.get(folder, 0) + 1
         start, goal = request_states(request)
         ws = Workspace(pid, SPLIT, np.zeros((0, 3)), np.zeros((0, 3)), tuple(scene_primitives(scene)))
         workspaces.append(ws)

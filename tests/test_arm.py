@@ -291,6 +291,15 @@ def test_mbm_problems_load_with_their_names(mbm_dir):
     ts = load_mbm(mbm_dir, ARM)
     assert [q.id for q in ts.queries][:2] == ["bookshelf_small_panda/0001", "bookshelf_small_panda/0002"]
     assert len(ts.queries) == 6 and all(q.workspace_id == q.id for q in ts.queries)
+
+
+def test_mbm_problems_per_set_takes_each_sets_first(mbm_dir):
+    """problems_per_set=N: the first N problems of every set by number, not the first N overall."""
+    ts = load_mbm(mbm_dir, ARM, per_set=1)
+    assert [q.id for q in ts.queries] == ["bookshelf_small_panda/0001", "box_panda/0001", "table_pick_panda/0001"]
+    assert [w.id for w in ts.workspaces] == [q.id for q in ts.queries]
+    assert len(load_mbm(mbm_dir / "box_panda", ARM, per_set=1).queries) == 1
+    assert len(load_mbm(mbm_dir, ARM, per_set=5).queries) == 6
     box = next(w for w in ts.workspaces if w.id == "box_panda/0001")
     assert {p.type for p in box.primitives} == {"box", "cylinder"}
     one = load_mbm(mbm_dir / "box_panda", ARM)

@@ -451,6 +451,8 @@ def test_joblib_launcher(tmp_path, run_cli):
         ("env.collision=xyz", "env.collision"),
         ("rerun=maybe", "rerun"),
         ("env.validation_step=0", "env.validation_step"),
+        ("problems_per_set=0", "problems_per_set"),
+        ("problems_per_set=2", "problems_per_set"),  # without a MotionBenchMaker folder
     ],
 )
 def test_bad_config_values(tmp_path, override, key, run_cli):

@@ -69,7 +69,7 @@ def build_testset(run: RunSettings):
     spec = run.env.spec
     if run.problems:
         path = run.problems
-        testset = load_mbm(path, spec) if is_mbm(path) else load_problems(path, spec)
+        testset = load_mbm(path, spec, run.problems_per_set) if is_mbm(path) else load_problems(path, spec)
         if spec.exact_reference:  # exact references cost microseconds: fill the ones the file lacks
             reference_costs(
                 spec,
