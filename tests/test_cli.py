@@ -685,6 +685,25 @@ def test_panda_mbm_variants_run_as_the_arm_page_shows(tmp_path, run_cli, sweeps_
         assert len(queries) == 4 and recheck(msgs) == sum(q["success"] for q in queries)
 
 
+def test_the_arm_in_two_minutes(tmp_path, run_cli, sweeps_cache, mbm_dir):
+    """docs/arm.md's first commands at tiny scale: panda_mbm's MPNet-NR and -HR on the sample
+    problems, one of each set (problems_per_set), every success re-checked."""
+    sweep = tmp_path / "sweep"
+    run_cli(
+        "harness", "-m", "+env=panda_mbm", "+planner=mpnet_nr,mpnet_hr", f"problems={mbm_dir}", "problems_per_set=1",
+        "budget_s=1", "scale=tiny", "rerun=false", "progress=false", f"cache_dir={sweeps_cache}",
+        f"hydra.sweep.dir={sweep}",
+    )  # fmt: skip
+    files = sorted(sweep.rglob("trials.mcap"))
+    assert len(files) == 2
+    for f in files:
+        _, msgs = read_mcap(f)
+        queries = [m for t, m in msgs if t == "/query"]
+        ids = ["bookshelf_small_panda/0001", "box_panda/0001", "table_pick_panda/0001"]
+        assert sorted(q["query_id"] for q in queries) == ids
+        assert recheck(msgs) == sum(q["success"] for q in queries)
+
+
 def test_learning_curve_cli(tmp_path, run_cli, sweeps_cache):
     """The learning-curve experiment narrowed to two training-set sizes (tiny: 2 workspaces x 5
     and x 10 paths), then the learning

@@ -35,6 +35,8 @@ PERF = "tests/test_perf.py::test_perf_writes_every_section"
 SHARDS = "tests/test_cluster.py::test_sharded_data_build_merges_into_the_unsharded_dataset"
 EXPERIMENTS = CLI + "test_the_findings_equal_quality_and_arm7_experiments_run"
 PANDA_MBM = CLI + "test_panda_mbm_variants_run_as_the_arm_page_shows"
+ARM_FIRST = CLI + "test_the_arm_in_two_minutes"
+SUMMARY = "tests/test_summary.py::test_command_writes_both_files_and_refuses_a_readme_without_markers"
 
 # documented command (as documented_commands() normalises it) -> the test that runs it
 TESTED = {
@@ -52,6 +54,7 @@ TESTED = {
     ),
     "python -m harness -m +experiment=table1": TABLE1,
     "python -m harness.report <the sweeps of reports/> --paper --out reports": TABLE1,
+    "python -m harness.report.summary": SUMMARY,
     (
         "PYTHONPATH=$E python -m harness +env=s2d +planner=batch_prm scale=tiny "
         '"hydra.searchpath=[file://$PWD/$E/conf]" hydra.run.dir=runs/prm'
@@ -71,6 +74,10 @@ TESTED = {
     ): ("tests/test_spheres.py::test_sphere_audit_cli"),
     "python -m harness.bench_checkers arm7": CLI + "test_bench_checkers",
     "python -m harness +experiment=arm7": EXPERIMENTS,
+    "python -m harness +env=panda_mbm +planner=mpnet_nr problems=tests/data/mbm": ARM_FIRST,
+    "python -m harness +env=panda_mbm +planner=mpnet_hr problems=tests/data/mbm budget_s=2": ARM_FIRST,
+    "python -m harness +env=panda_mbm +planner=mpnet_nr problems=data/mbm/problems problems_per_set=5": ARM_FIRST,
+    "python -m harness +env=panda_mbm +planner=mpnet_hr problems=data/mbm/problems problems_per_set=5": ARM_FIRST,
     "python -m harness +env=panda_mbm +planner=mpnet_nr problems=data/mbm/problems": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_nr_random problems=data/mbm/problems": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_hr_rrtc": PANDA_MBM,
@@ -234,6 +241,7 @@ FREE_KEYS = {
     "progress",
     "cache_dir",
     "problems",
+    "problems_per_set",
     "out",
     "export_dir",
     "hydra.run.dir",

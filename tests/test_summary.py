@@ -1,0 +1,80 @@
+"""The bottom line (harness.report.summary): generated from the committed reports, and the
+README's copy is the generated one."""
+
+from __future__ import annotations
+
+import csv
+import shutil
+
+import pytest
+
+from harness.report import summary
+
+
+def _block(readme: str) -> str:
+    start, end = readme.index(summary.BEGIN) + len(summary.BEGIN), readme.index(summary.END)
+    return readme[start:end].strip("\n")
+
+
+def test_readme_and_summary_md_are_the_committed_reports(repo):
+    """Fails when a committed report changed and `python -m harness.report.summary` was not rerun."""
+    table = summary.render(repo / "reports")
+    assert _block((repo / "README.md").read_text()) == table.strip("\n")
+    assert (repo / "reports" / "summary.md").read_text() == summary.summary_file(repo / "reports", table)
+
+
+def _copy_reports(repo, tmp_path):
+    for folder in {s.folder for s in summary.SOURCES}:
+        dst = tmp_path / folder
+        dst.mkdir(parents=True)
+        for name in ("results.csv", "README.md"):
+            shutil.copy(repo / "reports" / folder / name, dst / name)
+    return tmp_path
+
+
+def test_a_changed_figure_changes_the_table(repo, tmp_path):
+    reports = _copy_reports(repo, tmp_path / "reports")
+    before = summary.render(reports)
+    path = reports / "stats" / "results.csv"
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    row = next(r for r in rows if (r["env"], r["split"], r["planner"]) == ("s2d", "unseen", "mpnet_nr"))
+    row["successes"] = str(int(row["successes"]) - 100)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    after = summary.render(reports)
+    assert after != before
+    assert _block((repo / "README.md").read_text()) != after.strip("\n")
+
+
+def test_success_counts_valid_queries_only(repo, tmp_path):
+    """MotionBenchMaker's invalid queries (colliding start or goal) are out of the rate, as VAMP counts."""
+    cells = summary.read_rows(repo / "reports")
+    mbm = next(s for s in summary.SOURCES if s.env == "panda_mbm")
+    with open(repo / "reports" / mbm.folder / "results.csv", newline="") as f:
+        row = next(r for r in csv.DictReader(f) if r["planner"] == "bit_star" and r["split"] == mbm.split)
+    invalid = summary._invalid(row["failures"])
+    assert invalid > 0 and cells[mbm]["bit_star"].valid == int(row["queries"]) - invalid
+
+
+def test_command_writes_both_files_and_refuses_a_readme_without_markers(repo, tmp_path, run_cli):
+    """`python -m harness.report.summary` as the README runs it (here on copies)."""
+    reports = _copy_reports(repo, tmp_path / "reports")
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# x\n\n{summary.BEGIN}\nold\n{summary.END}\n\nafter\n")
+    run_cli("harness.report.summary", "--reports", str(reports), "--readme", str(readme))
+    text = readme.read_text()
+    assert "old" not in text and text.endswith(f"{summary.END}\n\nafter\n") and "| env | MPNet-NR" in text
+    assert (reports / "summary.md").read_text().startswith("# Summary")
+    readme.write_text("# no markers\n")
+    assert summary.main(["--reports", str(reports), "--readme", str(readme)]) == 2
+
+
+@pytest.mark.parametrize("folder", sorted({s.folder for s in summary.SOURCES}))
+def test_every_source_report_has_the_planners_it_is_read_for(repo, folder):
+    """Each row's report has at least MPNet-NR and BIT* (a renamed env or split would leave a row of dashes)."""
+    cells = summary.read_rows(repo / "reports")
+    for src in (s for s in summary.SOURCES if s.folder == folder):
+        assert {"mpnet_nr", "bit_star"} <= set(cells[src]), src.label
