@@ -63,6 +63,11 @@ class Cell:
         return self.solved / self.valid if self.valid else 0.0
 
 
+def pct(rate: float) -> str:
+    """A success rate to one decimal (99.8%, not a rounded 100%); exact ends as they are."""
+    return f"{rate:.0%}" if rate in (0.0, 1.0) else f"{rate * 100:.1f}%"
+
+
 def _float(value: str) -> float | None:
     try:
         return float(value)
@@ -102,7 +107,7 @@ def _cell(c: Cell | None) -> str:
         return "—"
     time = "—" if c.time_s is None else f"{c.time_s * 1e3:.2g} ms" if c.time_s < 1 else f"{c.time_s:.2g} s"
     cost = "—" if c.cost is None else f"{c.cost:.2f}"
-    return f"{c.rate:.0%} · {time} · {cost}"
+    return f"{pct(c.rate)} · {time} · {cost}"
 
 
 def _revisions(reports: Path, folders: list[str]) -> list[str]:
@@ -133,7 +138,7 @@ def sentences(rows: dict[Source, dict[str, Cell]]) -> list[str]:
         if not rates:
             return "no runs"
         lo, hi = min(rates), max(rates)
-        return f"{lo:.0%}" if round(lo, 2) == round(hi, 2) else f"{lo:.0%}–{hi:.0%}"
+        return pct(lo) if pct(lo) == pct(hi) else f"{pct(lo)}–{pct(hi)}"
 
     out = [
         f"On the paper's four environments MPNet-HR solves {rng(flat, 'mpnet_hr')} of unseen-workspace queries "
@@ -175,7 +180,7 @@ def _span(xs: list[float]) -> str:
 
 def _rate(cells: dict[str, Cell], planner: str) -> str:
     c = cells.get(planner)
-    return "no runs" if c is None else f"{c.rate:.0%}"
+    return "no runs" if c is None else pct(c.rate)
 
 
 def render(reports: Path) -> str:
