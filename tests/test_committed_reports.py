@@ -82,3 +82,23 @@ def test_no_planner_has_more_runs_than_its_experiment(path):
         con.close()
     over = [(name, n, runcount) for exp, runcount, name, n in per_planner if n > min(runcount, distinct[exp])]
     assert over == []
+
+
+RESULTS = sorted((REPO_ROOT / "reports").rglob("results.csv"))
+
+
+@pytest.mark.parametrize("path", RESULTS, ids=[str(p.parent.relative_to(REPO_ROOT)) for p in RESULTS])
+def test_every_report_says_how_its_successes_were_rechecked(path):
+    """Each report folder has recheck.md: `python -m harness.recheck`'s "N successes, N verified"
+    over as many successes as its results.csv counts, or why its logs cannot be re-checked."""
+    import csv
+    import re
+
+    text = (path.parent / "recheck.md").read_text()
+    with open(path, newline="") as f:
+        successes = sum(int(r["successes"]) for r in csv.DictReader(f))
+    if "**Not re-checkable**" in text:
+        assert f"({successes} successes in its results.csv" in text
+        return
+    m = re.search(r"\*\*(\d+) successes, (\d+) verified\*\*", text)
+    assert m and int(m.group(1)) == int(m.group(2)) == successes
