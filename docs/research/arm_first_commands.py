@@ -22,9 +22,8 @@ import sys
 import time
 from pathlib import Path
 
-from mcap.reader import make_reader
-
 from harness.provenance import machine_info
+from harness.report.load import read_trials
 
 SAMPLE = "tests/data/mbm"
 
@@ -64,12 +63,11 @@ def run(folder: Path, overrides: list[str], env: dict) -> dict:
 
 def tally(folder: Path) -> tuple[int, int, int, str]:
     """(solved, valid, problems, revision) from the run's log."""
-    with open(folder / "trials.mcap", "rb") as f:
-        msgs = [(c.topic, json.loads(m.data)) for _, c, m in make_reader(f).iter_messages(topics=["/run", "/query"])]
-    queries = [m for t, m in msgs if t == "/query"]
-    valid = [q for q in queries if q.get("failure") != "invalid_query"]
-    rev = next(m for t, m in msgs if t == "/run")["git_rev"]
-    return sum(bool(q["success"]) for q in queries), len(valid), len(queries), rev
+    tf, warning = read_trials(folder / "trials.mcap")
+    if tf is None:
+        raise SystemExit(warning)
+    valid = [q for q in tf.queries if q.get("failure") != "invalid_query"]
+    return sum(bool(q["success"]) for q in tf.queries), len(valid), len(tf.queries), tf.run["git_rev"]
 
 
 def main() -> None:
