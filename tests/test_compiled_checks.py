@@ -14,6 +14,7 @@ from mpnet.envs import point_kernels as P
 from mpnet.envs import rigid_kernels as R
 from mpnet.envs.generators import make_workspace
 from mpnet.envs.specs import get_spec
+from mpnet.planners.compiled import kernel_env
 
 
 def _points(rng, checker, n):
@@ -36,7 +37,8 @@ def test_the_kernels_answer_as_the_checker(env, index, seed):
     a, b = _points(rng, checker, 400), _points(rng, checker, 400)
     still = rng.random(a.shape) < 0.2  # a coordinate that does not move
     b = np.where(still, a, b)
-    args = (checker.lo, checker.hi, spec.space.lower, spec.space.upper)
+    _, _, _, lo, hi, lower, upper, _ = kernel_env(checker)  # the compiled planner's own arrays
+    args = (lo, hi, lower, upper)
     d = np.empty(spec.state_dim)
     for x, y in zip(a, b):
         assert P.state_free(x, *args) == checker.is_valid(x.tolist())
@@ -66,9 +68,7 @@ def test_a_segment_along_a_face_and_a_point_on_a_corner_collide(env):
 def test_the_rigid_kernels_answer_as_the_checker(index, seed):
     spec = get_spec("rigid")
     c = spec.make_checker(make_workspace(spec, index, "train" if index < 100 else "unseen"))
-    floats = np.array([c.hx, c.hy, c.radius, c.margin, c._x0, c._x1, c._y0, c._y1])
-    centres, halves = np.array([b[:2] for b in c._boxes]), np.array([b[2:] for b in c._boxes])
-    near = np.empty(len(centres), np.int64)
+    _, near, floats, centres, halves, *_ = kernel_env(c)  # the compiled planner's own arrays
     rng = np.random.default_rng(seed)
     for _ in range(300):
         a = spec.space.sample(rng)

@@ -211,15 +211,48 @@ def test_batch_and_single_calls_agree(mbm_dir):
     assert list(ch.motions_valid(a, b)) == [ch.motion_valid(x, y) for x, y in zip(a.tolist(), b.tolist())]
 
 
-def test_an_unknown_or_broken_model_is_named(tmp_path):
+def _model_copy(tmp_path, monkeypatch):
+    """The package's robot descriptions copied into tmp_path, which load_arm_model then reads."""
+    from mpnet.envs import arm_model
+
+    for f in arm_model._data_dir().iterdir():
+        if f.is_file():
+            (tmp_path / f.name).write_bytes(f.read_bytes())
+    monkeypatch.setattr(arm_model, "_data_dir", lambda: tmp_path)
+    return tmp_path
+
+
+def test_an_unknown_or_broken_model_is_named(tmp_path, monkeypatch):
     with pytest.raises(ArmModelError, match="unknown arm model 'nope'; choices: panda"):
         load_arm_model("nope")
+    folder = _model_copy(tmp_path, monkeypatch)
+    desc = folder / "panda.yaml"
+    text = desc.read_text()
+    desc.write_text(text.replace("end_effector:", "end_effectr:"))
+    read = load_arm_model.__wrapped__  # the uncached reader: the package's model stays cached
+    with pytest.raises(ArmModelError, match=r"panda.yaml: missing or malformed key 'end_effector'"):
+        read("panda")
+    desc.write_text(text.replace("  - [-2.8973, 2.8973]\n", "  - [2.8973, -2.8973]\n", 1))
+    with pytest.raises(ArmModelError, match="panda.yaml: limits must be one"):
+        read("panda")
 
 
-def test_the_model_digest_names_both_files():
+def test_the_model_digest_names_both_files(tmp_path, monkeypatch):
+    """The digest is sha256 of the description then the sphere file; an edit of either changes it."""
     digest = MODEL.digest()
     assert len(digest) == 16 and MODEL.to_json()["sha256"] == digest
     assert json.loads(json.dumps(MODEL.to_json()))["fingers"]["panda_finger_joint1"] == 0.065
+    folder = _model_copy(tmp_path, monkeypatch)
+    both = (folder / "panda.yaml").read_bytes() + (folder / MODEL.spheres).read_bytes()
+    assert digest == hashlib.sha256(both).hexdigest()[:16]
+    seen = {digest}
+    for name in ("panda.yaml", MODEL.spheres):
+        f = folder / name
+        before = f.read_bytes()
+        f.write_bytes(before + b"\n")
+        seen.add(MODEL.digest())
+        f.write_bytes(before)
+    assert len(seen) == 3 and MODEL.digest() == digest
 
 
 def test_a_log_names_the_model_it_was_judged_with():
