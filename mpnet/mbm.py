@@ -25,7 +25,6 @@ from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.workspace import Query, Workspace
 from mpnet.problems import SPLIT, ProblemFileError
 
-ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 _SCENE = re.compile(r"scene(\d+)\.ya?ml$")
 
 
@@ -139,26 +138,29 @@ def scene_primitives(path: Path) -> list[Primitive]:
     return out
 
 
-def request_states(path: Path) -> tuple[list[float], list[float]]:
-    """(start, goal) joint vectors of the 7 arm joints of a MoveIt motion plan request."""
+def request_states(path: Path, joints: tuple[str, ...]) -> tuple[list[float], list[float]]:
+    """(start, goal) vectors of the planned joints (the arm model's, by name) of a MoveIt
+    motion plan request."""
     doc = _load_yaml(path)
     try:
         js = doc["start_state"]["joint_state"]
         named = dict(zip(js["name"], js["position"]))
-        start = [float(named[j]) for j in ARM_JOINTS]
+        start = [float(named[j]) for j in joints]
         goal_by = {c["joint_name"]: float(c["position"]) for c in doc["goal_constraints"][0]["joint_constraints"]}
-        goal = [goal_by[j] for j in ARM_JOINTS]
+        goal = [goal_by[j] for j in joints]
         return start, goal
     except (KeyError, TypeError, ValueError, IndexError) as e:
+        what = f"{type(e).__name__}: {e}"
         raise ProblemFileError(
-            path, f"not a MoveIt request with the Panda's 7 joints in start and goal ({type(e).__name__}: {e})"
+            path, f"not a MoveIt request with the arm's {len(joints)} joints in start and goal ({what})"
         ) from None
 
 
 def load_mbm(path: str | Path, spec: EnvSpec, per_set: int | None = None) -> TestSet:
     """Every scene/request pair under `path` as one workspace and one query each; per_set:
     only the first that many of each problem set (folder), by number."""
-    if spec.state_dim != len(ARM_JOINTS) or spec.workspace_dim != 3:
+    model = getattr(spec.robot, "model", None)  # an arm's: its planned joints name the request's
+    if model is None or spec.workspace_dim != 3:
         raise ProblemFileError(path, f"MotionBenchMaker's Panda problems need env arm7 or panda_mbm, not {spec.name}")
     workspaces, queries = [], []
     taken: dict[str, int] = {}
@@ -167,7 +169,7 @@ def load_mbm(path: str | Path, spec: EnvSpec, per_set: int | None = None) -> Tes
         if per_set is not None and taken.get(folder, 0) >= per_set:
             continue
         taken[folder] = taken.get(folder, 0) + 1
-        start, goal = request_states(request)
+        start, goal = request_states(request, model.joints)
         ws = Workspace(pid, SPLIT, np.zeros((0, 3)), np.zeros((0, 3)), tuple(scene_primitives(scene)))
         workspaces.append(ws)
         queries.append(Query(pid, pid, SPLIT, start, goal))

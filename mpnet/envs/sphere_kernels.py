@@ -43,7 +43,7 @@ PAIR_TABLE, TABLE_I, TABLE_F, TABLE_BITS = 23, 24, 25, 26
 @njit(cache=True)
 def unpack(mi, mf):
     """The model's arrays as views of its two packed arrays (one int64, one float64: two
-    arguments dispatch from Python in well under a microsecond, a tuple of 23 does not)."""
+    arguments dispatch from Python in well under a microsecond, a tuple of 27 does not)."""
     F, L, G, S, P, D, first, T = mi[0], mi[1], mi[2], mi[3], mi[4], mi[5], mi[6], mi[7]
     o = HEAD
     parent, kind, coord = mi[o : o + F], mi[o + F : o + 2 * F], mi[o + 2 * F : o + 3 * F]
