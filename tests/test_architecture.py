@@ -90,6 +90,19 @@ def test_the_robot_kind_is_asked_only_of_its_classes(repo):
     assert hits == []
 
 
+def test_no_planner_names_a_checker_class_or_its_private_fields(repo):
+    """Planners reach a robot through CollisionChecker's interface only (its compiled form
+    included: compiled_env); a robot kind of one's own needs no planner edit."""
+    pattern = re.compile(r"\b(?!CollisionChecker\b)\w+Checker\b|\b(checker|raw|c|ch)\._\w")
+    hits = [
+        f"{p.relative_to(repo)}:{i}: {line.strip()}"
+        for p in sorted((repo / "mpnet" / "planners").glob("*.py"))
+        for i, line in enumerate(p.read_text().splitlines(), 1)
+        if pattern.search(line)
+    ]
+    assert hits == []
+
+
 def test_ruff_clean(repo):
     """Lint and format as configured in pyproject.toml (ruff is a dev dependency)."""
     for args in (["check", "."], ["format", "--check", "."]):

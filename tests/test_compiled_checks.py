@@ -76,3 +76,20 @@ def test_the_rigid_kernels_answer_as_the_checker(index, seed):
         b[2] = rng.uniform(-np.pi, np.pi)
         assert R.state_free(a, centres, halves, floats) == c.is_valid(a.tolist())
         assert R.motion_free(a, b, centres, halves, floats, near) == c.motion_valid(a.tolist(), b.tolist())
+
+
+def test_a_checker_that_changes_the_geometry_has_no_compiled_form():
+    """Its parent's kernels would answer for other geometry (fcl's rigid checker is such a
+    subclass): a subclass that overrides a check and not compiled_env has none."""
+    from mpnet.envs.collision import PointChecker
+    from mpnet.envs.rigid import FclRigidChecker, RigidChecker
+
+    class Everywhere(PointChecker):
+        def _state_free(self, q) -> bool:
+            return True
+
+    spec = get_spec("s2d")
+    checker = Everywhere(spec, make_workspace(spec, 0, "train"))
+    assert PointChecker.compiled and RigidChecker.compiled and not Everywhere.compiled and not FclRigidChecker.compiled
+    with pytest.raises(ValueError, match="no kernels for Everywhere"):
+        kernel_env(checker)

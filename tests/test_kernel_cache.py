@@ -98,6 +98,7 @@ def test_the_repository_kernels_reach_what_they_inline():
     root = jit.ROOT
     reach = lambda m: {p.relative_to(root).as_posix() for p in jit.reach(root / m)}  # noqa: E731
     assert {
+        "envs/compiled_env.py",
         "envs/point_kernels.py",
         "envs/rigid_kernels.py",
         "envs/sphere_checks.py",

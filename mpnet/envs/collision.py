@@ -26,6 +26,9 @@ from mpnet.envs.workspace import Workspace
 PLANNING_MARGIN = 1e-6
 
 
+GEOMETRY = ("_state_free", "_motion_free", "_states_free", "_motions_free")  # what a checker answers with
+
+
 class CollisionChecker(ABC):
     """The public interface every planner uses: single and batch state and motion checks,
     each counted. Subclasses implement the geometry (`_state_free`, `_motion_free`,
@@ -45,6 +48,22 @@ class CollisionChecker(ABC):
         self._upper = spec.space.upper
         self.state_checks = 0
         self.motion_checks = 0
+
+    compiled = False  # whether compiled_env gives the compiled planner this checker's form
+
+    def compiled_env(self) -> tuple:
+        """This checker's geometry as the compiled planner's `env` tuple (mpnet.envs.compiled_env):
+        the one interface through which the planner reaches a robot's kernels."""
+        raise ValueError(f"the compiled planner has no kernels for {type(self).__name__}")
+
+    def __init_subclass__(cls, **kwargs):
+        """A subclass that changes the geometry (fcl's rigid checker) and not the compiled form
+        has none: its parent's kernels would answer for other geometry, silently."""
+        super().__init_subclass__(**kwargs)
+        own = vars(cls)
+        if "compiled_env" not in own and any(k in own for k in GEOMETRY):
+            cls.compiled = False
+            cls.compiled_env = CollisionChecker.compiled_env
 
     @property
     def checks(self) -> int:
@@ -122,6 +141,16 @@ class SampledConfigurations(CollisionChecker):
 
 class PointChecker(CollisionChecker):
     """A point robot in 2D or 3D: a point collides when it lies in a closed box."""
+
+    compiled = True
+
+    def compiled_env(self) -> tuple:
+        from mpnet.envs.compiled_env import POINT  # numba's kernels load with the compiled planner only
+
+        d = self.spec.state_dim
+        lo, hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (self.lo, self.hi))
+        lower, upper = (np.ascontiguousarray(v, float) for v in (self.spec.space.lower, self.spec.space.upper))
+        return (POINT, np.zeros(0, np.int64), np.zeros(0), lo, hi, lower, upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         super().__init__(spec, ws, margin)

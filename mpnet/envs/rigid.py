@@ -23,6 +23,17 @@ class RigidChecker(CollisionChecker):
     """
 
     MAX_STEPS = 20000
+    compiled = True
+
+    def compiled_env(self) -> tuple:
+        from mpnet.envs.compiled_env import RIGID  # numba's kernels load with the compiled planner only
+
+        floats = np.array([self.hx, self.hy, self.radius, self.margin, self._x0, self._x1, self._y0, self._y1], float)
+        centres = np.array([b[:2] for b in self._boxes], float).reshape(-1, 2)
+        halves = np.array([b[2:] for b in self._boxes], float).reshape(-1, 2)
+        lower, upper = (np.ascontiguousarray(v, float) for v in (self.spec.space.lower, self.spec.space.upper))
+        d = self.spec.state_dim
+        return (RIGID, np.empty(len(centres), np.int64), floats, centres, halves, lower, upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         super().__init__(spec, ws, margin)

@@ -273,6 +273,16 @@ class SphereChecker(SampledConfigurations):
     # Bumped whenever a change can change an answer (the motion bound, the tests): it is in
     # every arm cache key, so data built by another version is rebuilt, never reused.
     VERSION = 2  # 2: pair tables (a motion NEAR by the growth bound can be free by a table)
+    compiled = True
+
+    def compiled_env(self) -> tuple:
+        """The sphere model's arrays; one field more than the box robots' (mpnet.envs.compiled_env:
+        the arm's kernels compile apart)."""
+        from mpnet.envs.compiled_env import ARM
+
+        mi, mf, ob, lo_, up_ = self._args
+        status = np.array([[CERTIFY_TOL, 1.0 if self.base_blocked else 0.0]])
+        return (ARM, mi, mf, np.ascontiguousarray(ob, float)[None], status, lo_, up_, self._buf, np.zeros(0, np.int8))
 
     def __init__(self, spec, ws: Workspace, margin: float):
         super().__init__(spec, ws, margin)

@@ -17,9 +17,6 @@ from itertools import repeat
 
 import numpy as np
 
-from mpnet.envs.collision import PointChecker
-from mpnet.envs.rigid import RigidChecker
-from mpnet.envs.spheres import CERTIFY_TOL, SphereChecker
 from mpnet.models.enet_kernel import EnetKernel
 from mpnet.models.numpy_nets import NumpyEnet
 from mpnet.models.pnet_kernel import PnetKernel
@@ -28,35 +25,19 @@ from mpnet.planners.base import Problem, Result
 from mpnet.planners.neural import MPNetPlanner, repair_path
 
 PROPOSAL_KINDS = {"pnet": K.PNET, "random": K.RANDOM, "random_any": K.RANDOM_ANY, "straight": K.STRAIGHT}
-COMPILED_CHECKERS = (PointChecker, RigidChecker, SphereChecker)  # the checkers compiled_kernels has kernels for
 
 
 def supports(spec, backend: str | None = None) -> bool:
-    """Whether the env's checker of this collision backend (None: the robot's default) has
-    compiled kernels."""
+    """Whether the env's checker of this collision backend (None: the robot's default) has a
+    compiled form (CollisionChecker.compiled)."""
     robot = spec.robot
-    return robot.checkers.get(backend or robot.default_backend) in COMPILED_CHECKERS
+    checker = robot.checkers.get(backend or robot.default_backend)
+    return bool(getattr(checker, "compiled", False))
 
 
 def kernel_env(checker) -> tuple:
-    """The checker's geometry as the compiled planner's `env` tuple (compiled_kernels)."""
-    d = checker.spec.state_dim
-    lower, upper = (np.ascontiguousarray(v, float) for v in (checker.spec.space.lower, checker.spec.space.upper))
-    if type(checker) is PointChecker:
-        lo, hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (checker.lo, checker.hi))
-        return (K.POINT, np.zeros(0, np.int64), np.zeros(0), lo, hi, lower, upper, np.empty(d))
-    if type(checker) is RigidChecker:
-        c = checker
-        floats = np.array([c.hx, c.hy, c.radius, c.margin, c._x0, c._x1, c._y0, c._y1], float)
-        centres = np.array([b[:2] for b in c._boxes], float).reshape(-1, 2)
-        halves = np.array([b[2:] for b in c._boxes], float).reshape(-1, 2)
-        return (K.RIGID, np.empty(len(centres), np.int64), floats, centres, halves, lower, upper, np.empty(d))
-    if type(checker) is SphereChecker:
-        mi, mf, ob, lo_, up_ = checker._args
-        status = np.array([[CERTIFY_TOL, 1.0 if checker.base_blocked else 0.0]])
-        arm = np.zeros(0, np.int8)  # K.ARM_FIELDS: the arm's kernels compile apart from the box robots'
-        return (K.ARM, mi, mf, np.ascontiguousarray(ob, float)[None], status, lo_, up_, checker._buf, arm)
-    raise ValueError(f"the compiled planner has no kernels for {type(checker).__name__}")
+    """The checker's compiled form, the compiled planner's `env` tuple (compiled_kernels)."""
+    return checker.compiled_env()
 
 
 class CompiledMPNetPlanner(MPNetPlanner):

@@ -7,13 +7,9 @@ same checks in the same order through the same memo (a motion's verdict is remem
 first time it is computed, by the one-motion or the batch test, as MotionMemo does), so the
 same paths and the same check counts.
 
-An env's checks come as one tuple of arrays (`env`: kind, ints, floats, lo, hi, lower, upper,
-scratch): kind POINT is the point robot's boxes (lo, hi; mpnet.envs.point_kernels), RIGID the
-rectangle's (box centres and halves in lo, hi, the body and bounds in floats, ints scratch;
-mpnet.envs.rigid_kernels): one compilation, cached on disk, serves both. ARM is the sphere
-model's (its packed ints and floats, the packed obstacles as lo's one row, hi's one row (certify
-tolerance, base blocked), its scratch, and one field more, so that the kernels compile apart for
-it; mpnet.envs.sphere_checks, which counts the configurations it evaluates in counts[2]).
+An env's checks come as one tuple of arrays (`env`), the checker's compiled form
+(`CollisionChecker.compiled_env`); the checks and the state space's wrap on it are
+mpnet.envs.compiled_env's, which picks each robot kind's kernels: nothing here knows a robot.
 
 The memo is an open-addressing table (keys (cap, 2d), verdicts int8: -1 empty, 0, 1) keyed
 by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of tuples).
@@ -22,15 +18,11 @@ by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of 
 from __future__ import annotations
 
 import numpy as np
-from numba.extending import overload
 
-from mpnet.envs import point_kernels as P
-from mpnet.envs import rigid_kernels as R
-from mpnet.envs import sphere_checks as S
+from mpnet.envs.compiled_env import bounded_dims, canonical, motion_free, motions_free, state_free, wrap_difference
 from mpnet.jit import njit
 from mpnet.models.pnet_kernel import pnet_rows, pnet_step
 
-POINT, RIGID, ARM = 0, 1, 2
 PNET, RANDOM, RANDOM_ANY, STRAIGHT = 0, 1, 2, 3  # mpnet.planners.neural.PROPOSALS, in order
 RANDOM_TRIES = 1000  # neural.random_valid_state's tries
 MEMO_BITS = 15  # 32768 motions per query; past 70% full, new verdicts are not remembered
@@ -38,109 +30,6 @@ MEMO_BITS = 15  # 32768 motions per query; past 70% full, new verdicts are not r
 
 def new_memo(state_dim: int, bits: int = MEMO_BITS):
     return np.empty((1 << bits, 2 * state_dim)), np.full(1 << bits, -1, np.int8), np.zeros(1, np.int64)
-
-
-# The env's checks, one implementation per env layout, chosen when a kernel is compiled (typing
-# time): the arm's env has one field more (ARM_FIELDS), so every kernel compiles apart for the
-# box robots (point, rigid: a kind test between two small checks) and for the arm (the sphere
-# model). A cold cache then compiles only what the env planned on needs: the sphere model's
-# checks inlined into every kernel tripled a point robot's first compilation.
-BOX_FIELDS, ARM_FIELDS = 8, 9
-
-
-def _state(env, counts, q):
-    """Whether the state is free (the env's checker's _state_free); typed by the overload below."""
-    raise NotImplementedError("compiled only")
-
-
-def _motion(env, counts, a, b):
-    """Whether the motion is free (the env's checker's _motion_free); typed by the overload below."""
-    raise NotImplementedError("compiled only")
-
-
-def _motions(env, counts, A, B, out):
-    """out[i]: whether motion i is free (the env's checker's _motions_free); typed by the overload."""
-    raise NotImplementedError("compiled only")
-
-
-def _is_arm(env) -> bool:
-    return len(env.types) == ARM_FIELDS
-
-
-@overload(_state)
-def _state_typed(env, counts, q):
-    if _is_arm(env):
-
-        def arm(env, counts, q):  # SphereChecker._state_free
-            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-            counts[2] += 1
-            return hi[0, 1] == 0.0 and S.state_free(q, ints, floats, lo[0], lower, upper, scratch)
-
-        return arm
-
-    def boxes(env, counts, q):
-        kind, ints, floats, lo, hi, lower, upper, scratch = env
-        if kind == POINT:
-            return P.state_free(q, lo, hi, lower, upper)
-        return R.state_free(q, lo, hi, floats)
-
-    return boxes
-
-
-@overload(_motion)
-def _motion_typed(env, counts, a, b):
-    if _is_arm(env):
-
-        def arm(env, counts, a, b):  # SphereChecker._motion_free
-            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-            if hi[0, 1] != 0.0:
-                return False
-            ok, n = S.motion_free(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-            counts[2] += n
-            return ok
-
-        return arm
-
-    def boxes(env, counts, a, b):
-        kind, ints, floats, lo, hi, lower, upper, scratch = env
-        if kind == POINT:
-            return P.motion_free(a, b, lo, hi, lower, upper, scratch)
-        return R.motion_free(a, b, lo, hi, floats, ints)
-
-    return boxes
-
-
-@overload(_motions)
-def _motions_typed(env, counts, A, B, out):
-    if _is_arm(env):
-
-        def arm(env, counts, A, B, out):  # SphereChecker._motions_free
-            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-            if hi[0, 1] != 0.0:
-                out[:] = False
-                return
-            res, n = S.motions_free(A, B, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-            out[:] = res
-            counts[2] += n
-
-        return arm
-
-    def boxes(env, counts, A, B, out):
-        kind, ints, floats, lo, hi, lower, upper, scratch = env
-        if kind == POINT:
-            P.motions_free(A, B, lo, hi, lower, upper, out)
-        else:  # the rigid checker's batch is its one-motion test in a loop (CollisionChecker)
-            for i in range(A.shape[0]):
-                out[i] = R.motion_free(A[i], B[i], lo, hi, floats, ints)
-
-    return boxes
-
-
-@njit(cache=True)
-def _canonical(env, q):
-    """The state space's wrap of a Pnet proposal (SE2: the angle into [-pi, pi))."""
-    if env[0] == RIGID:
-        q[2] = R.wrap_angle(q[2])
 
 
 @njit(cache=True)
@@ -190,7 +79,7 @@ def _remember(memo, slot, a, b, ok):
 @njit(cache=True)
 def is_valid(env, counts, q):
     counts[0] += 1
-    return _state(env, counts, q)
+    return state_free(env, counts, q)
 
 
 @njit(cache=True)
@@ -200,7 +89,7 @@ def motion_valid(env, memo, counts, a, b):
     if v != -1:
         return v == 1
     counts[1] += 1
-    ok = _motion(env, counts, a, b)
+    ok = motion_free(env, counts, a, b)
     _remember(memo, slot, a, b, ok)
     return ok
 
@@ -223,7 +112,7 @@ def motions_valid(env, memo, counts, A, B, out):
     for r in range(m):
         TA[r], TB[r] = A[todo[r]], B[todo[r]]
     counts[1] += m
-    _motions(env, counts, TA, TB, fresh)
+    motions_free(env, counts, TA, TB, fresh)
     for r in range(m):
         i = todo[r]
         out[i] = fresh[r]
@@ -277,10 +166,9 @@ def _sample(rng, lower, upper, q):
 def _settle(env, prop, new):
     """A Pnet proposal into canonical coordinates: wrapped, or clipped into the bounds (prop's clip)."""
     _, clip, _, lower, upper, _ = prop
-    _canonical(env, new)
+    canonical(env, new)
     if clip:
-        bounded = 2 if env[0] == RIGID else new.shape[0]
-        for k in range(bounded):
+        for k in range(bounded_dims(env, new.shape[0])):
             new[k] = min(max(new[k], lower[k]), upper[k])
 
 
@@ -307,15 +195,14 @@ def _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new):
         _sample(rng, lower, upper, new)
     else:  # STRAIGHT
         d = target - x
-        if env[0] == RIGID:
-            d[2] = R.wrap_angle(d[2])
+        wrap_difference(env, d)
         v = d / half
         norm = np.sqrt(np.dot(v, v))
         if norm <= length:
             new[:] = x + d
         else:
             new[:] = x + d * (length / norm)
-        _canonical(env, new)
+        canonical(env, new)
 
 
 @njit(cache=True)
