@@ -7,19 +7,12 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
+from harness.log.schemas import QUERY_FIELDS, query_columns
+
 CSV_NAME = "queries.csv"
-# Scalar columns of queries.csv that always come first, in this order.
-CSV_FIXED = (
-    "query_id",
-    "workspace_id",
-    "split",
-    "success",
-    "failure",
-    "time_s",
-    "cpu_s",
-    "path_cost",
-    "collision_checks",
-)
+# Scalar columns of queries.csv that always come first, in this order: the required /query
+# fields a column holds (the schema's).
+CSV_FIXED = tuple(f for f in QUERY_FIELDS if f in query_columns())
 _NON_CSV = frozenset(("start", "goal", "path", "partial"))
 
 

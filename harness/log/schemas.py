@@ -170,6 +170,7 @@ QUERY_SCHEMA = {
             "states each. null or absent for a success",
         },
         "time_s": {"type": ["number", "null"], "description": "Wall-clock planning time (null if not finite)"},
+        "plan_s": {"type": ["number", "null"], "description": "time_s less MPNet's encoding (encode_s)"},
         "cpu_s": {"type": ["number", "null"]},
         "path_cost": {"type": ["number", "null"]},
         "collision_checks": {"type": ["integer", "null"]},
@@ -178,6 +179,14 @@ QUERY_SCHEMA = {
         "pnet_calls": {"type": ["integer", "null"]},
         "replans": {"type": ["integer", "null"]},
         "fallback_used": {"type": ["boolean", "null"]},
+        "reference_cost": {"type": ["number", "null"], "description": "the test set's reference path cost"},
+        "target_planner": {"type": ["string", "null"], "description": "time to equal quality: the target's planner"},
+        "target_cost": {"type": ["number", "null"], "description": "time to equal quality: the cost to reach"},
+        "target_time_s": {"type": ["number", "null"], "description": "time to equal quality: the target's time"},
+        "configurations_checked": {"type": ["integer", "null"], "description": "the arm: sphere-model evaluations"},
+        "encode_s": {"type": ["number", "null"], "description": "MPNet: the workspace's encoding (cloud, Enet)"},
+        "pnet_s": {"type": ["number", "null"], "description": "MPNet: NeuralPlanner runs (Pnet and steerTo)"},
+        "fallback_s": {"type": ["number", "null"], "description": "MPNet-HR: the classical planner's time"},
         "planner_status": {"type": ["string", "null"]},
         "best_cost": {"type": ["number", "null"], "description": "OMPL's optimizing planners: the best cost found"},
         "progress": {
@@ -195,6 +204,22 @@ QUERY_SCHEMA = {
     },
     "required": list(QUERY_FIELDS),
 }
+
+
+SCALAR_TYPES = frozenset(("string", "number", "integer", "boolean"))
+
+
+def query_columns(*types: str) -> tuple[str, ...]:
+    """The /query fields of these JSON types (null aside; none given: every scalar type), in the
+    schema's order: the one list the CSV, the report's frame and the Planner Arena export read."""
+    want = frozenset(types) or SCALAR_TYPES
+    out = []
+    for name, prop in QUERY_SCHEMA["properties"].items():
+        t = prop.get("type")
+        kinds = ({t} if isinstance(t, str) else set(t or ())) - {"null"}
+        if kinds and kinds <= want:
+            out.append(name)
+    return tuple(out)
 
 
 def scene_update_schema(inline: bool = False) -> dict:

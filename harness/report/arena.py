@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from harness.log import run_segments
+from harness.log.schemas import query_columns
 from harness.report.facts import Facts, logged_facts
 from harness.report.load import TrialFile, run_seed
 
@@ -322,15 +323,7 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 "replans": d["replans"].fillna(0),
                 "fallback_used": d["fallback_used"].fillna(0),
             }
-            ints = {
-                "solution_segments",
-                "collision_checks",
-                "state_checks",
-                "motion_checks",
-                "pnet_calls",
-                "replans",
-                "fallback_used",
-            }
+            ints = {"solution_segments", "fallback_used", *query_columns("integer")}
             data = [[exp_id] * len(d), [file_config[f] for f in d["file"]]]
             for name, _ in _RUN_COLUMNS:
                 v = np.asarray(cols[name], dtype=object)

@@ -14,6 +14,7 @@ import pandas as pd
 
 from harness.log import MCAP_NAME, read_log
 from harness.log.facts import network_variant
+from harness.log.schemas import query_columns
 from harness.report.names import env_rank, labelled
 
 __all__ = [
@@ -27,31 +28,8 @@ __all__ = [
     "run_seed",
 ]
 
-QUERY_COLS = (
-    "query_id",
-    "workspace_id",
-    "split",
-    "success",
-    "failure",
-    "time_s",
-    "plan_s",
-    "cpu_s",
-    "path_cost",
-    "collision_checks",
-    "state_checks",
-    "motion_checks",
-    "pnet_calls",
-    "replans",
-    "fallback_used",
-    "reference_cost",
-    "target_planner",
-    "target_cost",
-    "target_time_s",
-    "configurations_checked",
-    "encode_s",
-    "pnet_s",
-    "fallback_s",
-)
+QUERY_COLS = query_columns()  # the /query fields a table holds, as the log's schema types them
+NUMBER_COLS = query_columns("number", "integer")
 
 
 @dataclass
@@ -212,24 +190,7 @@ def queries_frame(files: list[TrialFile]) -> pd.DataFrame:
         df = pd.DataFrame.from_records(tf.queries, columns=list(QUERY_COLS))
         df["success"] = [_flag(v) == 1.0 for v in df["success"]]
         df["fallback_used"] = [_flag(v) for v in df["fallback_used"]]
-        for c in (
-            "time_s",
-            "plan_s",
-            "cpu_s",
-            "path_cost",
-            "collision_checks",
-            "state_checks",
-            "motion_checks",
-            "pnet_calls",
-            "replans",
-            "reference_cost",
-            "target_cost",
-            "target_time_s",
-            "configurations_checked",
-            "encode_s",
-            "pnet_s",
-            "fallback_s",
-        ):
+        for c in NUMBER_COLS:
             df[c] = _numbers(df[c])
         df["target_planner"] = [v if isinstance(v, str) else None for v in df["target_planner"]]
         for c in ("query_id", "workspace_id", "split"):
