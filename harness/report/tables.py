@@ -23,6 +23,17 @@ from harness.report.stats import (
     wilson,
 )
 
+# A row's test against its comparator (Facts.comparator); an ablation's against its base.
+_VS_COLS = [
+    "success_p_vs",
+    "success_diff_significant",
+    "time_ratio_vs",
+    "time_ratio_vs_ci_low",
+    "time_ratio_vs_ci_high",
+    "time_diff_significant",
+]
+COMPARISON_COLS = ["comparator", *_VS_COLS]
+
 RESULT_COLS = KEYS + [
     "queries",
     "seeds",
@@ -58,13 +69,7 @@ RESULT_COLS = KEYS + [
     "pnet_calls_median",
     "replans_mean",
     "fallback_rate",
-    "comparator",
-    "success_p_vs",
-    "success_diff_significant",
-    "time_ratio_vs",
-    "time_ratio_vs_ci_low",
-    "time_ratio_vs_ci_high",
-    "time_diff_significant",
+    *COMPARISON_COLS,
     "failures",
 ]
 
@@ -189,18 +194,7 @@ def _compare(res: pd.DataFrame, keys: list[tuple], draws: dict, facts: Facts) ->
     success by Fisher's exact test, median time by the bootstrap interval of the ratio of
     medians (the two rows resampled independently); significant at ALPHA."""
     row = {k: i for i, k in enumerate(keys)}
-    out = {
-        c: [None] * len(keys)
-        for c in (
-            "comparator",
-            "success_p_vs",
-            "success_diff_significant",
-            "time_ratio_vs",
-            "time_ratio_vs_ci_low",
-            "time_ratio_vs_ci_high",
-            "time_diff_significant",
-        )
-    }
+    out = {c: [None] * len(keys) for c in COMPARISON_COLS}
     k_, n_, med = res["successes"].tolist(), res["queries"].tolist(), res["time_median_s"].tolist()
     for i, (env, split, planner) in enumerate(keys):
         c = facts.comparator(planner)
@@ -399,14 +393,6 @@ ABLATION_COLS = [
     "quality_median",
     "cost_over_bit_star_n",
     "cost_over_bit_star_median",
-]
-_VS_COLS = [
-    "success_p_vs",
-    "success_diff_significant",
-    "time_ratio_vs",
-    "time_ratio_vs_ci_low",
-    "time_ratio_vs_ci_high",
-    "time_diff_significant",
 ]
 
 
