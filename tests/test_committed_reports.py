@@ -48,7 +48,7 @@ def test_a_committed_database_loads_with_named_statuses_and_progress(path):
 # Databases written before variants were kept apart, whose logs are gone: regenerated when
 # their runs are made again (issue 42 reruns every panda_mbm report and every arm report where
 # MPNet ran). strict: once regenerated, this list must shrink.
-BLENDED = {"reports/arm7_mbm/benchmark.db", "reports/panda_mbm_mbm/benchmark.db"}
+BLENDED = {"reports/arm7_mbm/benchmark.db"}
 
 
 @pytest.mark.parametrize(
