@@ -21,12 +21,9 @@ from pathlib import Path
 
 from scipy.stats import fisher_exact
 
+from harness.report.summary import _invalid  # the summary's own count of invalid queries: one rule
+
 KEY = ("env", "split", "planner")
-
-
-def _invalid(failures: str) -> int:
-    m = re.search(r"invalid_query: (\d+)", failures or "")
-    return int(m.group(1)) if m else 0
 
 
 def _rows(text: str) -> dict[tuple, dict]:
