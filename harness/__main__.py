@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -34,7 +35,7 @@ def main(cfg: DictConfig) -> None:
     # one process: Hydra's basic launcher, a joblib worker) runs in a fresh interpreter.
     with spawning() as ctx:
         container = OmegaConf.to_container(cfg, resolve=True)
-        child = ctx.Process(target=bench_in_child, args=(container, str(run_dir), overrides))
+        child = ctx.Process(target=bench_in_child, args=(container, str(run_dir), overrides, os.getpid()))
         child.start()
     child.join()
     if child.exitcode:

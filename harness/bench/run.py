@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 from pathlib import Path
 
@@ -181,5 +183,30 @@ def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
         )
 
 
-def bench_in_child(container: dict, run_dir: str, overrides: list[str] | None = None) -> None:
-    bench_or_exit(OmegaConf.create(container), Path(run_dir), overrides=overrides)
+def bench_in_child(container: dict, run_dir: str, overrides: list[str] | None = None, parent: int | None = None):
+    """A sweep's job in its own interpreter (harness.__main__). It stops as at a Ctrl-C (every
+    finished query kept, exit 130) on SIGTERM and when the sweep's process ends: a sweep killed
+    by a scheduler or `kill` otherwise left its job planning on, unseen, beside the runs after it
+    (a killed sweep's BIT* job took a core for 30 minutes while the next sweep's runs were timed)."""
+    _stop_with_parent(parent)
+    try:
+        bench_or_exit(OmegaConf.create(container), Path(run_dir), overrides=overrides)
+    except KeyboardInterrupt as e:
+        print(f"interrupted: {e}" if str(e) else "interrupted", file=sys.stderr)
+        sys.exit(130)
+
+
+def _stop_with_parent(parent: int | None) -> None:
+    """SIGTERM as a KeyboardInterrupt (the bench's clean stop), and on Linux a SIGTERM from the
+    kernel when the parent ends, however it ends (prctl PR_SET_PDEATHSIG; no library wraps it)."""
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+    signal.signal(signal.SIGTERM, interrupt)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
+    if parent is not None and os.getppid() != parent:  # it ended before prctl took effect
+        raise KeyboardInterrupt("the sweep's process ended")

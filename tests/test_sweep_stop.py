@@ -1,0 +1,61 @@
+"""A killed sweep takes its job with it: each job of `python -m harness -m ...` plans in its own
+interpreter, which stops (every finished query kept in its log) when the sweep's process gets
+SIGTERM or is killed outright, instead of planning on, unseen, beside the runs after it."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's"),
+]
+
+
+def _children(pid: int) -> list[int]:
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    return [int(x) for x in out.split()]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["term", "kill"])
+def test_a_killed_sweep_stops_its_job_and_keeps_its_finished_queries(tmp_path, workdir, sweeps_cache, sig):
+    sweep = tmp_path / "sweep"
+    cmd = [
+        sys.executable, "-m", "harness", "-m", "+env=s2d", "+planner=informed_rrt_star", "planner.stop=time",
+        "budget_s=2", "seed=0,1", "scale=tiny", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
+        "progress=false", "rerun=false",
+    ]  # fmt: skip
+    sweep_proc = subprocess.Popen(cmd, cwd=workdir, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    queries = sweep / "s2d" / "informed_rrt_star" / "seed0" / "queries.csv"
+    deadline = time.monotonic() + 300
+    while not (queries.exists() and len(queries.read_text().splitlines()) >= 2):  # a header and one query
+        assert sweep_proc.poll() is None, sweep_proc.stderr.read()
+        assert time.monotonic() < deadline, "the first job finished no query in 300 s"
+        time.sleep(0.2)
+    jobs = _children(sweep_proc.pid)
+    assert jobs
+    os.kill(sweep_proc.pid, sig)
+    sweep_proc.wait(timeout=30)
+    deadline = time.monotonic() + 30  # a query in flight ends within its 2 s budget
+    while any(map(_alive, jobs)) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not any(map(_alive, jobs)), "the job plans on after its sweep was killed"
+    assert not (sweep / "s2d" / "informed_rrt_star" / "seed1").exists()  # no next job either
+    with open(queries.with_name("trials.mcap"), "rb") as f:
+        kept = [m for _, ch, m in make_reader(f).iter_messages() if ch.topic == "/query"]
+    assert len(kept) >= 1  # the finished queries are in the log, which reads to its end
