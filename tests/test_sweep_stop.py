@@ -19,6 +19,8 @@ pytestmark = [
     pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's"),
 ]
 
+BUDGET = 10  # s per query of the job killed (Informed-RRT* plans to its budget: planner.stop=time)
+
 
 def _children(pid: int) -> list[int]:
     out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
@@ -37,25 +39,33 @@ def test_a_killed_sweep_stops_its_job_and_keeps_its_finished_queries(tmp_path, w
     sweep = tmp_path / "sweep"
     cmd = [
         sys.executable, "-m", "harness", "-m", "+env=s2d", "+planner=informed_rrt_star", "planner.stop=time",
-        "budget_s=2", "seed=0,1", "scale=tiny", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
-        "progress=false", "rerun=false",
+        f"budget_s=1,{BUDGET}", "seed=0", "scale=tiny", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
+        "hydra.sweep.subdir=job${hydra.job.num}", "progress=false", "rerun=false",
     ]  # fmt: skip
-    sweep_proc = subprocess.Popen(cmd, cwd=workdir, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    queries = sweep / "s2d" / "informed_rrt_star" / "seed0" / "queries.csv"
+    # Its output to a file, as a scheduler's (or `> log 2>&1`): the orphan was seen so, not with a pipe.
+    err = tmp_path / "sweep.err"
+    with err.open("w") as log:
+        sweep_proc = subprocess.Popen(cmd, cwd=workdir, stdout=log, stderr=subprocess.STDOUT)
+    # Killed in the second job (the first plans its 8 queries at 1 s each): a kill during the first
+    # was seen to stop it, one during a later job not. The second's 8 queries take 10 s each, so
+    # without the fix its job still plans when the wait below ends.
+    queries = sweep / "job1" / "queries.csv"
     deadline = time.monotonic() + 300
     while not (queries.exists() and len(queries.read_text().splitlines()) >= 2):  # a header and one query
-        assert sweep_proc.poll() is None, sweep_proc.stderr.read()
-        assert time.monotonic() < deadline, "the first job finished no query in 300 s"
+        assert sweep_proc.poll() is None, err.read_text()
+        assert time.monotonic() < deadline, "the second job finished no query in 300 s"
         time.sleep(0.2)
     jobs = _children(sweep_proc.pid)
     assert jobs
     os.kill(sweep_proc.pid, sig)
     sweep_proc.wait(timeout=30)
-    deadline = time.monotonic() + 30  # a query in flight ends within its 2 s budget
+    deadline = time.monotonic() + BUDGET + 5  # the query in flight ends within its budget
     while any(map(_alive, jobs)) and time.monotonic() < deadline:
         time.sleep(0.2)
-    assert not any(map(_alive, jobs)), "the job plans on after its sweep was killed"
-    assert not (sweep / "s2d" / "informed_rrt_star" / "seed1").exists()  # no next job either
+    alive = [j for j in jobs if _alive(j)]
+    for j in alive:  # the test leaves no orphan of its own behind
+        os.kill(j, signal.SIGKILL)
+    assert not alive, "the job plans on after its sweep was killed"
     with open(queries.with_name("trials.mcap"), "rb") as f:
         kept = [m for _, ch, m in make_reader(f).iter_messages() if ch.topic == "/query"]
     assert len(kept) >= 1  # the finished queries are in the log, which reads to its end
