@@ -661,6 +661,14 @@ def test_benchmark_db_keeps_variants_apart(tmp_path):
     }
     assert con.execute("SELECT runcount FROM experiments").fetchall() == [(8,)]  # 4 queries x 2 seeds
     con.close()
+    # the tables keep them apart by the same names: results.csv once pooled both checkers' runs
+    # in one row of 1,400 queries (reports/arm7_mbm, with only a warning)
+    res = pd.read_csv(out / "results.csv").set_index("planner")["queries"].to_dict()
+    assert res == {
+        "rrt_connect [env.collision=spheres, problems=aaaaaaaa]": 8,
+        "rrt_connect [env.collision=pybullet, problems=aaaaaaaa]": 4,
+        "rrt_connect [env.collision=spheres, problems=bbbbbbbb]": 2,
+    }
 
 
 @pytest.mark.slow  # the whole report, end to end
@@ -1204,6 +1212,7 @@ def test_a_scale_with_env_specific_sizes_names_its_envs():
     assert scale_bullet(*_scale_rows({("quick", big, True): {"s2d"}})[0]).startswith("Our `quick` scale trains")
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_timed_out_queries_cpu_share_is_reported_and_a_loaded_run_flagged(tmp_path):
     """A timed-out query that got 4.5 s of CPU in a 10 s budget ran on a loaded machine: its
     row says so (timeout_cpu_share 0.45) and the report warns that its rate is a lower bound;
@@ -1230,6 +1239,7 @@ def test_timed_out_queries_cpu_share_is_reported_and_a_loaded_run_flagged(tmp_pa
 @pytest.mark.parametrize(
     ("cpu", "warning"), [(0.05, "waited for the CPU"), (0.15, "more than one thread"), (0.1, None)]
 )
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_a_run_whose_queries_waited_or_ran_two_threads_is_flagged(tmp_path, cpu, warning):
     """cpu_share: the planned queries' CPU time over their wall time. Well under one, they
     waited for a CPU (a loaded machine: their times are not the planner's); over one, a second
@@ -1245,6 +1255,7 @@ def test_a_run_whose_queries_waited_or_ran_two_threads_is_flagged(tmp_path, cpu,
     assert [warning in w for w in warned] == ([True] if warning else [])
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_problem_sets_count_valid_and_solved_per_scene_with_published_figures(tmp_path):
     """A MotionBenchMaker-style problem-file run: per set, invalid queries are not valid,
     timeouts and their CPU share are counted, and the published VAMP/cuRobo figures follow."""
@@ -1266,6 +1277,7 @@ def test_problem_sets_count_valid_and_solved_per_scene_with_published_figures(tm
     assert "1 (95.0)" in md and "VAMP" in md and "cuRobo" in md
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_a_run_from_a_dirty_tree_is_marked_in_every_table(tmp_path):
     """Uncommitted code made MPNet's run: its label carries the mark in every table, each table
     says what the mark means, and results.csv flags its rows; BIT*'s clean run is unmarked."""
@@ -1312,6 +1324,7 @@ def test_every_failure_the_harness_logs_has_a_named_status():
     ]
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_resumed_log_names_every_revision_that_planned_it(tmp_path):
     """A resumed log's /run is its last session's: the report named that revision and start alone
     for queries three sessions planned (Informed-RRT* on MBM's 700 ran at two revisions). The

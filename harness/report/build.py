@@ -14,7 +14,7 @@ from harness.report.diagnostics import diagnostics_table, render_diagnostics
 from harness.report.equal_quality import equal_quality_table
 from harness.report.facts import planner_facts
 from harness.report.figures import write_figures
-from harness.report.load import duplicate_warnings, load, queries_frame
+from harness.report.load import duplicate_warnings, label_variants, load, queries_frame
 from harness.report.problem_sets import problem_set_table, render_problem_sets
 from harness.report.readme import provenance, readme_text, reference_notes
 from harness.report.render import (
@@ -92,6 +92,7 @@ def write_report(
     out = Path(out) if out is not None else default_out(dirs + [d for _, d in labels])
     check_out(out, force)
     files, warns, skipped = load(dirs, labels)
+    label_variants(files)
     summary = {"files": len(files), "skipped": skipped, "warnings": warns, "queries": 0, "outputs": [], "out": out}
     if not files or not any(tf.queries for tf in files):
         return summary

@@ -4,6 +4,8 @@ The log format is read through harness.log."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -13,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from harness.log import MCAP_NAME, read_log
-from harness.log.facts import network_variant
+from harness.log.facts import network_variant, run_facts
 from harness.log.schemas import query_columns
 from harness.report.names import env_rank, labelled
 
@@ -129,6 +131,66 @@ def recipe_label(run: dict) -> str | None:
     words = set(str(run.get("planner", "")).split("_"))
     unsaid = [t for t in tags if t not in words]
     return "+".join(unsaid) or None
+
+
+def planner_settings(run: dict) -> str:
+    """The run's planner config section as YAML text (its logged facts), or its whole config."""
+    import yaml
+
+    section = run_facts(run)["planner_config"]
+    return yaml.safe_dump(section, sort_keys=False) if section is not None else str(run.get("config") or "")
+
+
+def _variant(run: dict) -> str:
+    """What makes a run's planner a variant of its own: every logged setting that decides
+    results but the seed (a checker, a problem file, a budget, the planner's settings), as JSON;
+    a log without settings, its planner section."""
+    settings = run.get("settings")
+    if not isinstance(settings, dict):
+        return json.dumps({"planner.config": "sha256:" + hashlib.sha256(planner_settings(run).encode()).hexdigest()})
+    return json.dumps({k: v for k, v in settings.items() if k != "seed"}, sort_keys=True, default=str)
+
+
+def _short(v) -> str:
+    """A setting's value in a planner's name: a digest by its first 8 hex digits."""
+    text = v if isinstance(v, str) else json.dumps(v, default=str)
+    if text.startswith("sha256:"):
+        return text[7:15]
+    return text if len(text) <= 32 else text[:29] + "..."
+
+
+def variant_names(files: list[TrialFile]) -> list[str]:
+    """Each file's planner as the database names it: its planner's name, and where runs of one
+    planner differ in a setting other than the seed, the settings that tell them apart
+    (`rrt_connect [env.collision=pybullet]`): Planner Arena groups runs by name, so two variants
+    under one name would be shown as one planner with both variants' runs."""
+    variants = [(str(tf.run["planner"]), _variant(tf.run)) for tf in files]
+    by_name: dict[str, list[dict]] = {}
+    for p, v in dict.fromkeys(variants):
+        by_name.setdefault(p, []).append(json.loads(v))
+    out = []
+    for p, v in variants:
+        known = by_name[p]
+        if len(known) == 1:
+            out.append(p)
+            continue
+        keys = sorted({k for d in known for k in d})
+        differ = [k for k in keys if len({json.dumps(d.get(k), sort_keys=True, default=str) for d in known}) > 1]
+        mine = json.loads(v)
+        out.append(f"{p} [{', '.join(f'{k}={_short(mine.get(k))}' for k in differ)}]")
+    return out
+
+
+def label_variants(files: list[TrialFile]) -> None:
+    """Unlabelled runs of one planner that differ in a setting that decides results (a checker,
+    a problem file or subset, a budget, a planner setting) are labelled by those settings, as
+    the Planner Arena database names them (`rrt_connect [env.collision=pybullet]`), so that no
+    table row pools two variants' queries."""
+    bare = [tf for tf in files if tf.label is None]
+    for tf, name in zip(bare, variant_names(bare)):
+        planner = str(tf.run["planner"])
+        if name != planner:
+            tf.label = name[len(planner) + 2 : -1]
 
 
 def load(
