@@ -48,6 +48,7 @@ def _batches(spec, most: int | None = None) -> list[list[Problem]]:
     [("s2d", {"name": "mpnet_nr"}), ("rigid", {"name": "mpnet_hr", "hybrid": True, "fallback_restart_s": None}),
      pytest.param("arm7", {"name": "mpnet_nr_forgiving", "replanning": "forgiving"}, marks=pytest.mark.slow)],
 )  # fmt: skip
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_a_batch_answers_every_query_with_a_free_path_between_its_ends(env, settings, tmp_path):
     spec, planner = _planner(env, tmp_path, **settings)
     batches = _batches(spec, 6)

@@ -57,12 +57,13 @@ SLOW = pytest.mark.slow
 
 @pytest.mark.parametrize(
     "env,name,settings",
-    [("s2d", "mpnet_nr", {}), ("s2d", "mpnet_hr", {"hybrid": True}),
+    [("s2d", "mpnet_nr", {}), pytest.param("s2d", "mpnet_hr", {"hybrid": True}, marks=SLOW),
      pytest.param("c2d", "mpnet_nr", {}, marks=SLOW),
      pytest.param("c3d", "mpnet_nr_forgiving", {"replanning": "forgiving"}, marks=SLOW),
      pytest.param("rigid", "mpnet_nr", {}, marks=SLOW), pytest.param("rigid", "mpnet_hr", {"hybrid": True}, marks=SLOW),
      pytest.param("arm7", "mpnet_nr", {}, marks=SLOW), pytest.param("panda_mbm", "mpnet_nr", {}, marks=SLOW),
-     ("s2d", "mpnet_nr_random", {"proposal": "random"}), ("s2d", "mpnet_nr_clip", {"clip": True}),
+     pytest.param("s2d", "mpnet_nr_random", {"proposal": "random"}, marks=SLOW),
+     pytest.param("s2d", "mpnet_nr_clip", {"clip": True}, marks=SLOW),
      pytest.param("c2d", "mpnet_nr_straight", {"proposal": "straight", "replanning": "forgiving"}, marks=SLOW),
      pytest.param("rigid", "mpnet_nr_straight", {"proposal": "straight", "replanning": "forgiving"}, marks=SLOW),
      pytest.param("rigid", "mpnet_nr_random_any", {"proposal": "random_any", "replanning": "forgiving"}, marks=SLOW),

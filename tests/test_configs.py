@@ -58,6 +58,7 @@ def planner_configs(compose_config) -> dict:
 
 
 @pytest.mark.parametrize("env,planner", list(itertools.product(ENVS, PLANNERS)))
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_every_env_and_planner_builds(env, planner, env_configs, planner_configs, models_dirs):
     """The pair as `+env=ENV +planner=PLANNER` composes it: the groups are independent, so the
     env's composition with the planner's section put in is the same config (interpolations
@@ -75,6 +76,7 @@ def test_every_env_and_planner_builds(env, planner, env_configs, planner_configs
 
 
 @pytest.mark.parametrize("scale", SCALES)
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_every_scale_builds(scale, compose_config, models_dirs):
     for env in ENVS:
         cfg = compose_config([f"+env={env}", "+planner=mpnet_hr", f"scale={scale}"])
@@ -97,6 +99,7 @@ def _grid(params: dict) -> list[list[str]]:
 
 
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_every_experiment_builds(experiment, compose_config, models_dirs):
     """The experiment's sweep (its jobs covering each swept value: _grid), or the experiment alone
     with an env and a planner."""
@@ -119,6 +122,7 @@ def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models
             build(cfg, models_dirs)
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(settings):
     from harness.artifacts import models_key_config
 
@@ -196,6 +200,7 @@ def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settin
         settings(["+env=panda_mbm", "env.expert.pairs=bogus"])
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(settings):
     """env.networks is the env's default recipe: under every planner's own options key by key;
     `recipe: paper` trains on the env's paper_networks, or the scale's own where it has none;

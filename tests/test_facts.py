@@ -11,6 +11,7 @@ from harness.log.facts import FACTS_FORMAT, facts_from_config, legacy_facts, run
 
 
 @pytest.mark.parametrize("planner", choices("planner"))
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_logged_facts_equal_what_an_old_logs_config_text_gives(planner, compose_config):
     cfg = compose_config(["+env=panda_mbm" if "dense" in planner else "+env=s2d", f"+planner={planner}"])
     container = OmegaConf.to_container(cfg, resolve=True)

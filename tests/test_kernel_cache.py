@@ -68,6 +68,7 @@ def package(tmp_path) -> Path:
     return tmp_path
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_an_edit_of_an_inlined_kernel_recompiles_its_caller(package):
     assert _run(package, PROBE) == ["20", "0", "0", "0"]  # compiled: nothing cached yet
     assert _run(package, PROBE) == ["20", "0", "1", "1"]  # both loaded from the cache

@@ -90,6 +90,7 @@ def test_zeroed_bytes_mid_file_lose_only_their_chunk(tmp_path, good_log):
     assert sum(m.topic == "/query" for m in msgs) == len(query_ids(scan))
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_damage_in_a_chunks_own_fields_is_never_silent(tmp_path, good_log):
     """64 zeroed bytes from anywhere in a chunk's record head and fields (its times, size,
     CRC, compression, data length): every query read, or the file reported damaged. (Zeroed

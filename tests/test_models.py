@@ -399,6 +399,7 @@ def _pnet_loss(module: PnetModule, data) -> float:
         return float(module.batch_loss(batch, stochastic=False)[0])
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_train_enet_then_pnet_and_reload(tmp_path):
     L.seed_everything(0)
     data = _pair_data()

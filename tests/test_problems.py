@@ -422,6 +422,7 @@ def _testsets(draw):
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(_testsets())
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_round_trip_property(ts):
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "p.json"

@@ -124,6 +124,7 @@ COUNTS: dict[str, int] = {}
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(_mutated())
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_mutated_problem_files_load_or_raise_one_line(tmp_path_factory, case):
     got = _load(tmp_path_factory, *case)
     assert isinstance(got, (TSet, ProblemFileError))

@@ -87,6 +87,7 @@ def test_reference_is_reached_by_a_long_bit_star_run():
         assert ref <= got <= 1.05 * ref
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_planned_references_for_rigid_are_set_and_sane():
     spec = get_spec("rigid")
     ws = make_workspace(spec, 0, "seen")

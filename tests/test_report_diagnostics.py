@@ -75,6 +75,7 @@ def test_diagnostics_table_known_answers(tmp_path):
     assert "| s2d | seen | mpnet_nr | 2 | 50.0% | 20.0 (17.0 + 3.0) | 37.5% | 2.5% | 12.5% | 50.0% |" in md
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_learning_curve_by_training_size(tmp_path, capsys):
     sizes = {(100, 10): [True] * 3 + [False], (100, 40): [True] * 4, (25, 160): [False, True]}
     for (w, p), oks in sizes.items():
@@ -106,6 +107,7 @@ def test_learning_curve_by_training_size(tmp_path, capsys):
     assert "error: no trial logs" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_learning_curve_sizes_are_the_paths_built(tmp_path):
     """Issue 26: a panda_mbm dataset holds fewer paths than workspaces x paths asked (cage goals
     can fail); a size is the count a run of it logged (`training_paths_built`), for every

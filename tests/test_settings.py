@@ -19,6 +19,7 @@ from harness.settings import settings_of
 from mpnet.data.store import content_key
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_cache_keys_are_the_ones_the_config_gave(repo):
     from hydra import compose, initialize_config_dir
 

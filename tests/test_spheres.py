@@ -39,6 +39,7 @@ def test_every_mesh_link_has_spheres_made_from_the_meshes_shipped():
 
 
 @pytest.mark.parametrize("link", [m.link for m in MODEL.kinematics.meshes])
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_spheres_cover_the_links_hull(link):
     """Every hull vertex and 20,000 random points of the hull lie inside one of the link's
     spheres, with at least a millimetre to spare (Bullet's margin)."""
@@ -152,6 +153,7 @@ def _scenes(mbm_dir):
     return load_mbm(mbm_dir, ARM).workspaces + [ARM.generator.make(i, "seen") for i in range(4)]
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_spheres_never_call_free_what_pybullet_calls_colliding(mbm_dir):
     """20,000 random configurations in MotionBenchMaker's and arm7's scenes: none that the
     spheres call free and pybullet's meshes (same fingers, no margin) call colliding; the
@@ -168,6 +170,7 @@ def test_spheres_never_call_free_what_pybullet_calls_colliding(mbm_dir):
     assert rejected / free < 0.15
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_free_motions_are_free_at_ten_times_finer_sampling(mbm_dir):
     """Every motion the checker calls free, sampled 10x finer than 0.02 rad (the old
     sampled step) with the sphere state check: no state collides."""

@@ -59,6 +59,7 @@ def test_success_counts_valid_queries_only(repo, tmp_path):
     assert invalid > 0 and cells[mbm]["mpnet_nr"].valid == int(row["queries"]) - invalid
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_command_writes_both_files_and_refuses_a_readme_without_markers(repo, tmp_path, run_cli):
     """`python -m harness.report.summary` as the README runs it (here on copies)."""
     reports = _copy_reports(repo, tmp_path / "reports")

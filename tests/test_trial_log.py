@@ -223,6 +223,7 @@ def test_log_times_are_ns_and_increasing(tmp_path):
 
 
 @pytest.mark.parametrize("env", ["s2d", "c2d", "c3d", "rigid"])
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_scene_validates_against_foxglove_schema(tmp_path, env):
     spec = SPECS[env]
     with TrialLog(tmp_path, make_run(env), spec, rerun=False) as log:
@@ -353,6 +354,7 @@ def _broken(scene: dict, edit) -> dict:
     return bad
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_malformed_scene_is_rejected(tmp_path):
     with TrialLog(tmp_path, make_run(), SPECS["s2d"], rerun=False) as log:
         log.add_workspace(make_ws("s2d"))

@@ -36,6 +36,7 @@ from harness.settings import settings_of
         ("planner.cost_factor=null", "planner"),  # and a TypeError
     ],
 )
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_nonsense_config_value_is_refused_naming_the_key(override, key, compose_config):
     cfg = compose_config(["+env=s2d", "+planner=bit_star", "scale=tiny", override])
     with pytest.raises(UsageError, match=f"config key {key}"):
