@@ -159,25 +159,27 @@ def _short(v) -> str:
     return text if len(text) <= 32 else text[:29] + "..."
 
 
-def variant_names(files: list[TrialFile]) -> list[str]:
+def variant_names(files: list[TrialFile], within_env: bool = False) -> list[str]:
     """Each file's planner as the database names it: its planner's name, and where runs of one
     planner differ in a setting other than the seed, the settings that tell them apart
     (`rrt_connect [env.collision=pybullet]`): Planner Arena groups runs by name, so two variants
-    under one name would be shown as one planner with both variants' runs."""
-    variants = [(str(tf.run["planner"]), _variant(tf.run)) for tf in files]
-    by_name: dict[str, list[dict]] = {}
-    for p, v in dict.fromkeys(variants):
-        by_name.setdefault(p, []).append(json.loads(v))
+    under one name would be shown as one planner with both variants' runs. within_env: runs
+    compared only with the same planner's in the same env (the tables: a row is env x planner)."""
+    keys = [(str(tf.run.get("env")) if within_env else "", str(tf.run["planner"])) for tf in files]
+    variants = [_variant(tf.run) for tf in files]
+    by_key: dict[tuple, list[dict]] = {}
+    for k, v in dict.fromkeys(zip(keys, variants)):
+        by_key.setdefault(k, []).append(json.loads(v))
     out = []
-    for p, v in variants:
-        known = by_name[p]
+    for k, v in zip(keys, variants):
+        known = by_key[k]
         if len(known) == 1:
-            out.append(p)
+            out.append(k[1])
             continue
-        keys = sorted({k for d in known for k in d})
-        differ = [k for k in keys if len({json.dumps(d.get(k), sort_keys=True, default=str) for d in known}) > 1]
+        names = sorted({n for d in known for n in d})
+        differ = [n for n in names if len({json.dumps(d.get(n), sort_keys=True, default=str) for d in known}) > 1]
         mine = json.loads(v)
-        out.append(f"{p} [{', '.join(f'{k}={_short(mine.get(k))}' for k in differ)}]")
+        out.append(f"{k[1]} [{', '.join(f'{n}={_short(mine.get(n))}' for n in differ)}]")
     return out
 
 
@@ -187,7 +189,7 @@ def label_variants(files: list[TrialFile]) -> None:
     the Planner Arena database names them (`rrt_connect [env.collision=pybullet]`), so that no
     table row pools two variants' queries."""
     bare = [tf for tf in files if tf.label is None]
-    for tf, name in zip(bare, variant_names(bare)):
+    for tf, name in zip(bare, variant_names(bare, within_env=True)):
         planner = str(tf.run["planner"])
         if name != planner:
             tf.label = name[len(planner) + 2 : -1]
