@@ -27,6 +27,11 @@ from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import ProblemFileError, dump_problems, load_problems
 
 
+def _made(folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
 def _bar(total: int, desc: str, progress: bool):
     """A stage's progress bar on stderr, one tick per workspace."""
     return tqdm(total=total, desc=desc, unit="workspace", file=sys.stderr, disable=not progress, dynamic_ncols=True)
@@ -309,22 +314,26 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
             raise RunRefused(str(e)) from None
         if params.get("dagger_rounds"):  # the recipe option: the paths labelled from the rollouts too
             data = with_dagger(run, data, progress, ensure_models)
+        resume = _made(partial_dir(run.cache_dir, "models", key_config))  # each finished epoch: a fit cut short goes on
         if enet_config is None:
-            return fit_models(spec, data, params, lightning, folder, progress)
+            return fit_models(spec, data, params, lightning, folder, progress, resume=resume)
+        enet_key_config = {"data": key_config["data"], **enet_config}
+        enet_resume = partial_dir(run.cache_dir, "enet", enet_key_config)
         enet_folder, enet_manifest, built = _ensure(
             run.cache_dir,
             "enet",
-            {"data": key_config["data"], **enet_config},
-            lambda f: fit_enet(spec, data, params, lightning, f, progress),
+            enet_key_config,
+            lambda f: fit_enet(spec, data, params, lightning, f, progress, _made(enet_resume)),
             provenance,
             _check_enet,
         )
         if not built:
             print(f"Enet: cached in {enet_folder}; training Pnet", file=sys.stderr)
         try:
-            return fit_models(spec, data, params, lightning, folder, progress, enet=(enet_folder, enet_manifest))
-        except KeyboardInterrupt:
-            raise KeyboardInterrupt(f"Enet is kept in {enet_folder}; the same command resumes at Pnet") from None
+            return fit_models(spec, data, params, lightning, folder, progress, (enet_folder, enet_manifest), resume)
+        except KeyboardInterrupt as e:
+            pnet = f"; {e}" if str(e) else "; the same command resumes at Pnet"
+            raise KeyboardInterrupt(f"Enet is kept in {enet_folder}{pnet}") from None
 
     provenance = lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
     return _ensure(run.cache_dir, "models", key_config, build, provenance, _check_models)

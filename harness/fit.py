@@ -3,13 +3,18 @@ harness.artifacts.ensure_models; Lightning is imported only here).
 
 Enet's autoencoder is an artifact of its own, so that a fit cut short during Pnet resumes
 at Pnet. It keeps the random state Pnet's fit starts from, so that a resumed fit trains
-the same Pnet as one run straight through."""
+the same Pnet as one run straight through. Within a fit, each epoch's end is kept too (the
+artifact's partial folder, `resume`): the weights, the optimiser, the callbacks and the random
+state, so that a fit cut short (Ctrl-C, a killed job, a session's end) goes on from its last
+finished epoch and trains what one fit run straight through would (a test)."""
 
 from __future__ import annotations
 
 import os
+import pickle
 import random
 import shutil
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -21,6 +26,68 @@ from mpnet.data.dataset import Dataset
 from mpnet.envs.spec import EnvSpec
 
 ENET_FILE, PNET_FILE, RNG_FILE = "enet.ckpt", "pnet.ckpt", "rng.npz"
+LAST = "last"  # a fit's last finished epoch: <name>.last.ckpt in its partial folder
+
+
+def _rng_state() -> dict:
+    """The random state a fit draws from (torch's: shuffles, dropout; numpy's and Python's),
+    as tensors and numbers (a checkpoint holding it still loads with weights_only)."""
+    import torch
+
+    _, keys, pos, has_gauss, gauss = np.random.get_state()
+    version, internal, py_gauss = random.getstate()
+    return {
+        "torch": torch.get_rng_state(),
+        "np_keys": torch.from_numpy(keys.astype(np.int64)),
+        "np_pos": torch.tensor([pos, has_gauss]),
+        "np_gauss": torch.tensor([gauss], dtype=torch.float64),
+        "py": torch.tensor([version, *internal], dtype=torch.int64),
+        "py_gauss": torch.tensor([np.nan if py_gauss is None else py_gauss], dtype=torch.float64),
+    }
+
+
+def _set_rng_state(z) -> None:
+    import torch
+
+    torch.set_rng_state(torch.as_tensor(np.asarray(z["torch"]), dtype=torch.uint8))
+    pos, has_gauss = (int(v) for v in z["np_pos"])
+    keys = np.asarray(z["np_keys"]).astype(np.uint32)
+    np.random.set_state(("MT19937", keys, pos, has_gauss, float(z["np_gauss"][0])))
+    py, gauss = [int(v) for v in z["py"]], float(z["py_gauss"][0])
+    random.setstate((py[0], tuple(py[1:]), None if np.isnan(gauss) else gauss))
+
+
+def _resume_state(started: float):
+    """A callback that keeps in each checkpoint what Lightning's does not: the random state at
+    the epoch's end, set again when a resumed fit starts training (after its sanity check,
+    which draws nothing), and the seconds the fit ran before (from `started`, perf_counter)."""
+    from lightning.pytorch.callbacks import Callback
+
+    class ResumeState(Callback):
+        def __init__(self):
+            self.t0, self.before, self.pending, self.resumed_at = started, 0.0, None, None
+
+        def state_dict(self) -> dict:
+            return {"rng": _rng_state(), "seconds": self.seconds()}
+
+        def load_state_dict(self, state: dict) -> None:
+            self.pending, self.before = state["rng"], float(state["seconds"])
+
+        def on_train_start(self, trainer, pl_module) -> None:
+            if self.pending is not None:
+                import torch
+
+                _set_rng_state(self.pending)
+                # A fit run straight through makes the next epoch's DataLoader iterator after the
+                # state was kept, and the iterator draws its base seed; a resumed fit made its
+                # iterator before this hook: its draw is made here (the test checks the weights).
+                torch.empty((), dtype=torch.int64).random_()
+                self.pending, self.resumed_at = None, trainer.current_epoch
+
+        def seconds(self) -> float:
+            return self.before + time.perf_counter() - self.t0
+
+    return ResumeState()
 
 
 def _trainer(
@@ -31,8 +98,12 @@ def _trainer(
     lightning: dict,
     bar,
     batches: int,
-    limit_batches: int | None = None,
+    limit_batches: int | None,
+    started: float,
+    keep_last: bool,
 ):
+    """A Trainer writing into `folder`, its best epoch as <name>.ckpt; with `keep_last`, each
+    finished epoch as <name>.last.ckpt too (what a resumed fit goes on from)."""
     import lightning as L
     from lightning.pytorch.callbacks import EarlyStopping, ModelCheckpoint
     from lightning.pytorch.loggers import CSVLogger
@@ -40,6 +111,7 @@ def _trainer(
     # Enet's and Pnet's checkpoints share the artifact folder on purpose; and Lightning 2.6.6
     # calls a pytree API torch 2.13 deprecates. Neither is the user's to act on.
     warnings.filterwarnings("ignore", message=r"Checkpoint directory .* exists and is not empty")
+    warnings.filterwarnings("ignore", message=r"Experiment logs directory .* exists and is not empty")
     warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\)")
     loggers = [CSVLogger(str(folder), name=f"{name}_logs", version=0)]
     try:
@@ -50,8 +122,16 @@ def _trainer(
     except ImportError:
         pass
     checkpoint = ModelCheckpoint(
-        dirpath=str(folder), filename=name, monitor="val_loss", mode="min", save_top_k=1, enable_version_counter=False
+        dirpath=str(folder),
+        filename=name,
+        monitor="val_loss",
+        mode="min",
+        save_top_k=1,
+        save_last=keep_last,
+        enable_version_counter=False,
     )
+    checkpoint.CHECKPOINT_NAME_LAST = f"{name}.{LAST}"
+    resume = _resume_state(started)
     trainer = L.Trainer(
         max_epochs=epochs,
         accelerator=lightning["accelerator"],
@@ -60,7 +140,12 @@ def _trainer(
         num_nodes=lightning.get("num_nodes", 1),
         logger=loggers,
         default_root_dir=str(folder),
-        callbacks=[checkpoint, EarlyStopping("val_loss", patience=patience, mode="min"), *([bar] if bar else [])],
+        callbacks=[
+            checkpoint,
+            EarlyStopping("val_loss", patience=patience, mode="min"),
+            resume,
+            *([bar] if bar else []),
+        ],
         enable_progress_bar=False,  # the stage's own bar (harness.fit_progress) instead of Lightning's
         enable_model_summary=False,
         # every 10 steps, or each epoch's last when an epoch has fewer (Lightning warns otherwise)
@@ -68,7 +153,7 @@ def _trainer(
         limit_train_batches=limit_batches,
         limit_val_batches=limit_batches,
     )
-    return trainer, checkpoint
+    return trainer, checkpoint, resume
 
 
 def _best_score(ckpt) -> float:
@@ -97,15 +182,67 @@ def _batches(dm) -> int:
     return -(-len(dm.train_indices) // dm.batch_size)
 
 
-def _fit(trainer, module, dm) -> None:
-    """trainer.fit, with Ctrl-C as KeyboardInterrupt: Lightning turns it into exit status 1
-    with its message silenced, which would pass for a failure."""
+def _fit(trainer, module, dm, workdir: Path, name: str) -> None:
+    """trainer.fit, from the last finished epoch kept in `workdir` when there is one; Ctrl-C
+    as KeyboardInterrupt: Lightning turns it into exit status 1 with its message silenced,
+    which would pass for a failure."""
+    last = workdir / f"{name}.{LAST}.ckpt"
+    resuming = _resumable(last, module)
+    if resuming:  # the CSV logger would delete the metrics of the epochs before: kept aside
+        logs = workdir / f"{name}_logs" / "version_0"
+        if (logs / "metrics.csv").exists():
+            n = len(list(logs.glob("metrics.*.csv")))
+            (logs / "metrics.csv").rename(logs / f"metrics.{n}.csv")
     try:
-        trainer.fit(module, datamodule=dm)
+        trainer.fit(module, datamodule=dm, ckpt_path=str(last) if resuming else None)
     except SystemExit:
         if trainer.interrupted:
-            raise KeyboardInterrupt from None
+            raise KeyboardInterrupt(_kept(last, name)) from None
         raise
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(_kept(last, name)) from None
+
+
+def _kept(last: Path, name: str) -> str:
+    if not last.exists():
+        return ""
+    import torch
+
+    epoch = torch.load(last, map_location="cpu", weights_only=False)["epoch"] + 1
+    return f"{_TITLE.get(name, name)}'s fit is kept at epoch {epoch} in {last.parent}; the same command resumes it"
+
+
+_TITLE = {"pnet": "Pnet", "enet": "Enet"}
+
+
+def _resumable(last: Path, module) -> bool:
+    """A kept epoch whose weights fit this module (the partial folder is the artifact's, by
+    content key; a checkpoint of other shapes, e.g. from another code version, is dropped
+    with a warning and the fit starts over)."""
+    if not last.exists():
+        return False
+    import torch
+
+    try:
+        kept = torch.load(last, map_location="cpu", weights_only=False)["state_dict"]
+        mine = module.state_dict()
+        if kept.keys() == mine.keys() and all(kept[k].shape == mine[k].shape for k in mine):
+            return True
+        why = "its weights do not fit this network"
+    except (OSError, RuntimeError, KeyError, EOFError, ValueError, pickle.UnpicklingError) as e:  # cut short writing it
+        why = f"unreadable ({type(e).__name__})"
+    print(f"warning: {last}: {why}; the fit starts over", file=sys.stderr)
+    last.unlink()
+    return False
+
+
+def _collect(workdir: Path, folder: Path, name: str) -> None:
+    """The fit's best checkpoint and logs from its partial folder into the artifact's."""
+    if workdir == folder:
+        return
+    for item in (f"{name}.ckpt", f"{name}_logs", f"{name}_tb"):
+        if (workdir / item).exists():
+            shutil.move(str(workdir / item), str(folder / item))
 
 
 def _bar(progress: bool, name: str, epochs: int, stage: int, stages: int, later=()):
@@ -116,30 +253,13 @@ def _bar(progress: bool, name: str, epochs: int, stage: int, stages: int, later=
 
 def _save_rng(path: Path) -> None:
     """The random state Pnet's fit starts from (torch's, numpy's, Python's)."""
-    import torch
-
-    np_state = np.random.get_state()
-    version, internal, gauss = random.getstate()
-    np.savez(
-        path,
-        torch=torch.get_rng_state().numpy(),
-        np_keys=np_state[1],
-        np_pos=np.array([np_state[2], np_state[3]]),
-        np_gauss=np.array([np_state[4]]),
-        py=np.array([version, *internal], np.int64),
-        py_gauss=np.array([np.nan if gauss is None else gauss]),
-    )
+    state = {k: v.numpy() for k, v in _rng_state().items()}
+    np.savez(path, **{**state, "np_keys": state["np_keys"].astype(np.uint32)})  # as numpy keeps them
 
 
 def _restore_rng(path: Path) -> None:
-    import torch
-
     with np.load(path) as z:
-        torch.set_rng_state(torch.from_numpy(z["torch"].copy()))
-        pos, has_gauss = (int(v) for v in z["np_pos"])
-        np.random.set_state(("MT19937", z["np_keys"], pos, has_gauss, float(z["np_gauss"][0])))
-        py, gauss = [int(v) for v in z["py"]], float(z["py_gauss"][0])
-        random.setstate((py[0], tuple(py[1:]), None if np.isnan(gauss) else gauss))
+        _set_rng_state(z)
 
 
 def _quiet_lightning(seed: int) -> None:
@@ -153,13 +273,21 @@ def _quiet_lightning(seed: int) -> None:
 
 
 @training_threads()
-def fit_enet(spec: EnvSpec, data: Dataset, params: dict, lightning: dict, folder: Path, progress: bool) -> dict:
+def fit_enet(
+    spec: EnvSpec,
+    data: Dataset,
+    params: dict,
+    lightning: dict,
+    folder: Path,
+    progress: bool,
+    resume: Path | None = None,
+) -> dict:
     """Enet as a contractive autoencoder on the training and extra layouts' clouds, into
-    its own artifact folder (with the random state Pnet's fit goes on from). Returns the
-    manifest fields."""
+    its own artifact folder (with the random state Pnet's fit goes on from); `resume`: where
+    the fit keeps its epochs (see the module). Returns the manifest fields."""
     _quiet_lightning(params["seed"])
     flat_train = data.train_clouds.reshape(len(data.train_clouds), -1)
-    fit = _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train)
+    fit = _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train, resume)
     _save_rng(folder / RNG_FILE)
     return {"files": [ENET_FILE, RNG_FILE], "fit": fit}
 
@@ -180,10 +308,12 @@ def fit_models(
     folder: Path,
     progress: bool,
     enet: tuple[Path, dict] | None = None,
+    resume: Path | None = None,
 ) -> dict:
     """Pnet on the frozen codes of the Enet artifact `enet` (its folder and manifest), whose
     checkpoint the models folder gets a copy of; or, with `end_to_end` (the paper's arm) and
-    no `enet`, Enet and Pnet together on Pnet's loss. Returns the manifest fields."""
+    no `enet`, Enet and Pnet together on Pnet's loss; `resume`: where the fit keeps its epochs
+    (see the module). Returns the manifest fields."""
     from mpnet.models import Enet
 
     _quiet_lightning(params["seed"])
@@ -191,7 +321,7 @@ def fit_models(
     if enet is None:
         grid = [int(params["voxels"])] * spec.workspace_dim if params.get("voxels") else None
         encoder = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"], voxels=grid)
-        pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, frozen=False)
+        pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, False, resume)
         return {
             "files": [PNET_FILE],
             "fit": {"pnet": pnet_fit, "bytes": {PNET_FILE: (folder / PNET_FILE).stat().st_size}},
@@ -200,7 +330,7 @@ def fit_models(
     encoder = load_encoder(enet_folder)
     _restore_rng(enet_folder / RNG_FILE)  # where a fit run straight through would be now
     _link_or_copy(enet_folder / ENET_FILE, folder / ENET_FILE)
-    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, frozen=True)
+    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, True, resume)
     return {
         "files": [ENET_FILE, PNET_FILE],
         "enet_key": enet_manifest["key"],
@@ -220,7 +350,7 @@ def _link_or_copy(src: Path, dst: Path) -> None:
         shutil.copy2(src, dst)
 
 
-def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train) -> dict:
+def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train, resume=None) -> dict:
     from mpnet.models import CloudDataModule, ContractiveAE, Decoder, Enet, EnetModule
 
     ae_clouds = np.concatenate([data.ae_clouds.reshape(len(data.ae_clouds), -1), flat_train])
@@ -232,20 +362,25 @@ def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train
     dm = CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"], params["seed"])
     epochs = params["ae_epochs"]
     bar = _bar(progress, "Enet", epochs, 1, 2, [("Pnet", params["pnet_epochs"])])
-    trainer, ckpt = _trainer(
-        folder, "enet", epochs, params["patience"], lightning, bar, _batches(dm), params.get("limit_batches")
+    work = resume or folder
+    limit = params.get("limit_batches")
+    trainer, ckpt, kept = _trainer(
+        work, "enet", epochs, params["patience"], lightning, bar, _batches(dm), limit, t0, resume is not None
     )
-    _fit(trainer, ae_module, dm)
+    _fit(trainer, ae_module, dm, work, "enet")
     EnetModule.load_from_checkpoint(ckpt.best_model_path, map_location="cpu")  # the random draws Pnet's fit followed
-    return {
-        "seconds": time.perf_counter() - t0,
-        "epochs": _epochs(trainer, folder, "enet"),
+    fit = {
+        "seconds": kept.seconds(),
+        "epochs": _epochs(trainer, work, "enet"),
         "best_val_loss": _best_score(ckpt),
         "clouds": len(ae_clouds),
+        **({"resumed_at_epoch": kept.resumed_at} if kept.resumed_at is not None else {}),
     }
+    _collect(work, folder, "enet")
+    return fit
 
 
-def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen: bool) -> dict:
+def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen: bool, resume=None) -> dict:
     """Pnet on the expert paths' waypoint pairs; Enet frozen (its codes computed once) or
     trained with it (each batch encodes the training clouds)."""
     import torch
@@ -304,15 +439,20 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         features=kind,
     )
     bar = _bar(progress, "Pnet" if frozen else "Enet+Pnet", epochs, 2 if frozen else 1, 2 if frozen else 1)
-    trainer, ckpt = _trainer(
-        folder, "pnet", epochs, params["patience"], lightning, bar, _batches(dm), params.get("limit_batches")
+    work = resume or folder
+    limit = params.get("limit_batches")
+    trainer, ckpt, kept = _trainer(
+        work, "pnet", epochs, params["patience"], lightning, bar, _batches(dm), limit, t1, resume is not None
     )
-    _fit(trainer, module, dm)
-    return {
-        "seconds": time.perf_counter() - t1,
-        "epochs": _epochs(trainer, folder, "pnet"),
+    _fit(trainer, module, dm, work, "pnet")
+    fit = {
+        "seconds": kept.seconds(),
+        "epochs": _epochs(trainer, work, "pnet"),
         "best_val_loss": _best_score(ckpt),
         "pairs": len(pairs.x_t),
         "max_epochs": epochs,
         "end_to_end": not frozen,
+        **({"resumed_at_epoch": kept.resumed_at} if kept.resumed_at is not None else {}),
     }
+    _collect(work, folder, "pnet")
+    return fit

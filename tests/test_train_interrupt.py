@@ -98,3 +98,57 @@ def test_enet_artifact_trains_what_one_fit_did(tmp_path, settings):
     fit_models(spec, data, params, lightning, models, False, enet=(enet, {"key": "k", **fields}))
     a, b = (torch.load(f / "pnet.ckpt", weights_only=True)["state_dict"] for f in (one, models))
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+
+
+def _pnet(folder):
+    return torch.load(folder / "pnet.ckpt", weights_only=True)["state_dict"]
+
+
+def test_a_fit_cut_short_goes_on_from_its_last_epoch(tmp_path, settings, monkeypatch, capsys):
+    """A fit stopped after its second epoch (a killed job, a session's end) resumes from the
+    epoch kept in its partial folder and trains the Pnet a fit run straight through trains,
+    bit for bit; a kept epoch that does not load is dropped with a warning, not used."""
+    from harness import fit
+    from harness.artifacts import ensure_dataset
+    from mpnet.data.dataset import load_dataset
+
+    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}", "scale.fit.pnet_epochs=4"])
+    spec, params, lightning = run.env.spec, {**run.models, "patience": 10}, run.lightning
+    data = load_dataset(*ensure_dataset(run, progress=False)[:2])
+    straight, cut, work, damaged, work2 = (tmp_path / n for n in ("straight", "cut", "work", "damaged", "work2"))
+    for f in (straight, cut, work, damaged, work2):
+        f.mkdir()
+    whole = fit.fit_models(spec, data, params, lightning, straight, False)["fit"]["pnet"]
+    assert whole["epochs"] == 4 and "resumed_at_epoch" not in whole
+    assert not (straight / "pnet.last.ckpt").exists()  # without a partial folder nothing more is written
+
+    real = fit._resume_state
+
+    def cut_at_epoch_2(started):
+        callback = real(started)
+
+        def stop(trainer, module):
+            if trainer.current_epoch == 2:
+                raise KeyboardInterrupt
+
+        callback.on_train_epoch_start = stop
+        return callback
+
+    monkeypatch.setattr(fit, "_resume_state", cut_at_epoch_2)
+    with pytest.raises(KeyboardInterrupt, match=f"Pnet's fit is kept at epoch 2 in {work}; the same command resumes"):
+        fit.fit_models(spec, data, params, lightning, cut, False, resume=work)
+    monkeypatch.undo()
+    assert not (cut / "pnet.ckpt").exists() and (work / "pnet.last.ckpt").exists()
+
+    resumed = fit.fit_models(spec, data, params, lightning, cut, False, resume=work)["fit"]["pnet"]
+    assert resumed["resumed_at_epoch"] == 2 and resumed["epochs"] == 4
+    assert resumed["best_val_loss"] == whole["best_val_loss"]
+    a, b = _pnet(straight), _pnet(cut)
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert (cut / "pnet_logs").is_dir() and not (work / "pnet.ckpt").exists()  # moved into the artifact
+
+    (work2 / "pnet.last.ckpt").write_bytes(b"not a checkpoint")  # cut short while writing it
+    fit.fit_models(spec, data, params, lightning, damaged, False, resume=work2)
+    assert f"warning: {work2 / 'pnet.last.ckpt'}: unreadable" in capsys.readouterr().err
+    c = _pnet(damaged)
+    assert all(torch.equal(a[k], c[k]) for k in a)
