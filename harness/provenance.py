@@ -93,6 +93,13 @@ def generated_by(command: str, machine: dict, note: str = "") -> str:
     )
 
 
+def write_readme(folder: Path, lines: list[str]) -> None:
+    """A generated report's README.md (the folder made), echoed on stdout."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "README.md").write_text("\n".join(lines))
+    print("\n".join(lines))
+
+
 def peak_rss_mb() -> float:
     """This process's peak resident memory in MB: VmHWM, which (unlike ru_maxrss) restarts
     at exec, so a spawned process does not count the pages of the parent it was forked from."""
