@@ -137,9 +137,7 @@ def test_an_edit_of_a_point_kernel_reaches_the_compiled_planner(repo, tmp_path):
     assert _run(tmp_path, PLANNER_PROBE) == ["True", "True"]
     kernels = tmp_path / "mpnet" / "envs" / "point_kernels.py"
     text = kernels.read_text()
-    edited = text.replace(
-        '"""In bounds and in no closed box."""', '"""Refuses."""\n    return False'
-    )
+    edited = text.replace('"""In bounds and in no closed box."""', '"""Refuses."""\n    return False')
     assert edited != text
     kernels.write_text(edited)
     assert _run(tmp_path, PLANNER_PROBE) == ["False", "False"]
