@@ -1,10 +1,11 @@
 """Collision checking against closed axis-aligned boxes, with every check counted.
 
-One checker per workspace serves every planner, for single states (plain Python: OMPL
-calls it per state, where a numpy call costs ~30 us) and for batches (numpy). The point
-robots' and the rigid body's motions are checked continuously, never by sampling: exactly
-for point robots (slab test), and by conservative advancement on a proven clearance bound
-for the rigid body (mpnet.envs.rigid), so a motion called free is free at any resolution.
+One checker per workspace serves every planner, for single states (OMPL calls it per state)
+and for batches. The point robots' and the rigid body's checks are their compiled kernels
+(mpnet.envs.point_kernels, rigid_kernels: ~1 us a state from Python, the compiled planner
+inlines the same code), and their motions are checked continuously, never by sampling:
+exactly for point robots (slab test), and by conservative advancement on a proven clearance
+bound for the rigid body, so a motion called free is free at any resolution.
 The arm's checkers evaluate configurations along a motion: the sphere checker
 (mpnet.envs.spheres) with a bound on how far its spheres move between them, pybullet's
 (mpnet.envs.pybullet_arm) at env.motion_step; the fine re-check then judges every path.
