@@ -17,6 +17,7 @@ methods; everything else uses only the public, counted calls.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import NamedTuple
 
 import numpy as np
 
@@ -140,6 +141,15 @@ class SampledConfigurations(CollisionChecker):
         self.configurations = 0
 
 
+class _Kernels(NamedTuple):
+    """A robot's compiled checks, as its checker calls them (dispatchers pickle; a module does not)."""
+
+    state_free: object
+    motion_free: object
+    states_free: object
+    motions_free: object
+
+
 class PointChecker(CollisionChecker):
     """A point robot in 2D or 3D: a point collides when it lies in a closed box. Its checks are
     the compiled ones (mpnet.envs.point_kernels), the compiled planner's too: one implementation."""
@@ -153,11 +163,11 @@ class PointChecker(CollisionChecker):
         return (POINT, np.zeros(0, np.int64), np.zeros(0), self._lo, self._hi, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
-        from mpnet.envs import point_kernels  # numba: loaded with the first checker, not on import
+        from mpnet.envs import point_kernels as k  # numba: loaded with the first checker, not on import
 
         super().__init__(spec, ws, margin)
         d = spec.state_dim
-        self._k = point_kernels
+        self._k = _Kernels(k.state_free, k.motion_free, k.states_free, k.motions_free)
         self._lo, self._hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (self.lo, self.hi))
         self._lower, self._upper = (np.ascontiguousarray(v, float) for v in (self._lower, self._upper))
         self._scratch = np.empty(d)

@@ -4,12 +4,22 @@ by exact separating-axis tests (native) or python-fcl (same answers, slower)."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker
 from mpnet.envs.spaces import wrap_angle
 from mpnet.envs.workspace import Workspace
+
+
+class _RigidKernels(NamedTuple):
+    """The rigid body's compiled checks, as its checker calls them (dispatchers pickle; a module does not)."""
+
+    state_free: object
+    motion_free: object
+    states_free: object
+    clearance: object
 
 
 class RigidChecker(CollisionChecker):
@@ -33,10 +43,10 @@ class RigidChecker(CollisionChecker):
         return (RIGID, near, self._floats, self._centres, self._halves, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
-        from mpnet.envs import rigid_kernels  # numba: loaded with the first checker, not on import
+        from mpnet.envs import rigid_kernels as k  # numba: loaded with the first checker, not on import
 
         super().__init__(spec, ws, margin)
-        self._k = rigid_kernels
+        self._k = _RigidKernels(k.state_free, k.motion_free, k.states_free, k.clearance)
         self.hx, self.hy = spec.robot.size[0] / 2, spec.robot.size[1] / 2
         self.radius = math.hypot(self.hx, self.hy)
         c = (self.lo + self.hi) / 2
