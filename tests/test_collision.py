@@ -10,10 +10,12 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs import Workspace, get_spec
+from mpnet.envs import rigid_kernels as R
 from mpnet.envs.collision import PointChecker
 from mpnet.envs.generators import make_workspace
 from mpnet.envs.rigid import RigidChecker
 from mpnet.motion import interpolate
+from mpnet.planners.compiled import kernel_env
 
 S2D = get_spec("s2d")
 C3D = get_spec("c3d")
@@ -92,7 +94,7 @@ def _fcl_rect_collides(q, ws):
 def test_rigid_state_matches_fcl(x, y, th, wsi):
     ws = make_workspace(RIGID, wsi, "seen")
     ch = RigidChecker(RIGID, ws, margin=0.0)
-    gap = ch.clearance(x, y, th, ch._boxes)
+    gap = ch.clearance(x, y, th)
     if abs(gap) < 1e-6:
         return  # touching: closed-box tie, either answer is fine
     assert ch.is_valid((x, y, th)) == (not _fcl_rect_collides((x, y, th), ws))
@@ -140,11 +142,11 @@ def test_fcl_backend_agrees(x, y, th, dx, dy, th2, wsi):
     ws = make_workspace(RIGID, wsi, "seen")
     native, viafcl = RIGID.make_checker(ws), RIGID.make_checker(ws, backend="fcl")
     a, b = (x, y, th), (x + dx, y + dy, th2)
-    if abs(native.clearance(x, y, th, native._boxes)) > 1e-4:
+    if abs(native.clearance(x, y, th)) > 1e-4:
         assert native.is_valid(a) == viafcl.is_valid(a)
     if native.motion_valid(a, b) != viafcl.motion_valid(a, b):
         # only a graze within the margin may differ; both are then sound
-        assert min(native.clearance(*q, native._boxes) for q in interpolate(RIGID, a, b, 0.001)) < 1e-3
+        assert min(native.clearance(*q) for q in interpolate(RIGID, a, b, 0.001)) < 1e-3
 
 
 def test_unknown_backend():
@@ -201,16 +203,20 @@ def test_generated_queries_are_valid_blocked_and_seed_independent():
             assert not ch.motion_valid(q.start.tolist(), q.goal.tolist())
 
 
+def _steps(ch, a, b) -> tuple[bool, int]:
+    """The motion's verdict and its advancement steps, from the checker's compiled form."""
+    _, near, floats, centres, halves, *_ = kernel_env(ch)
+    return R.advance(np.asarray(a, float), np.asarray(b, float), centres, halves, floats, near)
+
+
 def test_rigid_slides_along_a_face_quickly():
     """Translating parallel to a face 1e-3 away is free and takes a handful of steps."""
     ws = Workspace("w", "file", [[0.0, -5.0]], [[30.0, 4.0]])  # top face at y = -3
     ch = RigidChecker(RIGID, ws)
     a, b = (-10.0, -3.0 + 2.5 + 1e-3, 0.0), (10.0, -3.0 + 2.5 + 1e-3, 0.0)
-    calls = []
-    original = ch._safe_step
-    ch._safe_step = lambda *args: calls.append(1) or original(*args)
-    assert ch.motion_valid(a, b)
-    assert len(calls) < 10
+    free, steps = _steps(ch, a, b)
+    assert free and ch.motion_valid(a, b)
+    assert steps < 10
     assert not ch.motion_valid(a, (10.0, -3.0 + 2.5 - 1e-3, 0.0))
 
 
@@ -219,49 +225,18 @@ def test_rigid_motion_checks_stay_cheap():
     approaches take 20000 steps); a head-on approach stops in a few."""
     ws = make_workspace(RIGID, 0, "seen")
     ch = RigidChecker(RIGID, ws)
-    calls = [0]
-    original = ch._safe_step
-
-    def counted(*args):
-        calls[0] += 1
-        return original(*args)
-
-    ch._safe_step = counted
     rng = np.random.default_rng(0)
     worst = 0
     for _ in range(2000):
         a = np.r_[rng.uniform(-20, 20, 2), rng.uniform(-3, 3)]
         b = a + np.r_[rng.normal(0, 3, 2), rng.normal(0, 1)]
-        calls[0] = 0
-        ch.motion_valid(a.tolist(), b.tolist())
-        worst = max(worst, calls[0])
+        free, steps = _steps(ch, a, b)
+        assert free == ch.motion_valid(a.tolist(), b.tolist())
+        worst = max(worst, steps)
     assert worst < 500
-    box = Workspace("w", "file", [[5.0, 0.0]], [[2.0, 2.0]])
-    head_on = RigidChecker(RIGID, box)
-    head_on._safe_step = counted
-    calls[0] = 0
-    assert not head_on.motion_valid((-5.0, 0.0, 0.3), (5.0, 0.0, 0.3))
-    assert calls[0] < 10
-
-
-@settings(max_examples=300, deadline=None)
-@given(
-    st.integers(0, 99),
-    st.lists(st.floats(-22, 22, allow_nan=False), min_size=4, max_size=4),
-    st.sampled_from(["free", "same_x", "same_y", "from_corner"]),
-)
-def test_unrolled_2d_motion_check_equals_the_slab_test(ws_index, xs, kind):
-    """The plane's unrolled motion check answers exactly as the generic slab test."""
-    spec = get_spec("s2d")
-    ch = spec.make_checker(make_workspace(spec, ws_index, "seen"))
-    a, b = xs[:2], xs[2:]
-    if kind == "same_x":
-        b[0] = a[0]
-    elif kind == "same_y":
-        b[1] = a[1]
-    elif kind == "from_corner":
-        a = ch.lo[ws_index % len(ch.lo)].tolist()
-    assert ch._motion_free_2d(a, b) == PointChecker._motion_free(ch, a, b)
+    head_on = RigidChecker(RIGID, Workspace("w", "file", [[5.0, 0.0]], [[2.0, 2.0]]))
+    free, steps = _steps(head_on, (-5.0, 0.0, 0.3), (5.0, 0.0, 0.3))
+    assert not free and steps < 10
 
 
 @pytest.mark.parametrize(

@@ -1,7 +1,8 @@
-"""The compiled checks against the checkers they port: the point robot's (mpnet.envs.point_kernels)
-against PointChecker on segments that graze faces, run along them, or stand still in a
+"""The compiled checks (the checkers' own and the compiled planner's) against the numpy and
+Python code they were ported from (tests/oracles.py), bit for bit: the point robot's
+(mpnet.envs.point_kernels) on segments that graze faces, run along them, or stand still in a
 coordinate, where the one-motion and batch tests' arithmetic matter; the rigid body's
-(mpnet.envs.rigid_kernels) against RigidChecker, short and long motions, turning both ways."""
+(mpnet.envs.rigid_kernels), short and long motions, turning both ways."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from mpnet.envs import rigid_kernels as R
 from mpnet.envs.generators import make_workspace
 from mpnet.envs.specs import get_spec
 from mpnet.planners.compiled import kernel_env
+from tests import oracles as O
 
 
 def _points(rng, checker, n):
@@ -41,11 +43,14 @@ def test_the_kernels_answer_as_the_checker(env, index, seed):
     args = (lo, hi, lower, upper)
     d = np.empty(spec.state_dim)
     for x, y in zip(a, b):
-        assert P.state_free(x, *args) == checker.is_valid(x.tolist())
-        assert P.motion_free(x, y, *args, d) == checker.motion_valid(x.tolist(), y.tolist())
+        assert P.state_free(x, *args) == checker.is_valid(x.tolist()) == O.point_state_free(x, *args)
+        free = O.point_motion_free(x.tolist(), y.tolist(), *args)
+        assert P.motion_free(x, y, *args, d) == checker.motion_valid(x.tolist(), y.tolist()) == free
     out = np.empty(len(a), np.bool_)
     P.motions_free(a, b, *args, out)
     assert np.array_equal(out, checker.motions_valid(a, b))
+    assert np.array_equal(out, O.point_motions_free(a, b, *args))
+    assert np.array_equal(checker.states_valid(a), [O.point_state_free(x, *args) for x in a])
 
 
 @pytest.mark.parametrize("env", ["s2d", "c3d"])
@@ -69,13 +74,23 @@ def test_the_rigid_kernels_answer_as_the_checker(index, seed):
     spec = get_spec("rigid")
     c = spec.make_checker(make_workspace(spec, index, "train" if index < 100 else "unseen"))
     _, near, floats, centres, halves, *_ = kernel_env(c)  # the compiled planner's own arrays
+    hx, hy, margin = floats[R.HX], floats[R.HY], floats[R.MARGIN]
+    boxes = np.hstack([centres, halves]).tolist()
+    bounds = spec.space.bounds[:2]
     rng = np.random.default_rng(seed)
+    states = []
     for _ in range(300):
         a = spec.space.sample(rng)
         b = a + rng.normal(0, 3, 3) if rng.random() < 0.7 else spec.space.sample(rng)
         b[2] = rng.uniform(-np.pi, np.pi)
-        assert R.state_free(a, centres, halves, floats) == c.is_valid(a.tolist())
-        assert R.motion_free(a, b, centres, halves, floats, near) == c.motion_valid(a.tolist(), b.tolist())
+        inside = bounds[0][0] <= a[0] <= bounds[0][1] and bounds[1][0] <= a[1] <= bounds[1][1]
+        expected = inside and O.rigid_clearance(hx, hy, *a, boxes) > 0.0
+        assert R.state_free(a, centres, halves, floats) == c.is_valid(a.tolist()) == expected
+        expected = O.rigid_motion_free(hx, hy, margin, bounds, boxes, a.tolist(), b.tolist())
+        assert R.motion_free(a, b, centres, halves, floats, near) == c.motion_valid(a.tolist(), b.tolist()) == expected
+        assert c.clearance(*a) == O.rigid_clearance(hx, hy, *a, boxes)
+        states.append(a)
+    assert c.states_valid(np.array(states)).tolist() == [c.is_valid(q.tolist()) for q in states]
 
 
 def test_a_checker_that_changes_the_geometry_has_no_compiled_form():

@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from harness.provenance import machine_info
+from harness.provenance import machine_info, write_readme
 from harness.report.load import read_trials
 
 SAMPLE = "tests/data/mbm"
@@ -107,9 +107,7 @@ def main() -> None:
         "before the first query (0: found on disk).",
         "",
     ]
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "README.md").write_text("\n".join(text))
-    print("\n".join(text))
+    write_readme(args.out, text)
 
 
 if __name__ == "__main__":

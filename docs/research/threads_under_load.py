@@ -22,7 +22,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
-from harness.provenance import machine_info
+from harness.provenance import machine_info, write_readme
 
 BURNERS = 4
 PLANNERS = ("mpnet_nr", "bit_star")
@@ -105,9 +105,7 @@ def main() -> None:
         f"(loaded / quiet {ratio['loaded'] / ratio['quiet']:.2f}).",
         "",
     ]
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "README.md").write_text("\n".join(text))
-    print("\n".join(text))
+    write_readme(args.out, text)
 
 
 if __name__ == "__main__":

@@ -17,22 +17,17 @@ ENV_LABELS = {
 SPLIT_ORDER = ("seen", "unseen")
 PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
 KNOWN_EXTRAS = ("rrt_star", "rrt_connect")
-PLANNER_LABELS = {
-    "mpnet_nr": "MPNet (NR)",
-    "mpnet_hr": "MPNet (HR)",
-    "informed_rrt_star": "Informed-RRT*",
-    "bit_star": "BIT*",
-    "rrt_star": "RRT*",
-    "rrt_connect": "RRT-Connect",
+# The planners the report knows by name: label and figure colour.
+PLANNERS = {
+    "mpnet_nr": ("MPNet (NR)", "#1f77b4"),
+    "mpnet_hr": ("MPNet (HR)", "#17becf"),
+    "informed_rrt_star": ("Informed-RRT*", "#d62728"),
+    "bit_star": ("BIT*", "#ff7f0e"),
+    "rrt_star": ("RRT*", "#9467bd"),
+    "rrt_connect": ("RRT-Connect", "#2ca02c"),
 }
-PLANNER_COLORS = {
-    "mpnet_nr": "#1f77b4",
-    "mpnet_hr": "#17becf",
-    "informed_rrt_star": "#d62728",
-    "bit_star": "#ff7f0e",
-    "rrt_star": "#9467bd",
-    "rrt_connect": "#2ca02c",
-}
+PLANNER_LABELS = {name: label for name, (label, _) in PLANNERS.items()}
+PLANNER_COLORS = {name: colour for name, (_, colour) in PLANNERS.items()}
 RATIO_COL = "bit_star_over_mpnet_nr"
 RATIO_LABEL = "BIT*/MPNet (NR)"
 PAPER = 'Qureshi, Simeonov, Bency, Yip, "Motion Planning Networks", ICRA 2019, arXiv:1806.05767'

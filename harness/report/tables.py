@@ -308,37 +308,12 @@ def main_planners(res: pd.DataFrame, facts: Facts) -> pd.DataFrame:
 def success_cost(res: pd.DataFrame) -> pd.DataFrame:
     """Success rate (mean and std over seeds, %; the pooled rate with its Wilson interval, %;
     the test against the comparator) and mean path cost per env x split x planner."""
-    cols = [
-        "env",
-        "split",
-        "planner",
-        "success_mean_pct",
-        "success_std_pct",
-        "success_rate_pct",
-        "success_ci_low_pct",
-        "success_ci_high_pct",
-        "comparator",
-        "success_p_vs",
-        "success_diff_significant",
-        "cost_mean",
-        "queries",
-        "seeds",
-    ]
+    pct = ["success_mean_pct", "success_std_pct", "success_rate_pct", "success_ci_low_pct", "success_ci_high_pct"]
+    kept = ["comparator", "success_p_vs", "success_diff_significant", "cost_mean", "queries", "seeds"]
+    cols = [*KEYS, *pct, *kept]
     if res.empty:
         return pd.DataFrame(columns=cols)
-    out = res[
-        [
-            "env",
-            "split",
-            "planner",
-            "comparator",
-            "success_p_vs",
-            "success_diff_significant",
-            "cost_mean",
-            "queries",
-            "seeds",
-        ]
-    ].copy()
+    out = res[[*KEYS, *kept]].copy()
     out["success_mean_pct"] = 100.0 * res["success_mean"]
     out["success_std_pct"] = 100.0 * res["success_std"]
     for c in ("success_rate", "success_ci_low", "success_ci_high"):

@@ -1,10 +1,11 @@
 """Collision checking against closed axis-aligned boxes, with every check counted.
 
-One checker per workspace serves every planner, for single states (plain Python: OMPL
-calls it per state, where a numpy call costs ~30 us) and for batches (numpy). The point
-robots' and the rigid body's motions are checked continuously, never by sampling: exactly
-for point robots (slab test), and by conservative advancement on a proven clearance bound
-for the rigid body (mpnet.envs.rigid), so a motion called free is free at any resolution.
+One checker per workspace serves every planner, for single states (OMPL calls it per state)
+and for batches. The point robots' and the rigid body's checks are their compiled kernels
+(mpnet.envs.point_kernels, rigid_kernels: ~1 us a state from Python, the compiled planner
+inlines the same code), and their motions are checked continuously, never by sampling:
+exactly for point robots (slab test), and by conservative advancement on a proven clearance
+bound for the rigid body, so a motion called free is free at any resolution.
 The arm's checkers evaluate configurations along a motion: the sphere checker
 (mpnet.envs.spheres) with a bound on how far its spheres move between them, pybullet's
 (mpnet.envs.pybullet_arm) at env.motion_step; the fine re-check then judges every path.
@@ -16,6 +17,7 @@ methods; everything else uses only the public, counted calls.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import NamedTuple
 
 import numpy as np
 
@@ -139,8 +141,18 @@ class SampledConfigurations(CollisionChecker):
         self.configurations = 0
 
 
+class _Kernels(NamedTuple):
+    """A robot's compiled checks, as its checker calls them (dispatchers pickle; a module does not)."""
+
+    state_free: object
+    motion_free: object
+    states_free: object
+    motions_free: object
+
+
 class PointChecker(CollisionChecker):
-    """A point robot in 2D or 3D: a point collides when it lies in a closed box."""
+    """A point robot in 2D or 3D: a point collides when it lies in a closed box. Its checks are
+    the compiled ones (mpnet.envs.point_kernels), the compiled planner's too: one implementation."""
 
     compiled = True
 
@@ -148,137 +160,33 @@ class PointChecker(CollisionChecker):
         from mpnet.envs.compiled_env import POINT  # numba's kernels load with the compiled planner only
 
         d = self.spec.state_dim
-        lo, hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (self.lo, self.hi))
-        lower, upper = (np.ascontiguousarray(v, float) for v in (self.spec.space.lower, self.spec.space.upper))
-        return (POINT, np.zeros(0, np.int64), np.zeros(0), lo, hi, lower, upper, np.empty(d))
+        return (POINT, np.zeros(0, np.int64), np.zeros(0), self._lo, self._hi, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
-        super().__init__(spec, ws, margin)
-        self._boxes = [(tuple(lo), tuple(hi)) for lo, hi in zip(self.lo.tolist(), self.hi.tolist())]
-        self._bounds = [tuple(b) for b in spec.space.bounds]
-        self._d = spec.state_dim
-        if self._d == 2:  # the plane: an unrolled slab test (steerTo's one motion is MPNet's hot path)
-            self._boxes2 = [(lo[0], lo[1], hi[0], hi[1]) for lo, hi in self._boxes]
-            self._motion_free = self._motion_free_2d
+        from mpnet.envs import point_kernels as k  # numba: loaded with the first checker, not on import
 
-    def _in_bounds(self, q) -> bool:
-        for v, (lo, hi) in zip(q, self._bounds):
-            if not lo <= v <= hi:
-                return False
-        return True
+        super().__init__(spec, ws, margin)
+        d = spec.state_dim
+        self._k = _Kernels(k.state_free, k.motion_free, k.states_free, k.motions_free)
+        self._lo, self._hi = (np.ascontiguousarray(v, float).reshape(-1, d) for v in (self.lo, self.hi))
+        self._lower, self._upper = (np.ascontiguousarray(v, float) for v in (self._lower, self._upper))
+        self._scratch = np.empty(d)
 
     def _state_free(self, q) -> bool:
-        if not self._in_bounds(q):
-            return False
-        for lo, hi in self._boxes:
-            for v, vlo, vhi in zip(q, lo, hi):
-                if v < vlo or v > vhi:
-                    break
-            else:
-                return False
-        return True
+        return self._k.state_free(np.asarray(q, float), self._lo, self._hi, self._lower, self._upper)
 
     def _motion_free(self, a, b) -> bool:
-        # Bounds are convex: the segment is inside when both endpoints are.
-        if not (self._in_bounds(a) and self._in_bounds(b)):
-            return False
-        d = [y - x for x, y in zip(a, b)]
-        for lo, hi in self._boxes:
-            if _segment_hits_box(a, d, lo, hi):
-                return False
-        return True
-
-    def _motion_free_2d(self, a, b) -> bool:
-        """_motion_free in the plane, the slab test of _segment_hits_box unrolled (the same
-        operations in the same order, so the same answers), ~2x faster."""
-        ax, ay, bx, by = a[0], a[1], b[0], b[1]
-        (lx, hx), (ly, hy) = self._bounds
-        if not (lx <= ax <= hx and ly <= ay <= hy and lx <= bx <= hx and ly <= by <= hy):
-            return False
-        dx, dy = bx - ax, by - ay
-        for x0, y0, x1, y1 in self._boxes2:
-            t0, t1 = 0.0, 1.0
-            if dx == 0.0:
-                if ax < x0 or ax > x1:
-                    continue
-            else:
-                inv = 1.0 / dx
-                ta, tb = (x0 - ax) * inv, (x1 - ax) * inv
-                if ta > tb:
-                    ta, tb = tb, ta
-                if ta > t0:
-                    t0 = ta
-                if tb < t1:
-                    t1 = tb
-                if t0 > t1:
-                    continue
-            if dy == 0.0:
-                if ay < y0 or ay > y1:
-                    continue
-            else:
-                inv = 1.0 / dy
-                ta, tb = (y0 - ay) * inv, (y1 - ay) * inv
-                if ta > tb:
-                    ta, tb = tb, ta
-                if ta > t0:
-                    t0 = ta
-                if tb < t1:
-                    t1 = tb
-                if t0 > t1:
-                    continue
-            return False
-        return True
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        return self._k.motion_free(a, b, self._lo, self._hi, self._lower, self._upper, self._scratch)
 
     def _states_free(self, qs: np.ndarray) -> np.ndarray:
-        # A loop over the few boxes on whole columns: ~20x faster than one (N, M, D) broadcast.
-        cols = [np.ascontiguousarray(qs[:, d]) for d in range(self._d)]
-        free = np.ones(len(qs), bool)
-        for c, (lo, hi) in zip(cols, self._bounds):
-            free &= (c >= lo) & (c <= hi)
-        for lo, hi in self._boxes:
-            inside = (cols[0] >= lo[0]) & (cols[0] <= hi[0])
-            for d in range(1, self._d):
-                inside &= (cols[d] >= lo[d]) & (cols[d] <= hi[d])
-            free &= ~inside
-        return free
+        out = np.empty(len(qs), np.bool_)
+        self._k.states_free(np.ascontiguousarray(qs), self._lo, self._hi, self._lower, self._upper, out)
+        return out
 
     def _motions_free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        inb = np.all((a >= self._lower) & (a <= self._upper) & (b >= self._lower) & (b <= self._upper), axis=1)
-        return inb & ~segments_hit_boxes(a, b, self.lo, self.hi).any(axis=1)
-
-
-def _segment_hits_box(a, d, lo, hi) -> bool:
-    """Slab test: does a + t d, t in [0, 1], meet the closed box [lo, hi]?"""
-    t0, t1 = 0.0, 1.0
-    for ai, di, blo, bhi in zip(a, d, lo, hi):
-        if di == 0.0:
-            if ai < blo or ai > bhi:
-                return False
-            continue
-        inv = 1.0 / di
-        ta, tb = (blo - ai) * inv, (bhi - ai) * inv
-        if ta > tb:
-            ta, tb = tb, ta
-        if ta > t0:
-            t0 = ta
-        if tb < t1:
-            t1 = tb
-        if t0 > t1:
-            return False
-    return True
-
-
-def segments_hit_boxes(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Batch slab test: (N, M) array, True where segment i meets closed box j."""
-    d = (b - a)[:, None, :]
-    a = a[:, None, :]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ta = (lo[None] - a) / d
-        tb = (hi[None] - a) / d
-    still = d == 0.0
-    inside = (a >= lo[None]) & (a <= hi[None])
-    tmin = np.where(still, np.where(inside, -np.inf, np.inf), np.minimum(ta, tb))
-    tmax = np.where(still, np.where(inside, np.inf, -np.inf), np.maximum(ta, tb))
-    t0 = np.maximum(tmin.max(axis=2), 0.0)
-    t1 = np.minimum(tmax.min(axis=2), 1.0)
-    return t0 <= t1
+        out = np.empty(len(a), np.bool_)
+        self._k.motions_free(
+            np.ascontiguousarray(a), np.ascontiguousarray(b), self._lo, self._hi, self._lower, self._upper, out
+        )
+        return out

@@ -1,7 +1,7 @@
-"""The point robot's checks compiled (numba), for the compiled planner: PointChecker's answers
-from the same operations in the same order (its one-motion slab test multiplies by the
-reciprocal, its batch test divides: each is ported as it is, since the two can differ in
-the last bit at a box's face, and the planner must decide as the numpy planner does).
+"""The point robot's checks (numba): PointChecker's, and the compiled planner's through it. The
+one-motion slab test multiplies by the reciprocal, the batch test divides (as the numpy
+checker they were ported from did: the two can differ in the last bit at a box's face, and
+the planners' decisions stay the ones they made; tests/oracles.py keeps that numpy twin).
 
 Boxes come as `lo`, `hi` (M, d): the checker's, grown by its margin; `lower`, `upper` are
 the state bounds. Closed boxes: a point on a face collides.
@@ -24,7 +24,7 @@ def in_bounds(q, lower, upper):
 
 @njit(cache=True)
 def state_free(q, lo, hi, lower, upper):
-    """PointChecker._state_free: in bounds and in no closed box."""
+    """In bounds and in no closed box."""
     if not in_bounds(q, lower, upper):
         return False
     for j in range(lo.shape[0]):
@@ -39,9 +39,15 @@ def state_free(q, lo, hi, lower, upper):
 
 
 @njit(cache=True)
+def states_free(qs, lo, hi, lower, upper, out):
+    """state_free for each row of qs, into out."""
+    for i in range(qs.shape[0]):
+        out[i] = state_free(qs[i], lo, hi, lower, upper)
+
+
+@njit(cache=True)
 def motion_free(a, b, lo, hi, lower, upper, d):
-    """PointChecker._motion_free (and its unrolled 2D twin, which makes the same operations):
-    both ends in bounds and the segment meets no box (slab test by the reciprocal). d: scratch."""
+    """Both ends in bounds and the segment meets no box (slab test by the reciprocal). d: scratch."""
     if not (in_bounds(a, lower, upper) and in_bounds(b, lower, upper)):
         return False
     for k in range(a.shape[0]):
@@ -73,8 +79,8 @@ def motion_free(a, b, lo, hi, lower, upper, d):
 
 @njit(cache=True)
 def motions_free(A, B, lo, hi, lower, upper, out):
-    """PointChecker._motions_free into out: both ends in bounds and no box met, by
-    segments_hit_boxes' arithmetic (division; a still coordinate inside its slab or not)."""
+    """For each motion A[i] -> B[i], into out: both ends in bounds and no box met (slab test by
+    division; a still coordinate inside its slab or not)."""
     n, dim = A.shape
     for i in range(n):
         ok = in_bounds(A[i], lower, upper) and in_bounds(B[i], lower, upper)

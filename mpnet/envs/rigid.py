@@ -4,6 +4,7 @@ by exact separating-axis tests (native) or python-fcl (same answers, slower)."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -12,158 +13,71 @@ from mpnet.envs.spaces import wrap_angle
 from mpnet.envs.workspace import Workspace
 
 
+class _RigidKernels(NamedTuple):
+    """The rigid body's compiled checks, as its checker calls them (dispatchers pickle; a module does not)."""
+
+    state_free: object
+    motion_free: object
+    states_free: object
+    clearance: object
+
+
 class RigidChecker(CollisionChecker):
-    """A rectangle (body extents w x h) at (x, y, theta) among 2D boxes.
+    """A rectangle (body extents w x h) at (x, y, theta) among 2D boxes, by the compiled checks
+    (mpnet.envs.rigid_kernels; the compiled planner's too: one implementation).
 
     States are exact separating-axis tests. A motion (straight in x, y; theta along the
     shorter arc) is checked by conservative advancement: at each step the largest
     separating-axis gap is a lower bound on the distance to the boxes, and no point of
     the body moves more than |dxy| + |dtheta| * half-diagonal per unit of the motion's
-    parameter, so the body can advance by gap / that rate and stay free (_safe_step).
+    parameter, so the body can advance by gap / that rate and stay free.
     """
 
-    MAX_STEPS = 20000
     compiled = True
 
     def compiled_env(self) -> tuple:
         from mpnet.envs.compiled_env import RIGID  # numba's kernels load with the compiled planner only
 
-        floats = np.array([self.hx, self.hy, self.radius, self.margin, self._x0, self._x1, self._y0, self._y1], float)
-        centres = np.array([b[:2] for b in self._boxes], float).reshape(-1, 2)
-        halves = np.array([b[2:] for b in self._boxes], float).reshape(-1, 2)
-        lower, upper = (np.ascontiguousarray(v, float) for v in (self.spec.space.lower, self.spec.space.upper))
+        near = np.empty(len(self._centres), np.int64)
         d = self.spec.state_dim
-        return (RIGID, np.empty(len(centres), np.int64), floats, centres, halves, lower, upper, np.empty(d))
+        return (RIGID, near, self._floats, self._centres, self._halves, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
+        from mpnet.envs import rigid_kernels as k  # numba: loaded with the first checker, not on import
+
         super().__init__(spec, ws, margin)
+        self._k = _RigidKernels(k.state_free, k.motion_free, k.states_free, k.clearance)
         self.hx, self.hy = spec.robot.size[0] / 2, spec.robot.size[1] / 2
         self.radius = math.hypot(self.hx, self.hy)
         c = (self.lo + self.hi) / 2
         h = (self.hi - self.lo) / 2
         self._boxes = [(float(cx), float(cy), float(bx), float(by)) for (cx, cy), (bx, by) in zip(c, h)]
-        self._c, self._h = c, h
         (self._x0, self._x1), (self._y0, self._y1) = spec.space.bounds[0], spec.space.bounds[1]
+        self._centres = np.ascontiguousarray(c, float).reshape(-1, 2)
+        self._halves = np.ascontiguousarray(h, float).reshape(-1, 2)
+        # the body and the bounds, as rigid_kernels reads them (HX ... Y1); the radius is math.hypot's own bits
+        self._floats = np.array([self.hx, self.hy, self.radius, margin, self._x0, self._x1, self._y0, self._y1])
+        self._lower, self._upper = (np.ascontiguousarray(v, float) for v in (self._lower, self._upper))
+        self._near = np.empty(len(self._centres), np.int64)
 
     def _in_bounds(self, x, y) -> bool:
         return self._x0 <= x <= self._x1 and self._y0 <= y <= self._y1
 
-    def clearance(self, x, y, th, boxes) -> float:
+    def clearance(self, x, y, th) -> float:
         """Lower bound on the distance from the body to the nearest box (<= 0: overlap)."""
-        c, s = math.cos(th), math.sin(th)
-        ac, as_ = abs(c), abs(s)
-        hx, hy = self.hx, self.hy
-        ex = ac * hx + as_ * hy
-        ey = as_ * hx + ac * hy
-        best = math.inf
-        for bx, by, bhx, bhy in boxes:
-            dx, dy = bx - x, by - y
-            g = max(
-                abs(dx) - ex - bhx,
-                abs(dy) - ey - bhy,
-                abs(dx * c + dy * s) - hx - bhx * ac - bhy * as_,
-                abs(-dx * s + dy * c) - hy - bhx * as_ - bhy * ac,
-            )
-            if g < best:
-                best = g
-        return best
+        return self._k.clearance(float(x), float(y), float(th), self._centres, self._halves, self._floats)
 
     def _state_free(self, q) -> bool:
-        x, y, th = q[0], q[1], q[2]
-        if not self._in_bounds(x, y):
-            return False
-        return self.clearance(x, y, th, self._boxes) > 0.0
+        return self._k.state_free(np.asarray(q, float), self._centres, self._halves, self._floats)
 
     def _motion_free(self, a, b) -> bool:
-        ax, ay, ath = a[0], a[1], a[2]
-        dx, dy = b[0] - ax, b[1] - ay
-        dth = wrap_angle(b[2] - ath)
-        if not (self._in_bounds(ax, ay) and self._in_bounds(ax + dx, ay + dy)):
-            return False
-        # Only boxes that meet the swept disc hull can be hit.
-        r = self.radius
-        xmin, xmax = min(ax, ax + dx) - r, max(ax, ax + dx) + r
-        ymin, ymax = min(ay, ay + dy) - r, max(ay, ay + dy) + r
-        boxes = [
-            bx
-            for bx in self._boxes
-            if bx[0] + bx[2] >= xmin and bx[0] - bx[2] <= xmax and bx[1] + bx[3] >= ymin and bx[1] - bx[3] <= ymax
-        ]
-        if not boxes:
-            return True
-        t = 0.0
-        for _ in range(self.MAX_STEPS):
-            step = self._safe_step(ax + t * dx, ay + t * dy, ath + t * dth, boxes, dx, dy, dth)
-            if step is None:
-                return False
-            if t >= 1.0:
-                return True
-            t = min(1.0, t + step)
-        return False
-
-    def _safe_step(self, x, y, th, boxes, dx, dy, dth) -> float | None:
-        """How far the motion's parameter may advance from (x, y, th) without touching any
-        (margin-inflated) box; None when one is within the margin already. Stepping the
-        whole gap lands a head-on approach on the contact, where the next call stops it.
-
-        Two certificates per box, the larger wins: the overall gap (a distance bound) over
-        the fastest any body point moves, |dxy| + |dtheta| * half-diagonal; and the gap
-        along a world axis over how fast the body's extent on that axis can grow,
-        |d(axis)| + |dtheta| * half-diagonal. The second lets a body slide along a face
-        close by in one step instead of thousands."""
-        c, s = math.cos(th), math.sin(th)
-        ac, as_ = abs(c), abs(s)
-        hx, hy, m = self.hx, self.hy, self.margin
-        ex, ey = ac * hx + as_ * hy, as_ * hx + ac * hy
-        spin = abs(dth) * self.radius
-        rate, rate_x, rate_y = math.hypot(dx, dy) + spin, abs(dx) + spin, abs(dy) + spin
-        best = math.inf
-        for bx, by, bhx, bhy in boxes:
-            ddx, ddy = bx - x, by - y
-            gx = abs(ddx) - ex - bhx
-            gy = abs(ddy) - ey - bhy
-            g = max(
-                gx,
-                gy,
-                abs(ddx * c + ddy * s) - hx - bhx * ac - bhy * as_,
-                abs(ddy * c - ddx * s) - hy - bhx * as_ - bhy * ac,
-            )
-            if g <= m:
-                return None
-            step = g / rate if rate > 0 else math.inf
-            if gx > m:
-                step = max(step, gx / rate_x if rate_x > 0 else math.inf)
-            if gy > m:
-                step = max(step, gy / rate_y if rate_y > 0 else math.inf)
-            if step < best:
-                best = step
-        return best
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        return self._k.motion_free(a, b, self._centres, self._halves, self._floats, self._near)
 
     def _states_free(self, qs: np.ndarray) -> np.ndarray:
-        inb = (qs[:, 0] >= self._x0) & (qs[:, 0] <= self._x1) & (qs[:, 1] >= self._y0) & (qs[:, 1] <= self._y1)
-        if not self._boxes:
-            return inb
-        return inb & (rect_box_gaps(qs, self.hx, self.hy, self._c, self._h).min(axis=1) > 0.0)
-
-
-def rect_box_gaps(qs: np.ndarray, hx: float, hy: float, centers: np.ndarray, halves: np.ndarray) -> np.ndarray:
-    """(N, M) separating-axis gaps between rectangles at states qs and boxes (<= 0: overlap).
-
-    One box at a time on whole columns: the few boxes make this ~5x faster than (N, M)
-    broadcasting."""
-    x, y = qs[:, 0], qs[:, 1]
-    c, s = np.cos(qs[:, 2]), np.sin(qs[:, 2])
-    ac, as_ = np.abs(c), np.abs(s)
-    ex, ey = ac * hx + as_ * hy, as_ * hx + ac * hy
-    out = np.empty((len(qs), len(centers)))
-    for j, ((bx, by), (bhx, bhy)) in enumerate(zip(centers.tolist(), halves.tolist())):
-        dx, dy = bx - x, by - y
-        g = np.abs(dx) - ex - bhx
-        np.maximum(g, np.abs(dy) - ey - bhy, out=g)
-        np.maximum(g, np.abs(dx * c + dy * s) - hx - bhx * ac - bhy * as_, out=g)
-        np.maximum(g, np.abs(dy * c - dx * s) - hy - bhx * as_ - bhy * ac, out=g)
-        out[:, j] = g
-    return out
+        out = np.empty(len(qs), np.bool_)
+        self._k.states_free(np.ascontiguousarray(qs), self._centres, self._halves, self._floats, out)
+        return out
 
 
 class FclRigidChecker(RigidChecker):
@@ -198,14 +112,36 @@ class FclRigidChecker(RigidChecker):
         self._manager.collide(self._body, data, self._fcl.defaultCollisionCallback)
         return not data.result.is_collision
 
-    def _safe_step(self, x, y, th, boxes, dx, dy, dth) -> float | None:
-        g = self.clearance(x, y, th, boxes)
-        if g <= self.margin:
-            return None
-        rate = math.hypot(dx, dy) + abs(dth) * self.radius
-        return g / rate if rate > 0 else math.inf
+    MAX_STEPS = 20000
 
-    def clearance(self, x, y, th, boxes) -> float:
+    def _motion_free(self, a, b) -> bool:
+        """Conservative advancement on fcl's exact distance: the body advances by the distance
+        over the fastest any of its points moves, |dxy| + |dtheta| * half-diagonal."""
+        ax, ay, ath = a[0], a[1], a[2]
+        dx, dy = b[0] - ax, b[1] - ay
+        dth = wrap_angle(b[2] - ath)
+        if not (self._in_bounds(ax, ay) and self._in_bounds(ax + dx, ay + dy)):
+            return False
+        r = self.radius  # only boxes that meet the swept disc hull can be hit
+        xmin, xmax = min(ax, ax + dx) - r, max(ax, ax + dx) + r
+        ymin, ymax = min(ay, ay + dy) - r, max(ay, ay + dy) + r
+        if not any(x + w >= xmin and x - w <= xmax and y + h >= ymin and y - h <= ymax for x, y, w, h in self._boxes):
+            return True
+        rate = math.hypot(dx, dy) + abs(dth) * r
+        t = 0.0
+        for _ in range(self.MAX_STEPS):
+            g = self.clearance(ax + t * dx, ay + t * dy, ath + t * dth)
+            if g <= self.margin:
+                return False
+            if t >= 1.0:
+                return True
+            t = min(1.0, t + (g / rate if rate > 0 else math.inf))
+        return False
+
+    def _states_free(self, qs: np.ndarray) -> np.ndarray:
+        return np.array([self._state_free(q) for q in qs.tolist()], bool)
+
+    def clearance(self, x, y, th) -> float:
         self._place(x, y, th)
         data = self._fcl.DistanceData()
         self._manager.distance(self._body, data, self._fcl.defaultDistanceCallback)

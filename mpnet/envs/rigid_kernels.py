@@ -1,5 +1,5 @@
-"""The rigid body's checks compiled (numba), for the compiled planner: RigidChecker's separating
-axes and conservative advancement, the same operations in the same order.
+"""The rigid body's checks (numba): separating axes and conservative advancement, RigidChecker's
+and the compiled planner's through it (one implementation; see RigidChecker for the bound).
 
 `centres`, `halves` (M, 2) are the checker's margin-grown boxes; `f` holds the body and the
 bounds: hx, hy, radius, margin, x0, x1, y0, y1 (RigidChecker's own floats, computed once by
@@ -13,7 +13,7 @@ import math
 from mpnet.jit import njit
 
 HX, HY, RADIUS, MARGIN, X0, X1, Y0, Y1 = range(8)
-MAX_STEPS = 20000  # RigidChecker.MAX_STEPS
+MAX_STEPS = 20000  # advancement steps before a motion is called blocked
 
 
 @njit(cache=True)
@@ -28,11 +28,8 @@ def _in_bounds(f, x, y):
 
 
 @njit(cache=True)
-def state_free(q, centres, halves, f):
-    """RigidChecker._state_free: in bounds and every box separated (clearance > 0)."""
-    x, y, th = q[0], q[1], q[2]
-    if not _in_bounds(f, x, y):
-        return False
+def clearance(x, y, th, centres, halves, f):
+    """Lower bound on the distance from the body at (x, y, th) to the nearest box (<= 0: overlap)."""
     c, s = math.cos(th), math.sin(th)
     ac, as_ = abs(c), abs(s)
     hx, hy = f[HX], f[HY]
@@ -50,12 +47,35 @@ def state_free(q, centres, halves, f):
         )
         if g < best:
             best = g
-    return best > 0.0
+    return best
+
+
+@njit(cache=True)
+def state_free(q, centres, halves, f):
+    """In bounds and every box separated (clearance > 0)."""
+    if not _in_bounds(f, q[0], q[1]):
+        return False
+    return clearance(q[0], q[1], q[2], centres, halves, f) > 0.0
+
+
+@njit(cache=True)
+def states_free(qs, centres, halves, f, out):
+    """state_free for each row of qs, into out."""
+    for i in range(qs.shape[0]):
+        out[i] = state_free(qs[i], centres, halves, f)
 
 
 @njit(cache=True)
 def _safe_step(x, y, th, centres, halves, near, n_near, f, dx, dy, dth):
-    """RigidChecker._safe_step over the boxes near[:n_near]: -1.0 where it returns None."""
+    """How far the motion's parameter may advance from (x, y, th) without touching any of the
+    boxes near[:n_near] (margin-grown); -1.0 when one is within the margin already. Stepping
+    the whole gap lands a head-on approach on the contact, where the next call stops it.
+
+    Two certificates per box, the larger wins: the overall gap (a distance bound) over the
+    fastest any body point moves, |dxy| + |dtheta| * half-diagonal; and the gap along a world
+    axis over how fast the body's extent on that axis can grow, |d(axis)| + |dtheta| *
+    half-diagonal. The second lets a body slide along a face close by in one step instead of
+    thousands."""
     c, s = math.cos(th), math.sin(th)
     ac, as_ = abs(c), abs(s)
     hx, hy, m = f[HX], f[HY], f[MARGIN]
@@ -88,14 +108,15 @@ def _safe_step(x, y, th, centres, halves, near, n_near, f, dx, dy, dth):
 
 
 @njit(cache=True)
-def motion_free(a, b, centres, halves, f, near):
-    """RigidChecker._motion_free: ends in bounds, then conservative advancement against the
-    boxes that meet the swept disc hull. near: (M,) int64 scratch."""
+def advance(a, b, centres, halves, f, near):
+    """(free, steps): is the motion free (ends in bounds, then conservative advancement against
+    the boxes that meet the swept disc hull), and how many advancement steps it took. x, y move
+    straight, theta along the shorter arc. near: (M,) int64 scratch."""
     ax, ay, ath = a[0], a[1], a[2]
     dx, dy = b[0] - ax, b[1] - ay
     dth = wrap_angle(b[2] - ath)
     if not (_in_bounds(f, ax, ay) and _in_bounds(f, ax + dx, ay + dy)):
-        return False
+        return False, 0
     r = f[RADIUS]
     xmin, xmax = min(ax, ax + dx) - r, max(ax, ax + dx) + r
     ymin, ymax = min(ay, ay + dy) - r, max(ay, ay + dy) + r
@@ -106,13 +127,19 @@ def motion_free(a, b, centres, halves, f, near):
             near[n] = j
             n += 1
     if n == 0:
-        return True
+        return True, 0
     t = 0.0
-    for _ in range(MAX_STEPS):
+    for k in range(MAX_STEPS):
         step = _safe_step(ax + t * dx, ay + t * dy, ath + t * dth, centres, halves, near, n, f, dx, dy, dth)
         if step < 0.0:
-            return False
+            return False, k + 1
         if t >= 1.0:
-            return True
+            return True, k + 1
         t = min(1.0, t + step)
-    return False
+    return False, MAX_STEPS
+
+
+@njit(cache=True)
+def motion_free(a, b, centres, halves, f, near):
+    """Is the motion a -> b free (advance's verdict)?"""
+    return advance(a, b, centres, halves, f, near)[0]

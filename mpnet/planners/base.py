@@ -26,6 +26,8 @@ APPROXIMATE = "approximate"  # OMPL: its approximate solution, start to the stat
 # (under stop=cost, the best path, which missed the cost target)
 PARTIAL_KINDS = (FORWARD, BACKWARD, LAST_PATH, APPROXIMATE)
 
+RANDOM_TRIES = 1000  # the random proposals' rejection sampling: draws before the last one is taken
+
 
 @dataclass
 class Problem:

@@ -22,9 +22,9 @@ import numpy as np
 from mpnet.envs.compiled_env import bounded_dims, canonical, motion_free, motions_free, state_free, wrap_difference
 from mpnet.jit import njit
 from mpnet.models.pnet_kernel import pnet_rows, pnet_step
+from mpnet.planners.base import RANDOM_TRIES
 
 PNET, RANDOM, RANDOM_ANY, STRAIGHT = 0, 1, 2, 3  # mpnet.planners.neural.PROPOSALS, in order
-RANDOM_TRIES = 1000  # neural.random_valid_state's tries
 MEMO_BITS = 15  # 32768 motions per query; past 70% full, new verdicts are not remembered
 
 

@@ -22,6 +22,7 @@ from mpnet.planners.base import (
     FORWARD,
     LAST_PATH,
     NO_SOLUTION,
+    RANDOM_TRIES,
     TIMEOUT,
     Problem,
     Result,
@@ -426,7 +427,7 @@ def check_settings(
         )
 
 
-def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = 1000) -> np.ndarray:
+def random_valid_state(spec, checker, rng: np.random.Generator, tries: int = RANDOM_TRIES) -> np.ndarray:
     """A uniformly random valid state (rejection sampling in the state bounds); after
     `tries` invalid draws the last one, which replanning then drops."""
     for _ in range(tries):
