@@ -121,7 +121,8 @@ PLANNER_PROBE = textwrap.dedent(
     spec = get_spec("s2d")
     checker = spec.make_checker(make_workspace(spec, 0, "seen"))
     rng = np.random.default_rng(0)
-    q = next(q for q in (spec.space.sample(rng) for _ in range(1000)) if checker.is_valid(list(q)))
+    inside = lambda q: any(((q >= lo) & (q <= hi)).all() for lo, hi in zip(checker.lo, checker.hi))  # noqa: E731
+    q = next(q for q in (spec.space.sample(rng) for _ in range(1000)) if not inside(q))  # free, not asked of a kernel
     env, counts = kernel_env(checker), np.zeros(3, np.int64)
     print(checker.is_valid(list(q)), K.is_valid(env, counts, np.asarray(q, float)))
     """
