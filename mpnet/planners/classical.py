@@ -29,6 +29,7 @@ ALGORITHMS = {
     "rrt_connect": og.RRTConnect,
 }
 OPTIMIZING = {"informed_rrt_star", "bit_star", "rrt_star"}
+TIME_STOP_SHARE = 0.98  # stop=time: the share of the budget planned; the rest hands the path back in time
 
 
 class OmplPlanner:
@@ -38,10 +39,11 @@ class OmplPlanner:
     exact-solution condition does not stop optimizing planners, so a condition on the
     planner's best cost does. stop="cost": run until the path cost reaches
     cost_factor x the problem's reference cost; a path that never gets there is no
-    solution (timeout). stop="time": run the whole budget and return the best path (a
-    budgeted reference run). `range` is the planner's maximum edge length
-    (None: the env's `planner_range`, else OMPL's default); `params` are OMPL planner parameters by
-    snake_case name (rewire_factor -> setRewireFactor). keep_partial: a failed solve's
+    solution (timeout). stop="time": run to 98% of the budget and return the best path (a
+    budgeted reference run; the rest is the margin to hand it back within the budget).
+    `range` is the planner's maximum edge length (None: the env's `planner_range`, else
+    OMPL's default); `params` are OMPL planner parameters by snake_case name
+    (rewire_factor -> setRewireFactor). keep_partial: a failed solve's
     Result carries OMPL's approximate solution when there is one (MPNet-HR's fallback,
     which may fail and restart many times in one query, turns it off). An optimizing planner's
     stats carry `progress`: [seconds since solve began, best cost] at each improvement, what
@@ -101,7 +103,10 @@ class OmplPlanner:
         planner.setup()
 
         watch = BestCostWatch(planner, t0, self.stop, target) if self.algorithm in OPTIMIZING else None
-        timed = ob.timedPlannerTerminationCondition(max(0.0, budget_s - (time.perf_counter() - t0)))
+        # stop=time plans to TIME_STOP_SHARE of the budget, not all of it: OMPL's timed condition
+        # stops an iteration past its time, and a path handed back after the budget is a timeout.
+        plan_s = budget_s * (TIME_STOP_SHARE if self.stop == "time" else 1.0)
+        timed = ob.timedPlannerTerminationCondition(max(0.0, plan_s - (time.perf_counter() - t0)))
         # No period argument: a periodic condition runs on a thread and aborts at exit.
         ptc = timed if watch is None else ob.plannerOrTerminationCondition(timed, ob.PlannerTerminationCondition(watch))
         status = planner.solve(ptc)
