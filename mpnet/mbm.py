@@ -21,9 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from mpnet.envs.shapes import IDENTITY, Primitive
-from mpnet.envs.spec import EnvSpec, TestSet
+from mpnet.envs.spec import SPLIT, EnvSpec, ProblemFileError, TestSet
 from mpnet.envs.workspace import Query, Workspace
-from mpnet.problems import SPLIT, ProblemFileError
 
 _SCENE = re.compile(r"scene(\d+)\.ya?ml$")
 

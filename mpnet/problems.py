@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from mpnet.envs.shapes import IDENTITY, TYPES, Primitive
-from mpnet.envs.spec import EnvSpec, TestSet
+from mpnet.envs.spec import SPLIT, EnvSpec, ProblemFileError, TestSet
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Query, Workspace
 
@@ -41,7 +41,6 @@ FORMAT = "mpnet-bench/problems@1"
 # (a cylinder's [diameter, diameter, height], a sphere's [diameter] * 3), "orientation"
 # [x, y, z, w]}; an obstacle without type and orientation is an axis-aligned box, as in @1.
 FORMAT_2 = "mpnet-bench/problems@2"
-SPLIT = "file"
 
 __all__ = [
     "FORMAT",
@@ -59,46 +58,6 @@ __all__ = [
 def query_id(workspace_id: str, index: int) -> str:
     """The stable id of query `index` of workspace `workspace_id`."""
     return f"{workspace_id}/{index}"
-
-
-class ProblemFileError(ValueError):
-    """A problem file that cannot be used. `str(e)` is a single line.
-
-    Attributes: `path` (as given), `workspace_id` / `workspace_index` / `query_index`
-    (None where they do not apply) and `detail` (the message without the location).
-    """
-
-    def __init__(
-        self,
-        path,
-        detail: str,
-        *,
-        workspace_index: int | None = None,
-        workspace_id: str | None = None,
-        query_index: int | None = None,
-        where: str | None = None,
-    ):
-        self.path = str(path)
-        self.detail = detail
-        self.workspace_index = workspace_index
-        self.workspace_id = workspace_id
-        self.query_index = query_index
-        loc = []
-        if workspace_index is not None:
-            if workspace_id is not None:
-                loc.append(f"workspace {workspace_id!r} (#{workspace_index})")
-            else:
-                loc.append(f"workspace #{workspace_index}")
-        if query_index is not None:
-            loc.append(f"query #{query_index}")
-        if where:
-            loc.append(where)
-        parts = [self.path] + ([", ".join(loc)] if loc else []) + [detail]
-        super().__init__(_one_line(": ".join(parts)))
-
-
-def _one_line(s: str) -> str:
-    return s.replace("\r", "\\r").replace("\n", "\\n")
 
 
 # --------------------------------------------------------------------------- parsing

@@ -1,5 +1,7 @@
 """An environment as one object: its state space, robot, workspace generator and point
-cloud sampler, plus the fixed facts the stages share (docs/environments.md)."""
+cloud sampler, plus the fixed facts the stages share (docs/environments.md). Also what the
+readers of test sets from files (problem files, MotionBenchMaker's YAML pairs) share: their
+split (SPLIT) and their one-line error (ProblemFileError)."""
 
 from __future__ import annotations
 
@@ -125,3 +127,48 @@ class TestSet:
             if ws.id == wid and ws.split == split:
                 return ws
         raise KeyError(f"no workspace {wid!r} in split {split!r}")
+
+
+# The split of every workspace and query read from a file (problem files, MotionBenchMaker's
+# YAML pairs): their readers' shared vocabulary, with the error they raise.
+SPLIT = "file"
+
+
+class ProblemFileError(ValueError):
+    """A problem file that cannot be used. `str(e)` is a single line.
+
+    Attributes: `path` (as given), `workspace_id` / `workspace_index` / `query_index`
+    (None where they do not apply) and `detail` (the message without the location).
+    """
+
+    def __init__(
+        self,
+        path,
+        detail: str,
+        *,
+        workspace_index: int | None = None,
+        workspace_id: str | None = None,
+        query_index: int | None = None,
+        where: str | None = None,
+    ):
+        self.path = str(path)
+        self.detail = detail
+        self.workspace_index = workspace_index
+        self.workspace_id = workspace_id
+        self.query_index = query_index
+        loc = []
+        if workspace_index is not None:
+            if workspace_id is not None:
+                loc.append(f"workspace {workspace_id!r} (#{workspace_index})")
+            else:
+                loc.append(f"workspace #{workspace_index}")
+        if query_index is not None:
+            loc.append(f"query #{query_index}")
+        if where:
+            loc.append(where)
+        parts = [self.path] + ([", ".join(loc)] if loc else []) + [detail]
+        super().__init__(_one_line(": ".join(parts)))
+
+
+def _one_line(s: str) -> str:
+    return s.replace("\r", "\\r").replace("\n", "\\n")
