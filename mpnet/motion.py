@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.checkers.collision import CollisionChecker
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 

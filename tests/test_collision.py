@@ -10,10 +10,10 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs import rigid_kernels as R
-from mpnet.envs.collision import PointChecker
+from mpnet.envs.checkers import rigid_kernels as R
+from mpnet.envs.checkers.collision import PointChecker
+from mpnet.envs.checkers.rigid import RigidChecker
 from mpnet.envs.generators import make_workspace
-from mpnet.envs.rigid import RigidChecker
 from mpnet.motion import interpolate
 from mpnet.planners.compiled import kernel_env
 
@@ -257,6 +257,6 @@ def test_warm_up_checks_each_kind_and_leaves_no_counts(env, backend):
     assert calls == ["is_valid", "motion_valid", "states_valid", "motions_valid"]
     assert set(checker.counts().values()) == {0}
     if backend == "spheres":
-        from mpnet.envs import sphere_checks as C
+        from mpnet.envs.checkers import sphere_checks as C
 
         assert C.state_free.signatures and C.motions_free.signatures  # compiled (or loaded) now

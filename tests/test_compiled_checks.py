@@ -1,8 +1,8 @@
 """The compiled checks (the checkers' own and the compiled planner's) against the numpy and
 Python code they were ported from (tests/oracles.py), bit for bit: the point robot's
-(mpnet.envs.point_kernels) on segments that graze faces, run along them, or stand still in a
+(mpnet.envs.checkers.point_kernels) on segments that graze faces, run along them, or stand still in a
 coordinate, where the one-motion and batch tests' arithmetic matter; the rigid body's
-(mpnet.envs.rigid_kernels), short and long motions, turning both ways."""
+(mpnet.envs.checkers.rigid_kernels), short and long motions, turning both ways."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs import point_kernels as P
-from mpnet.envs import rigid_kernels as R
+from mpnet.envs.checkers import point_kernels as P
+from mpnet.envs.checkers import rigid_kernels as R
 from mpnet.envs.generators import make_workspace
 from mpnet.envs.specs import get_spec
 from mpnet.planners.compiled import kernel_env
@@ -96,8 +96,8 @@ def test_the_rigid_kernels_answer_as_the_checker(index, seed):
 def test_a_checker_that_changes_the_geometry_has_no_compiled_form():
     """Its parent's kernels would answer for other geometry (fcl's rigid checker is such a
     subclass): a subclass that overrides a check and not compiled_env has none."""
-    from mpnet.envs.collision import PointChecker
-    from mpnet.envs.rigid import FclRigidChecker, RigidChecker
+    from mpnet.envs.checkers.collision import PointChecker
+    from mpnet.envs.checkers.rigid import FclRigidChecker, RigidChecker
 
     class Everywhere(PointChecker):
         def _state_free(self, q) -> bool:

@@ -99,15 +99,16 @@ def test_the_repository_kernels_reach_what_they_inline():
     root = jit.ROOT
     reach = lambda m: {p.relative_to(root).as_posix() for p in jit.reach(root / m)}  # noqa: E731
     assert {
-        "envs/compiled_env.py",
-        "envs/point_kernels.py",
-        "envs/rigid_kernels.py",
-        "envs/sphere_checks.py",
-        "envs/sphere_kernels.py",
+        "envs/checkers/compiled_env.py",
+        "envs/checkers/point_kernels.py",
+        "envs/checkers/rigid_kernels.py",
+        "envs/checkers/sphere_checks.py",
+        "envs/checkers/sphere_kernels.py",
         "models/pnet_kernel.py",
     } <= reach("planners/compiled_kernels.py")
-    assert "envs/sphere_kernels.py" in reach("envs/sphere_checks.py")
-    assert "envs/spheres.py" not in reach("envs/sphere_checks.py")  # a Python-side module does not recompile it
+    assert "envs/checkers/sphere_kernels.py" in reach("envs/checkers/sphere_checks.py")
+    # a Python-side module does not recompile it
+    assert "envs/checkers/spheres.py" not in reach("envs/checkers/sphere_checks.py")
 
 
 PLANNER_PROBE = textwrap.dedent(
@@ -136,7 +137,7 @@ def test_an_edit_of_a_point_kernel_reaches_the_compiled_planner(repo, tmp_path):
     then refuse too."""
     shutil.copytree(repo / "mpnet", tmp_path / "mpnet", ignore=shutil.ignore_patterns("*.nbi", "*.nbc"))
     assert _run(tmp_path, PLANNER_PROBE) == ["True", "True"]
-    kernels = tmp_path / "mpnet" / "envs" / "point_kernels.py"
+    kernels = tmp_path / "mpnet" / "envs" / "checkers" / "point_kernels.py"
     text = kernels.read_text()
     edited = text.replace('"""In bounds and in no closed box."""', '"""Refuses."""\n    return False')
     assert edited != text

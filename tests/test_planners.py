@@ -186,7 +186,7 @@ def test_run_bench_warms_the_checker_up_before_the_first_query(monkeypatch):
     as a timeout): run_bench warms the first checker up first, outside every query's clock."""
     from harness.bench.loop import run_bench
     from mpnet.envs import Query, TestSet, get_spec
-    from mpnet.envs.collision import CollisionChecker
+    from mpnet.envs.checkers.collision import CollisionChecker
     from mpnet.envs.generators import make_workspace
     from mpnet.planners.base import Result
 

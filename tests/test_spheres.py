@@ -12,12 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs import sphere_checks as C
-from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import ArmModelError, load_arm_model
+from mpnet.envs.checkers import sphere_checks as C
+from mpnet.envs.checkers import sphere_kernels as K
+from mpnet.envs.checkers.spheres import pack_obstacles, read_spheres, sphere_model
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.specs import get_spec
-from mpnet.envs.spheres import pack_obstacles, read_spheres, sphere_model
 from mpnet.envs.spherize import link_hull, spherize
 from mpnet.envs.workspace import Workspace
 from mpnet.mbm import load_mbm

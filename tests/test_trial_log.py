@@ -992,7 +992,7 @@ def test_arm_link_boxes_cover_the_links_where_pybullet_has_them():
     """Each drawn link box matches the world AABB of that link's collision mesh (the
     boxes were once placed in the link frame, 2-13 cm off)."""
     from harness.log.arm_painter import arm_boxes, link_boxes
-    from mpnet.envs.pybullet_arm import arm_world
+    from mpnet.envs.checkers.pybullet_arm import arm_world
     from mpnet.envs.shapes import quat_matrix
 
     w = arm_world("panda")

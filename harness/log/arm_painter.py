@@ -3,7 +3,7 @@ frame, the end-effector trace of each path, and the arm's links as boxes at stat
 the path (from pybullet's collision meshes), in Foxglove and Rerun.
 
 The joint-space path is what the log holds; everything spatial here comes from the
-logged arm model's forward kinematics in pybullet (mpnet.envs.pybullet_arm)."""
+logged arm model's forward kinematics in pybullet (mpnet.envs.checkers.pybullet_arm)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from harness.log import mpl
 from harness.log.foxglove import LINE_LIST, cube, line, p3, rgba
 from harness.log.painters import Painter, register
 from harness.log.style import C_ARM, C_BOUNDS, C_OBSTACLE, rgba8
-from mpnet.envs.pybullet_arm import arm_world
+from mpnet.envs.checkers.pybullet_arm import arm_world
 from mpnet.envs.robots import logged_model_name
 from mpnet.envs.shapes import IDENTITY, quat_matrix
 

@@ -20,7 +20,7 @@ from functools import cached_property
 import numpy as np
 
 from mpnet.envs.arm_ik import IKTarget, solve
-from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.checkers.collision import CollisionChecker
 from mpnet.envs.mbm_scenes import PoseQuery, SceneFamily, default_start, families
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from ompl import base as ob
 
-from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.checkers.collision import CollisionChecker
 from mpnet.envs.spec import EnvSpec
 
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 import math
 
 from mpnet.envs.arm_model import ArmModel, load_arm_model
-from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
-from mpnet.envs.pybullet_arm import PybulletArmChecker
-from mpnet.envs.rigid import FclRigidChecker, RigidChecker
+from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
+from mpnet.envs.checkers.pybullet_arm import PybulletArmChecker
+from mpnet.envs.checkers.rigid import FclRigidChecker, RigidChecker
+from mpnet.envs.checkers.spheres import SphereChecker
 from mpnet.envs.spaces import EuclideanSpace
-from mpnet.envs.spheres import SphereChecker
 from mpnet.envs.workspace import Workspace
 
 

@@ -8,7 +8,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from mpnet.envs.collision import CollisionChecker
+from mpnet.envs.checkers.collision import CollisionChecker
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 

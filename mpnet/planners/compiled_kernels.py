@@ -9,7 +9,7 @@ same paths and the same check counts.
 
 An env's checks come as one tuple of arrays (`env`), the checker's compiled form
 (`CollisionChecker.compiled_env`); the checks and the state space's wrap on it are
-mpnet.envs.compiled_env's, which picks each robot kind's kernels: nothing here knows a robot.
+mpnet.envs.checkers.compiled_env's, which picks each robot kind's kernels: nothing here knows a robot.
 
 The memo is an open-addressing table (keys (cap, 2d), verdicts int8: -1 empty, 0, 1) keyed
 by the motion's coordinates compared as floats (so -0.0 is 0.0, as in a dict of tuples).
@@ -19,7 +19,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from mpnet.envs.compiled_env import bounded_dims, canonical, motion_free, motions_free, state_free, wrap_difference
+from mpnet.envs.checkers.compiled_env import (
+    bounded_dims,
+    canonical,
+    motion_free,
+    motions_free,
+    state_free,
+    wrap_difference,
+)
 from mpnet.jit import njit
 from mpnet.models.pnet_kernel import pnet_rows, pnet_step
 from mpnet.planners.base import RANDOM_TRIES

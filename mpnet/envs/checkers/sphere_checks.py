@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mpnet.envs.sphere_kernels import (
+from mpnet.envs.checkers.sphere_kernels import (
     BRADIUS,
     DQ,
     FREE,

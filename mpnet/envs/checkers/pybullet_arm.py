@@ -17,7 +17,7 @@ from functools import cache
 import numpy as np
 
 from mpnet.envs.arm_model import ArmModel, load_arm_model
-from mpnet.envs.collision import SampledConfigurations
+from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
 

@@ -1,6 +1,6 @@
 """The sphere checker (`env.collision=spheres`, the arm's default): the arm model's sphere
 set (a covering of its collision meshes, mpnet.envs.spherize) tested in compiled code
-(mpnet.envs.sphere_kernels) against the workspace's posed boxes, cylinders and spheres and
+(mpnet.envs.checkers.sphere_kernels) against the workspace's posed boxes, cylinders and spheres and
 against the links it may not touch.
 
 Because the spheres cover pybullet's meshes, a configuration this checker calls free is
@@ -17,10 +17,10 @@ from importlib import resources
 
 import numpy as np
 
-from mpnet.envs import sphere_checks as C
-from mpnet.envs import sphere_kernels as K
 from mpnet.envs.arm_model import PRISMATIC, ArmModel, load_arm_model
-from mpnet.envs.collision import SampledConfigurations
+from mpnet.envs.checkers import sphere_checks as C
+from mpnet.envs.checkers import sphere_kernels as K
+from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.workspace import Workspace
 
 # A motion whose spheres would still touch something with less growth than this (metres)
@@ -276,9 +276,9 @@ class SphereChecker(SampledConfigurations):
     compiled = True
 
     def compiled_env(self) -> tuple:
-        """The sphere model's arrays; one field more than the box robots' (mpnet.envs.compiled_env:
+        """The sphere model's arrays; one field more than the box robots' (mpnet.envs.checkers.compiled_env:
         the arm's kernels compile apart)."""
-        from mpnet.envs.compiled_env import ARM
+        from mpnet.envs.checkers.compiled_env import ARM
 
         mi, mf, ob, lo_, up_ = self._args
         status = np.array([[CERTIFY_TOL, 1.0 if self.base_blocked else 0.0]])

@@ -2,13 +2,13 @@
 
 One checker per workspace serves every planner, for single states (OMPL calls it per state)
 and for batches. The point robots' and the rigid body's checks are their compiled kernels
-(mpnet.envs.point_kernels, rigid_kernels: ~1 us a state from Python, the compiled planner
+(mpnet.envs.checkers.point_kernels, rigid_kernels: ~1 us a state from Python, the compiled planner
 inlines the same code), and their motions are checked continuously, never by sampling:
 exactly for point robots (slab test), and by conservative advancement on a proven clearance
 bound for the rigid body, so a motion called free is free at any resolution.
 The arm's checkers evaluate configurations along a motion: the sphere checker
-(mpnet.envs.spheres) with a bound on how far its spheres move between them, pybullet's
-(mpnet.envs.pybullet_arm) at env.motion_step; the fine re-check then judges every path.
+(mpnet.envs.checkers.spheres) with a bound on how far its spheres move between them, pybullet's
+(mpnet.envs.checkers.pybullet_arm) at env.motion_step; the fine re-check then judges every path.
 
 A robot kind's checker subclasses CollisionChecker and implements the four `_free`
 methods; everything else uses only the public, counted calls.
@@ -54,7 +54,7 @@ class CollisionChecker(ABC):
     compiled = False  # whether compiled_env gives the compiled planner this checker's form
 
     def compiled_env(self) -> tuple:
-        """This checker's geometry as the compiled planner's `env` tuple (mpnet.envs.compiled_env):
+        """This checker's geometry as the compiled planner's `env` tuple (mpnet.envs.checkers.compiled_env):
         the one interface through which the planner reaches a robot's kernels."""
         raise ValueError(f"the compiled planner has no kernels for {type(self).__name__}")
 
@@ -152,18 +152,18 @@ class _Kernels(NamedTuple):
 
 class PointChecker(CollisionChecker):
     """A point robot in 2D or 3D: a point collides when it lies in a closed box. Its checks are
-    the compiled ones (mpnet.envs.point_kernels), the compiled planner's too: one implementation."""
+    the compiled ones (mpnet.envs.checkers.point_kernels), the compiled planner's too: one implementation."""
 
     compiled = True
 
     def compiled_env(self) -> tuple:
-        from mpnet.envs.compiled_env import POINT  # numba's kernels load with the compiled planner only
+        from mpnet.envs.checkers.compiled_env import POINT  # numba's kernels load with the compiled planner only
 
         d = self.spec.state_dim
         return (POINT, np.zeros(0, np.int64), np.zeros(0), self._lo, self._hi, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
-        from mpnet.envs import point_kernels as k  # numba: loaded with the first checker, not on import
+        from mpnet.envs.checkers import point_kernels as k  # numba: loaded with the first checker, not on import
 
         super().__init__(spec, ws, margin)
         d = spec.state_dim

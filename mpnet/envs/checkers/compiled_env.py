@@ -3,12 +3,12 @@
 kernels call on it, each robot kind's chosen here, so that the planner knows no robot kind.
 
 An env is one tuple of arrays (kind, ints, floats, lo, hi, lower, upper, scratch): kind POINT is
-the point robot's boxes (lo, hi; mpnet.envs.point_kernels), RIGID the rectangle's (box centres
-and halves in lo, hi, the body and bounds in floats, ints scratch; mpnet.envs.rigid_kernels):
+the point robot's boxes (lo, hi; mpnet.envs.checkers.point_kernels), RIGID the rectangle's (box centres
+and halves in lo, hi, the body and bounds in floats, ints scratch; mpnet.envs.checkers.rigid_kernels):
 one compilation, cached on disk, serves both. ARM is the sphere model's (its packed ints and
 floats, the packed obstacles as lo's one row, hi's one row (certify tolerance, base blocked),
 its scratch, and one field more, so that the kernels compile apart for it;
-mpnet.envs.sphere_checks, which counts the configurations it evaluates in counts[2]).
+mpnet.envs.checkers.sphere_checks, which counts the configurations it evaluates in counts[2]).
 A robot kind of one's own: its checker's `compiled_env`, and its branch here.
 """
 
@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from numba.extending import overload
 
-from mpnet.envs import point_kernels as P
-from mpnet.envs import rigid_kernels as R
-from mpnet.envs import sphere_checks as S
+from mpnet.envs.checkers import point_kernels as P
+from mpnet.envs.checkers import rigid_kernels as R
+from mpnet.envs.checkers import sphere_checks as S
 from mpnet.jit import njit
 
 POINT, RIGID, ARM = 0, 1, 2

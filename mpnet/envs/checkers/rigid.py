@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mpnet.envs.collision import PLANNING_MARGIN, CollisionChecker
+from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker
 from mpnet.envs.spaces import wrap_angle
 from mpnet.envs.workspace import Workspace
 
@@ -24,7 +24,7 @@ class _RigidKernels(NamedTuple):
 
 class RigidChecker(CollisionChecker):
     """A rectangle (body extents w x h) at (x, y, theta) among 2D boxes, by the compiled checks
-    (mpnet.envs.rigid_kernels; the compiled planner's too: one implementation).
+    (mpnet.envs.checkers.rigid_kernels; the compiled planner's too: one implementation).
 
     States are exact separating-axis tests. A motion (straight in x, y; theta along the
     shorter arc) is checked by conservative advancement: at each step the largest
@@ -36,14 +36,14 @@ class RigidChecker(CollisionChecker):
     compiled = True
 
     def compiled_env(self) -> tuple:
-        from mpnet.envs.compiled_env import RIGID  # numba's kernels load with the compiled planner only
+        from mpnet.envs.checkers.compiled_env import RIGID  # numba's kernels load with the compiled planner only
 
         near = np.empty(len(self._centres), np.int64)
         d = self.spec.state_dim
         return (RIGID, near, self._floats, self._centres, self._halves, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
-        from mpnet.envs import rigid_kernels as k  # numba: loaded with the first checker, not on import
+        from mpnet.envs.checkers import rigid_kernels as k  # numba: loaded with the first checker, not on import
 
         super().__init__(spec, ws, margin)
         self._k = _RigidKernels(k.state_free, k.motion_free, k.states_free, k.clearance)

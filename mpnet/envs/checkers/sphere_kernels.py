@@ -6,7 +6,7 @@ Why numba: a sampling planner asks about one configuration at a time from Python
 configuration is ~13 frame transforms and a few hundred sphere tests with early exits, which
 numpy cannot batch without paying ~30 us of call overhead; compiled, one costs ~1-2 us.
 
-Data layout (built by mpnet.envs.spheres.SphereModel): frames in parent-before-child order
+Data layout (built by mpnet.envs.checkers.spheres.SphereModel): frames in parent-before-child order
 (`parent`, `origin` (F, 3, 4), `kind`, `axis`, `coord`); a three-level sphere tree: links
 (each a bounding sphere and a range of groups), groups (each a bounding sphere and a range
 of spheres) and the spheres (`local` (S, 3) in their frame, `radius`); the self-collision
