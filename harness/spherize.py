@@ -3,7 +3,7 @@ its description names, in mpnet/data_files/robots/) from the robot's collision m
 
     python -m harness.spherize panda
 
-The set ships with the package; this is how it was made (mpnet.envs.spherize), with the
+The set ships with the package; this is how it was made (mpnet.envs.arm.spherize), with the
 settings below recorded in the file. A changed set changes every arm cache key.
 """
 
@@ -14,8 +14,8 @@ import json
 import sys
 from pathlib import Path
 
-from mpnet.envs.arm_model import ArmModelError, load_arm_model
-from mpnet.envs.spherize import spherize
+from mpnet.envs.arm.model import ArmModelError, load_arm_model
+from mpnet.envs.arm.spherize import spherize
 
 SPACING = 0.0015  # m: every point of a hull lies this close to a covered sample
 # Bullet tests a mesh's hull with a collision margin of about a millimetre: the pad covers

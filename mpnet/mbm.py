@@ -99,7 +99,7 @@ def _pose(path: Path, obj: str, pose, what: str) -> tuple[np.ndarray, np.ndarray
 def scene_primitives(path: Path) -> list[Primitive]:
     """The collision objects of a MoveIt scene file as posed primitives (an object's own
     `pose`, where given, composed with its primitives' poses, as MoveIt does)."""
-    from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm_ik.solve)
+    from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm.ik.solve)
 
     doc = _load_yaml(path)
     world = doc.get("world") if isinstance(doc, dict) else None

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.arm_model import load_arm_model
+from mpnet.envs.arm.model import load_arm_model
 from mpnet.envs.checkers.pybullet_arm import arm_world, coarse_to_fine
 from mpnet.envs.shapes import Primitive, quat_matrix, surface_cloud, yaw_quat
 from mpnet.envs.specs import get_spec

@@ -1,4 +1,4 @@
-"""Inverse kinematics on the arm model (mpnet.envs.arm_ik): the Jacobian matches finite
+"""Inverse kinematics on the arm model (mpnet.envs.arm.ik): the Jacobian matches finite
 differences, and poses the arm can reach are reached within MBM-like tolerances."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from mpnet.envs import ik_kernels
-from mpnet.envs.arm_ik import IKTarget, chain_arrays, jacobian, meets, solve
-from mpnet.envs.arm_model import load_arm_model
+from mpnet.envs.arm import ik_kernels
+from mpnet.envs.arm.ik import IKTarget, chain_arrays, jacobian, meets, solve
+from mpnet.envs.arm.model import load_arm_model
 
 MODEL = load_arm_model("panda")
 LOWER = np.array([b[0] for b in MODEL.limits])

@@ -9,7 +9,7 @@ import itertools
 import numpy as np
 import pytest
 
-from mpnet.envs.arm_ik import IKTarget, meets
+from mpnet.envs.arm.ik import IKTarget, meets
 from mpnet.envs.generators import split_ids, split_sizes
 from mpnet.envs.mbm_problems import FAMILY_ORDER, TIP, family_of, poses_of
 from mpnet.envs.mbm_scenes import default_start, families

@@ -12,13 +12,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.arm_model import ArmModelError, load_arm_model
+from mpnet.envs.arm.model import ArmModelError, load_arm_model
+from mpnet.envs.arm.spherize import link_hull, spherize
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers.spheres import pack_obstacles, read_spheres, sphere_model
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.specs import get_spec
-from mpnet.envs.spherize import link_hull, spherize
 from mpnet.envs.workspace import Workspace
 from mpnet.mbm import load_mbm
 
@@ -216,7 +216,7 @@ def test_batch_and_single_calls_agree(mbm_dir):
 
 def _model_copy(tmp_path, monkeypatch):
     """The package's robot descriptions copied into tmp_path, which load_arm_model then reads."""
-    from mpnet.envs import arm_model
+    from mpnet.envs.arm import model as arm_model
 
     for f in arm_model._data_dir().iterdir():
         if f.is_file():

@@ -8,7 +8,7 @@ drawn again, as MBM does.
 Workspace i is of family FAMILY_ORDER[i % 7] and depends on (seed, i) only. Where we differ
 from MBM, and why: MBM validated each query with a MoveIt planner given 60 s; test queries
 here pass the env's RRT-Connect screen (`solvable_s`), expert paths the expert's RRT*. MBM's
-IK is KDL with 200 restarts of 0.01 s; ours is mpnet.envs.arm_ik with the same number of
+IK is KDL with 200 restarts of 0.01 s; ours is mpnet.envs.arm.ik with the same number of
 restarts. MBM's 700 packaged problems are test data: nothing here reads them.
 """
 
@@ -19,7 +19,7 @@ from functools import cached_property
 
 import numpy as np
 
-from mpnet.envs.arm_ik import IKTarget, solve
+from mpnet.envs.arm.ik import IKTarget, solve
 from mpnet.envs.checkers.collision import CollisionChecker
 from mpnet.envs.mbm_scenes import PoseQuery, SceneFamily, default_start, families
 from mpnet.envs.spec import EnvSpec

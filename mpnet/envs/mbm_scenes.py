@@ -98,7 +98,7 @@ class SceneFamily:
 
     def primitives(self, poses: dict[str, np.ndarray]) -> tuple[Primitive, ...]:
         """The scene's obstacles, in the data's object order."""
-        from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm_ik.solve)
+        from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm.ik.solve)
 
         out = []
         for o in self.objects:

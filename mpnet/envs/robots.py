@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from mpnet.envs.arm_model import ArmModel, load_arm_model
+from mpnet.envs.arm.model import ArmModel, load_arm_model
 from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
 from mpnet.envs.checkers.pybullet_arm import PybulletArmChecker
 from mpnet.envs.checkers.rigid import FclRigidChecker, RigidChecker
@@ -83,7 +83,7 @@ class RectangleRobot(Robot):
 
 
 class ArmRobot(Robot):
-    """A serial arm built from its data description (mpnet.envs.arm_model): the state is the
+    """A serial arm built from its data description (mpnet.envs.arm.model): the state is the
     planned joint vector. spheres: the compiled sphere covering, certified motions (the
     default); pybullet: the collision meshes, sampled motions (the judge of every success)."""
 

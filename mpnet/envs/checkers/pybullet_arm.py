@@ -1,4 +1,4 @@
-"""An arm model (mpnet.envs.arm_model) in pybullet: the mesh checker that judges every
+"""An arm model (mpnet.envs.arm.model) in pybullet: the mesh checker that judges every
 logged arm success (`env.collision=pybullet` plans with it too), and link poses for the logs.
 
 One DIRECT client per process and model holds the arm (loading it costs ~0.3 s, so checkers
@@ -16,7 +16,7 @@ from functools import cache
 
 import numpy as np
 
-from mpnet.envs.arm_model import ArmModel, load_arm_model
+from mpnet.envs.arm.model import ArmModel, load_arm_model
 from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace

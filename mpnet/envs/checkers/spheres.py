@@ -1,5 +1,5 @@
 """The sphere checker (`env.collision=spheres`, the arm's default): the arm model's sphere
-set (a covering of its collision meshes, mpnet.envs.spherize) tested in compiled code
+set (a covering of its collision meshes, mpnet.envs.arm.spherize) tested in compiled code
 (mpnet.envs.checkers.sphere_kernels) against the workspace's posed boxes, cylinders and spheres and
 against the links it may not touch.
 
@@ -17,7 +17,7 @@ from importlib import resources
 
 import numpy as np
 
-from mpnet.envs.arm_model import PRISMATIC, ArmModel, load_arm_model
+from mpnet.envs.arm.model import PRISMATIC, ArmModel, load_arm_model
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers.collision import SampledConfigurations

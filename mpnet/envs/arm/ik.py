@@ -3,7 +3,7 @@ panda_link8 at the target objects, solved by IK as MBM solves them: random resta
 tolerance box and per-axis orientation tolerances, kept only when valid).
 
 Damped least squares on the geometric Jacobian, from the model's own kinematics, compiled
-(mpnet/envs/ik_kernels.py: one restart at a time, in attempt order, until one succeeds).
+(mpnet/envs/arm/ik_kernels.py: one restart at a time, in attempt order, until one succeeds).
 Why not a library: KDL (MBM's solver) has no maintained PyPI wheel, and the packaged IK
 solvers (ikpy, pinocchio) would bring their own URDF reading, not the model's.
 """
@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mpnet.envs import ik_kernels
-from mpnet.envs.arm_model import PRISMATIC, REVOLUTE, ArmModel
-from mpnet.envs.ik_kernels import dls, meets_pose
+from mpnet.envs.arm import ik_kernels
+from mpnet.envs.arm.ik_kernels import dls, meets_pose
+from mpnet.envs.arm.model import PRISMATIC, REVOLUTE, ArmModel
 
 assert (ik_kernels.REVOLUTE, ik_kernels.PRISMATIC) == (REVOLUTE, PRISMATIC)
 

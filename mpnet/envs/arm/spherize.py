@@ -19,7 +19,7 @@ import math
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from mpnet.envs.arm_model import ArmModel
+from mpnet.envs.arm.model import ArmModel
 
 CANDIDATE_SPACING = 0.005  # m between the interior grid's candidate centres
 
@@ -117,6 +117,8 @@ def spherize(model: ArmModel, reach: dict[str, float], spacing: float, pad: floa
     return {
         "robot": model.name,
         "urdf": model.urdf,
+        # The module's name before issue 44's layout (now mpnet.envs.arm.spherize), kept: this text
+        # is in the shipped sphere file, which every arm cache key and logged model digest hashes.
         "method": (
             "covering of each collision mesh's convex hull (mpnet.envs.spherize): hull points at most "
             "`spacing` apart (vertices, face grids, interior grid), greedily covered by balls centred "

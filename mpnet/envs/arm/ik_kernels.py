@@ -1,4 +1,4 @@
-"""Compiled damped-least-squares IK for one restart (mpnet.envs.arm_ik.solve's inner loop).
+"""Compiled damped-least-squares IK for one restart (mpnet.envs.arm.ik.solve's inner loop).
 
 Why compiled: the MBM-style queries of panda_mbm's data are goals found by IK, 200 restarts
 of up to 100 iterations each; as numpy arrays over the restarts, IK was most of the expert's
@@ -20,7 +20,7 @@ import numpy as np
 
 from mpnet.jit import njit
 
-REVOLUTE, PRISMATIC = 1, 2  # arm_model's joint kinds (asserted equal in arm_ik)
+REVOLUTE, PRISMATIC = 1, 2  # arm.model's joint kinds (asserted equal in arm.ik)
 
 
 @njit(cache=True)
@@ -193,7 +193,7 @@ def dls(q0, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations
 @njit(cache=True)
 def meets_pose(T, pose, position_tol, orientation_tol) -> bool:
     """Does the tip's pose T lie within the target's position box and per-axis orientation
-    tolerances (arm_ik.IKTarget)?"""
+    tolerances (arm.ik.IKTarget)?"""
     for i in range(3):
         if abs(T[i, 3] - pose[i, 3]) > position_tol[i] / 2 + 1e-12:
             return False
