@@ -19,7 +19,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from harness.cli import UsageError, missing_file
 from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
-from mpnet.envs.camera import camera_cloud
+from mpnet.envs.scenes.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
 from mpnet.mbm import is_mbm

@@ -19,7 +19,7 @@ from harness.config import DAGGER_DEFAULTS
 from harness.provenance import artifact_provenance
 from mpnet.data.expert import ExpertPaths, _load_chunk, save_chunk
 from mpnet.data.store import ArtifactError, ensure
-from mpnet.envs.generators import make_workspaces
+from mpnet.envs.scenes.generators import make_workspaces
 
 DAGGER_KEYS = ("dagger_rounds", *DAGGER_DEFAULTS)  # the rounds, then each round's settings
 

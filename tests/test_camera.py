@@ -1,4 +1,4 @@
-"""The depth camera's cloud (mpnet.envs.camera, env.cloud=camera): rays stop at the nearest
+"""The depth camera's cloud (mpnet.envs.scenes.camera, env.cloud=camera): rays stop at the nearest
 surface, hidden surfaces give no points, and the option is another dataset."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.camera import POSITION, camera_cloud, depth, rays
+from mpnet.envs.scenes.camera import POSITION, camera_cloud, depth, rays
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
 

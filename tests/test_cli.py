@@ -16,7 +16,7 @@ import pytest
 from mcap.reader import make_reader
 
 from mpnet.envs import get_spec
-from mpnet.envs.generators import s2d_layouts
+from mpnet.envs.scenes.generators import s2d_layouts
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import verify_path
 

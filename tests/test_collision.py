@@ -13,7 +13,7 @@ from mpnet.envs import Workspace, get_spec
 from mpnet.envs.checkers import rigid_kernels as R
 from mpnet.envs.checkers.collision import PointChecker
 from mpnet.envs.checkers.rigid import RigidChecker
-from mpnet.envs.generators import make_workspace
+from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import interpolate
 from mpnet.planners.compiled import kernel_env
 
@@ -156,7 +156,7 @@ def test_unknown_backend():
 
 @pytest.mark.parametrize("env,blocks", [("s2d", 7), ("c2d", 7), ("c3d", 10), ("rigid", 7)])
 def test_point_cloud_inside_obstacles(env, blocks):
-    from mpnet.envs.clouds import point_cloud
+    from mpnet.envs.scenes.clouds import point_cloud
 
     spec = get_spec(env)
     ws = make_workspace(spec, 5, "seen")
@@ -170,7 +170,7 @@ def test_point_cloud_inside_obstacles(env, blocks):
 
 
 def test_layouts():
-    from mpnet.envs.generators import c3d_layouts, s2d_layouts, split_ids
+    from mpnet.envs.scenes.generators import c3d_layouts, s2d_layouts, split_ids
 
     centres, perm = s2d_layouts()
     assert np.allclose(centres[0], [1.8171, 8.4540], atol=1e-4)

@@ -11,7 +11,7 @@ from mcap.reader import make_reader
 
 from harness.cli import UsageError
 from mpnet.envs import get_spec
-from mpnet.envs.generators import make_workspace
+from mpnet.envs.scenes.generators import make_workspace
 from mpnet.planners.base import Problem
 from mpnet.planners.dagger import visited
 

@@ -10,7 +10,7 @@ import pytest
 from mpnet.data.expert import expert_paths
 from mpnet.data.store import ArtifactError, content_key, ensure, read_manifest
 from mpnet.envs import get_spec
-from mpnet.envs.generators import make_workspace
+from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import verify_path
 
 

@@ -1,5 +1,5 @@
 """The compiled encoding (mpnet.models.enet_kernel) against NumpyEnet's, and the compiled point
-cloud (mpnet.envs.clouds.point_cloud) against numpy's formula: the same bits."""
+cloud (mpnet.envs.scenes.clouds.point_cloud) against numpy's formula: the same bits."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.clouds import cloud_rng, point_cloud
+from mpnet.envs.scenes.clouds import cloud_rng, point_cloud
 from mpnet.envs.workspace import Workspace
 from mpnet.models import load_pnet_checkpoint
 from mpnet.models.enet_kernel import EnetKernel

@@ -114,7 +114,7 @@ def test_the_repository_kernels_reach_what_they_inline():
 PLANNER_PROBE = textwrap.dedent(
     """
     import numpy as np
-    from mpnet.envs.generators import make_workspace
+    from mpnet.envs.scenes.generators import make_workspace
     from mpnet.envs.specs import get_spec
     from mpnet.planners import compiled_kernels as K
     from mpnet.planners.compiled import kernel_env

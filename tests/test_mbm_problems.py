@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from mpnet.envs.arm.ik import IKTarget, meets
-from mpnet.envs.generators import split_ids, split_sizes
 from mpnet.envs.mbm_problems import FAMILY_ORDER, TIP, family_of, poses_of
 from mpnet.envs.mbm_scenes import default_start, families
+from mpnet.envs.scenes.generators import split_ids, split_sizes
 from mpnet.envs.specs import get_spec
 
 SPEC = get_spec("panda_mbm")

@@ -118,7 +118,7 @@ def test_a_state_on_the_bound_stays_in_bounds():
 
 def test_motion_memo_same_verdicts_and_checks_each_motion_once():
     from mpnet.envs import get_spec
-    from mpnet.envs.generators import make_workspace
+    from mpnet.envs.scenes.generators import make_workspace
     from mpnet.motion import MotionMemo
 
     spec = get_spec("s2d")

@@ -6,7 +6,7 @@ import pytest
 
 from mpnet.data.queries import make_queries
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.generators import make_workspace
+from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, Problem
 from mpnet.planners.classical import OmplPlanner

@@ -62,7 +62,7 @@ def test_perf_writes_every_section(run_cli, tmp_path, sweeps_cache):
 
 
 def test_random_blocks_are_seeded_and_inside_the_square():
-    from mpnet.envs.generators import RandomBlocks
+    from mpnet.envs.scenes.generators import RandomBlocks
 
     a, b = RandomBlocks(28).make(3, "file", 0), RandomBlocks(28).make(3, "file", 0)
     assert len(a.centers) == 28 and (a.centers == b.centers).all()

@@ -10,7 +10,7 @@ import pytest
 from ompl import util as ou
 
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.generators import make_workspace
+from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import path_cost, verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, TIMEOUT, Planner, Problem
 from mpnet.planners.classical import ALGORITHMS, OmplPlanner
@@ -187,7 +187,7 @@ def test_run_bench_warms_the_checker_up_before_the_first_query(monkeypatch):
     from harness.bench.loop import run_bench
     from mpnet.envs import Query, TestSet, get_spec
     from mpnet.envs.checkers.collision import CollisionChecker
-    from mpnet.envs.generators import make_workspace
+    from mpnet.envs.scenes.generators import make_workspace
     from mpnet.planners.base import Result
 
     events = []

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from mpnet.data.queries import make_queries
 from mpnet.envs import Workspace, get_spec
-from mpnet.envs.generators import make_workspace
+from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
 from mpnet.planners import Problem
 from mpnet.planners.classical import OmplPlanner

@@ -61,7 +61,7 @@ def test_each_query_starts_on_a_fresh_time_slice(monkeypatch):
     import numpy as np
 
     from harness.bench import loop
-    from mpnet.envs.generators import make_workspace
+    from mpnet.envs.scenes.generators import make_workspace
     from mpnet.envs.specs import get_spec
     from mpnet.planners.base import Problem, Result
 

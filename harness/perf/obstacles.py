@@ -1,5 +1,5 @@
 """How planning cost grows with the number of obstacles: s2d-like layouts of 4, 7, 14,
-28 ... random blocks (mpnet.envs.generators.RandomBlocks), written as problem files and
+28 ... random blocks (mpnet.envs.scenes.generators.RandomBlocks), written as problem files and
 run through the bench like any other (`problems=FILE`). MPNet plans with the s2d networks,
 trained on 7 blocks: for other counts it is out of its training distribution, and its cloud
 spreads the same number of points over all the blocks."""
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from harness.perf.planners import run_one, summarize
 from mpnet.data.queries import make_queries
-from mpnet.envs.generators import RandomBlocks
+from mpnet.envs.scenes.generators import RandomBlocks
 from mpnet.envs.spec import TestSet
 from mpnet.envs.specs import get_spec
 from mpnet.problems import dump_problems

@@ -285,7 +285,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             ),  # fmt: skip
             "",
             "s2d-like layouts: N random 5 x 5 blocks in the s2d square, the same queries for every planner "
-            "(problem files, `mpnet.envs.generators.RandomBlocks`). MPNet plans with the s2d networks, trained "
+            "(problem files, `mpnet.envs.scenes.generators.RandomBlocks`). MPNet plans with the s2d networks, trained "
             "on 7 blocks: other counts are out of its training distribution (its cloud spreads the same "
             "1400 points over all blocks).",
             "",

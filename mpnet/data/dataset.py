@@ -21,8 +21,8 @@ import numpy as np
 
 from mpnet.data.expert import ExpertPaths, chunks_of, expert_paths, save_chunk, summary
 from mpnet.data.store import ArtifactError
-from mpnet.envs.clouds import clouds
-from mpnet.envs.generators import extra_ids, make_workspaces, split_ids, split_sizes
+from mpnet.envs.scenes.clouds import clouds
+from mpnet.envs.scenes.generators import extra_ids, make_workspaces, split_ids, split_sizes
 from mpnet.envs.spec import EnvSpec
 
 DATA_FILE = "data.npz"

@@ -13,8 +13,8 @@ import itertools
 
 import numpy as np
 
-from mpnet.envs.generators import make_workspace, split_ids, split_sizes
 from mpnet.envs.ompl_space import is_solvable
+from mpnet.envs.scenes.generators import make_workspace, split_ids, split_sizes
 from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.workspace import Query, Workspace
 

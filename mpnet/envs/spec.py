@@ -11,8 +11,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker
-from mpnet.envs.clouds import point_cloud, workspace_cloud
 from mpnet.envs.robots import Robot
+from mpnet.envs.scenes.clouds import point_cloud, workspace_cloud
 from mpnet.envs.spaces import StateSpace
 from mpnet.envs.workspace import Query, Workspace
 

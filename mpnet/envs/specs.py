@@ -3,10 +3,10 @@ kind of robot adds its space, robot and checker classes and an entry here."""
 
 from __future__ import annotations
 
-from mpnet.envs.arm_scenes import ArmScenes, arm_cloud
-from mpnet.envs.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
 from mpnet.envs.mbm_problems import MBMScenes
 from mpnet.envs.robots import ArmRobot, PointRobot, RectangleRobot
+from mpnet.envs.scenes.arm_scenes import ArmScenes, arm_cloud
+from mpnet.envs.scenes.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
 from mpnet.envs.spaces import EuclideanSpace, SE2Space
 from mpnet.envs.spec import EnvSpec
 

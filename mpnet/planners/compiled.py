@@ -2,7 +2,7 @@
 (mpnet.models.enet_kernel): the numpy planner's method and decisions, call for call, so the
 same paths; Algorithm 1's few rounds and HR's classical planner stay in Python around the
 compiled pieces. (The point robots' clouds are drawn compiled for every planner:
-mpnet.envs.clouds.)
+mpnet.envs.scenes.clouds.)
 
 The budget is checked between compiled calls (one NeuralPlanner run of at most max_steps
 steps, one contraction, one feasibility check), not inside them: a call's steps are bounded.
