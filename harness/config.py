@@ -19,10 +19,10 @@ from omegaconf import DictConfig, OmegaConf
 
 from harness.cli import UsageError, missing_file
 from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
+from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import get_spec
-from mpnet.mbm import is_mbm
 
 # Env knobs that change what the checker answers (envs whose checker samples motions: the
 # arm): they are part of every data and test-set cache key when the env config has them.

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.specs import get_spec
-from mpnet.mbm import load_mbm
 from mpnet.problems import ProblemFileError
 
 

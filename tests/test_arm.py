@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 
 from mpnet.envs.arm.model import load_arm_model
 from mpnet.envs.checkers.pybullet_arm import arm_world, coarse_to_fine
+from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.shapes import Primitive, quat_matrix, surface_cloud, yaw_quat
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import Workspace
-from mpnet.mbm import load_mbm
 from mpnet.motion import verify_path
 from mpnet.problems import FORMAT_2, ProblemFileError, dump_problems, load_problems
 

@@ -1,4 +1,4 @@
-"""panda_mbm's scenes and queries (mpnet.envs.mbm_problems): scenes depend on (seed, index)
+"""panda_mbm's scenes and queries (mpnet.envs.mbm.generator): scenes depend on (seed, index)
 only, a scene's queries start where MBM starts and end where a goal object asks panda_link8
 to be, both valid; the split ids follow the generator's sizes."""
 
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from mpnet.envs.arm.ik import IKTarget, meets
-from mpnet.envs.mbm_problems import FAMILY_ORDER, TIP, family_of, poses_of
-from mpnet.envs.mbm_scenes import default_start, families
+from mpnet.envs.mbm.generator import FAMILY_ORDER, TIP, family_of, poses_of
+from mpnet.envs.mbm.scenes import default_start, families
 from mpnet.envs.scenes.generators import split_ids, split_sizes
 from mpnet.envs.specs import get_spec
 

@@ -1,4 +1,4 @@
-"""MotionBenchMaker's Panda scene families as generators (mpnet.envs.mbm_scenes): the data
+"""MotionBenchMaker's Panda scene families as generators (mpnet.envs.mbm.scenes): the data
 reads as MBM's files say, scenes vary as MBM's SceneSampler varies them, and the queries'
 panda_link8 targets come out as MBM's ProblemGenerator computes them."""
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.mbm_scenes import default_start, families
+from mpnet.envs.mbm.scenes import default_start, families
 
 FAMILIES = families()
 

@@ -14,9 +14,9 @@ import pytest
 import yaml
 
 from mpnet.data.shipped import SHIPPED as TESTSETS
+from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.specs import SPECS, get_spec
 from mpnet.envs.workspace import Workspace
-from mpnet.mbm import load_mbm
 from mpnet.models.pretrained import SHIPPED, write_checkpoint
 from mpnet.planners.base import Problem
 from mpnet.planners.mpnet import from_checkpoint

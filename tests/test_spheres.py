@@ -17,10 +17,10 @@ from mpnet.envs.arm.spherize import link_hull, spherize
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers.spheres import pack_obstacles, read_spheres, sphere_model
+from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import Workspace
-from mpnet.mbm import load_mbm
 
 ARM = get_spec("arm7")
 MODEL = load_arm_model("panda")

@@ -18,7 +18,7 @@ from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Ta
 from harness.provenance import run_info
 from harness.settings import RunSettings, settings_of
 from harness.threads import extra_threads, single_threaded, thread_pools
-from mpnet.mbm import is_mbm, load_mbm
+from mpnet.envs.mbm.files import is_mbm, load_mbm
 from mpnet.planners.base import sub_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems

@@ -3,7 +3,7 @@ kind of robot adds its space, robot and checker classes and an entry here."""
 
 from __future__ import annotations
 
-from mpnet.envs.mbm_problems import MBMScenes
+from mpnet.envs.mbm.generator import MBMScenes
 from mpnet.envs.robots import ArmRobot, PointRobot, RectangleRobot
 from mpnet.envs.scenes.arm_scenes import ArmScenes, arm_cloud
 from mpnet.envs.scenes.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
@@ -44,7 +44,7 @@ SPECS: dict[str, EnvSpec] = {
     # within the model's limits, obstacles in metres in the base frame.
     "arm7": _panda("arm7", ArmScenes()),
     # The same Panda in scenes of MotionBenchMaker's seven families, with MBM's queries
-    # (mpnet.envs.mbm_problems): the training and test data for MBM's 700 problems (issue 26).
+    # (mpnet.envs.mbm.generator): the training and test data for MBM's 700 problems (issue 26).
     "panda_mbm": _panda("panda_mbm", _MBM_SCENES, pairs=_MBM_SCENES.pairs),
 }
 

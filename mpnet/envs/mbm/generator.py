@@ -21,7 +21,7 @@ import numpy as np
 
 from mpnet.envs.arm.ik import IKTarget, solve
 from mpnet.envs.checkers.collision import CollisionChecker
-from mpnet.envs.mbm_scenes import PoseQuery, SceneFamily, default_start, families
+from mpnet.envs.mbm.scenes import PoseQuery, SceneFamily, default_start, families
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 
