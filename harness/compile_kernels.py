@@ -25,8 +25,8 @@ from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import SPECS, get_spec
 from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet, PnetArrays
 from mpnet.motion import verify_path
-from mpnet.planners import batched
 from mpnet.planners.base import Problem
+from mpnet.planners.compiled import batched
 from mpnet.planners.mpnet import MPNetSettings
 
 WIDTH, LATENT, POINTS_PER_BLOCK = 8, 4, 20  # any sizes compile the same code

@@ -3,7 +3,7 @@
 Why not numba's own `cache=True`: numba stamps a cached kernel with its own file's text only
 (numba#1833). A kernel that calls, or inlines, a kernel of another module keeps the machine
 code compiled from that module's old text after it changes: the compiled MPNet loop
-(`mpnet/planners/compiled_kernels.py`) inlines the point, rigid, sphere and Pnet kernels, so
+(`mpnet/planners/compiled/kernels.py`) inlines the point, rigid, sphere and Pnet kernels, so
 an edit of `point_kernels.state_free` did not reach the planner. Here the stamp is the digest
 of the kernel's module and of every `mpnet` module it imports, transitively (module-level and
 function-level imports alike, read from the source, so nothing is imported to find them; a

@@ -96,7 +96,7 @@ def test_no_planner_names_a_checker_class_or_its_private_fields(repo):
     pattern = re.compile(r"\b(?!CollisionChecker\b)\w+Checker\b|\b(checker|raw|c|ch)\._\w")
     hits = [
         f"{p.relative_to(repo)}:{i}: {line.strip()}"
-        for p in sorted((repo / "mpnet" / "planners").glob("*.py"))
+        for p in sorted((repo / "mpnet" / "planners").rglob("*.py"))
         for i, line in enumerate(p.read_text().splitlines(), 1)
         if pattern.search(line)
     ]

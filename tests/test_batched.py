@@ -1,4 +1,4 @@
-"""Batched planning (mpnet.planners.batched): the queries of a workspace planned together, each
+"""Batched planning (mpnet.planners.compiled.batched): the queries of a workspace planned together, each
 answer MPNet's (a free path between the query's own ends), success measured beside the one-query
 planner's, and what it does not take refused."""
 
@@ -14,7 +14,7 @@ from mpnet.envs.specs import get_spec
 from mpnet.models.pretrained import SHIPPED, write_checkpoint
 from mpnet.motion import is_feasible
 from mpnet.planners.base import Problem
-from mpnet.planners.batched import plan_batch, warm_up
+from mpnet.planners.compiled.batched import plan_batch, warm_up
 from mpnet.planners.mpnet import from_checkpoint
 from mpnet.problems import load_problems
 

@@ -15,7 +15,7 @@ from mpnet.envs.checkers.collision import PointChecker
 from mpnet.envs.checkers.rigid import RigidChecker
 from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import interpolate
-from mpnet.planners.compiled import kernel_env
+from mpnet.planners.compiled.planner import kernel_env
 
 S2D = get_spec("s2d")
 C3D = get_spec("c3d")

@@ -47,8 +47,8 @@ import numpy as np
 from harness.compile_kernels import compile_env, network_depths
 from mpnet.envs.specs import get_spec
 from mpnet.models.pretrained import SHIPPED, write_checkpoint
-from mpnet.planners import batched
-from mpnet.planners import compiled_kernels as K
+from mpnet.planners.compiled import batched
+from mpnet.planners.compiled import kernels as K
 from mpnet.planners.base import Problem
 from mpnet.planners.mpnet import from_checkpoint
 

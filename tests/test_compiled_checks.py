@@ -15,7 +15,7 @@ from mpnet.envs.checkers import point_kernels as P
 from mpnet.envs.checkers import rigid_kernels as R
 from mpnet.envs.scenes.generators import make_workspace
 from mpnet.envs.specs import get_spec
-from mpnet.planners.compiled import kernel_env
+from mpnet.planners.compiled.planner import kernel_env
 from tests import oracles as O
 
 

@@ -1,4 +1,4 @@
-"""The compiled planner (mpnet.planners.compiled) against the numpy planner it compiles: on every
+"""The compiled planner (mpnet.planners.compiled.planner) against the numpy planner it compiles: on every
 query of the shipped quick test set (400 per env: s2d, c2d, c3d, rigid; the arms' 100 and 138
 reversed and with other seeds: 400 and 552; the variants every 4th of them), the same status, path, check counts, Pnet
 calls, partial trees and Pnet trace, with the shipped networks and each query's seed (HR's
@@ -107,7 +107,7 @@ def test_what_the_compiled_planner_does_not_run_is_refused():
 def test_the_warm_up_calls_every_kernel_whatever_the_clock_says(tmp_path, monkeypatch):
     """A cold cache compiles the cloud and Enet for longer than any short solve's budget: the
     warm-up must not be a solve, or the loop's kernels compile inside the first timed query."""
-    from mpnet.planners import compiled as C
+    from mpnet.planners.compiled import planner as C
 
     spec = get_spec("s2d")
     write_checkpoint(SHIPPED / "s2d-quick", tmp_path / "pnet.ckpt")

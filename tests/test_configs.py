@@ -15,7 +15,7 @@ from harness.settings import settings_of
 from mpnet.envs.specs import get_spec
 from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner
-from mpnet.planners.compiled import supports
+from mpnet.planners.compiled.planner import supports
 
 ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "scale", "experiment"))
 

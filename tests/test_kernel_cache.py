@@ -105,7 +105,7 @@ def test_the_repository_kernels_reach_what_they_inline():
         "envs/checkers/sphere_checks.py",
         "envs/checkers/sphere_kernels.py",
         "models/pnet_kernel.py",
-    } <= reach("planners/compiled_kernels.py")
+    } <= reach("planners/compiled/kernels.py")
     assert "envs/checkers/sphere_kernels.py" in reach("envs/checkers/sphere_checks.py")
     # a Python-side module does not recompile it
     assert "envs/checkers/spheres.py" not in reach("envs/checkers/sphere_checks.py")
@@ -116,8 +116,8 @@ PLANNER_PROBE = textwrap.dedent(
     import numpy as np
     from mpnet.envs.scenes.generators import make_workspace
     from mpnet.envs.specs import get_spec
-    from mpnet.planners import compiled_kernels as K
-    from mpnet.planners.compiled import kernel_env
+    from mpnet.planners.compiled import kernels as K
+    from mpnet.planners.compiled.planner import kernel_env
 
     spec = get_spec("s2d")
     checker = spec.make_checker(make_workspace(spec, 0, "seen"))

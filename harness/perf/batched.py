@@ -1,4 +1,4 @@
-"""Batched planning's throughput beside one query at a time (mpnet.planners.batched): each
+"""Batched planning's throughput beside one query at a time (mpnet.planners.compiled.batched): each
 env's queries (the runs' test set and networks, as the bench composes them) planned by the
 compiled MPNet-NR one at a time, then a workspace's queries together, in the same process,
 one after the other. Queries per second, the median and p90 latency (a batch's query: from its
@@ -20,7 +20,7 @@ def _child(overrides: list[str], conn) -> None:
     from harness.bench.run import build_testset, runtime_objects, seed_everything
     from harness.settings import settings_of
     from mpnet.planners.base import Problem
-    from mpnet.planners.batched import plan_batch, warm_up
+    from mpnet.planners.compiled.batched import plan_batch, warm_up
 
     try:
         run = settings_of(compose_run(overrides))

@@ -307,7 +307,7 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "",
             "The same queries (the runs' test set, each with its bench seed) planned by the compiled planner "
             "in one process: `one`, a query at a time (each samples and encodes its cloud); `batched`, a "
-            "workspace's queries together (`mpnet.planners.batched`: one encoding per workspace, the first "
+            "workspace's queries together (`mpnet.planners.compiled.batched`: one encoding per workspace, the first "
             "NeuralPlanner runs in lockstep with one Pnet product per step for all of them, then each query "
             "alone). A batched query's latency runs from its batch's start to its answer. Success: the "
             "planner's own feasibility check (the bench runs above are the ones re-checked); batched "

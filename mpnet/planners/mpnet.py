@@ -72,7 +72,7 @@ class MPNetSettings:
         """What these settings need of the env (ValueError naming the key): the compiled loop,
         kernels for the env's checker."""
         if self.compiled:
-            from mpnet.planners.compiled import supports
+            from mpnet.planners.compiled.planner import supports
 
             if not supports(env, collision):
                 raise ValueError(
@@ -106,7 +106,7 @@ class MPNetSettings:
         # The fallback's own partial paths are not MPNet's: never copied (it may fail and restart often).
         fallback = OmplPlanner(self.fallback, self.fallback, keep_partial=False) if self.hybrid else None
         if self.compiled:
-            from mpnet.planners.compiled import CompiledMPNetPlanner
+            from mpnet.planners.compiled.planner import CompiledMPNetPlanner
 
             return CompiledMPNetPlanner(
                 self.name,

@@ -133,7 +133,7 @@ class MPNetPlanner:
         return self.steer_steps[min(stage, len(self.steer_steps) - 1)]
 
     def solve(self, problem: Problem, budget_s: float, *, code=None, first: Callable | None = None) -> Result:
-        """The Planner protocol's solve. Batched planning (mpnet.planners.batched) gives the
+        """The Planner protocol's solve. Batched planning (mpnet.planners.compiled.batched) gives the
         workspace's `code` (encoded once for the batch: no cloud or Enet here) and `first`,
         first(self, stats) -> the first NeuralPlanner run's path or None, run elsewhere."""
         t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""MPNet's planner with its loop compiled (mpnet.planners.compiled_kernels) and Enet's encoding
+"""MPNet's planner with its loop compiled (mpnet.planners.compiled.kernels) and Enet's encoding
 (mpnet.models.enet_kernel): the numpy planner's method and decisions, call for call, so the
 same paths; Algorithm 1's few rounds and HR's classical planner stay in Python around the
 compiled pieces. (The point robots' clouds are drawn compiled for every planner:
@@ -20,8 +20,8 @@ import numpy as np
 from mpnet.models.enet_kernel import EnetKernel
 from mpnet.models.numpy_nets import NumpyEnet
 from mpnet.models.pnet_kernel import PnetKernel
-from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result
+from mpnet.planners.compiled import kernels as K
 from mpnet.planners.neural import MPNetPlanner, repair_path
 
 PROPOSAL_KINDS = {"pnet": K.PNET, "random": K.RANDOM, "random_any": K.RANDOM_ANY, "straight": K.STRAIGHT}

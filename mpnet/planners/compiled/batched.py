@@ -22,9 +22,9 @@ import time
 import numpy as np
 
 from mpnet.models.pnet_kernel import batch_scratch
-from mpnet.planners import compiled_kernels as K
 from mpnet.planners.base import Problem, Result, check_endpoints, sub_seed
-from mpnet.planners.compiled import CompiledMPNetPlanner
+from mpnet.planners.compiled import kernels as K
+from mpnet.planners.compiled.planner import CompiledMPNetPlanner
 
 BATCH_MEMO_BITS = 10  # a first run checks at most max_steps (+1) motions
 

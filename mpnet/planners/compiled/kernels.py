@@ -242,7 +242,7 @@ def neural_planner(z, start, goal, max_steps, precheck, env, memo, counts, prop,
 @njit(cache=True)
 def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, net, rng, dropout, buf, scratch,
              live, trees, n, steps, connected, trace):  # fmt: skip
-    """Batched planning's first NeuralPlanner runs (mpnet.planners.batched): query b grows
+    """Batched planning's first NeuralPlanner runs (mpnet.planners.compiled.batched): query b grows
     trees[b] from starts[b] and goals[b] as neural_planner does, all live queries one step at a
     time, their proposals from one pnet_rows call per step. memos: (keys, verdicts, used) with a
     leading query axis; counts (B, 3); scratch: (X, T, Y) of (B, d); live: the queries to run
