@@ -6,14 +6,14 @@ import os
 import sys
 from pathlib import Path
 
-from harness.threads import single_threaded
+from harness.core.threads import single_threaded
 
 single_threaded()  # before numpy, scipy, torch or numba load: each reads its thread count as it loads
 
 import hydra  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from harness.cli import run_hydra  # noqa: E402
+from harness.core.cli import run_hydra  # noqa: E402
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")

@@ -12,11 +12,11 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from harness.cli import RunRefused
-from harness.config import enet_params
+from harness.core.cli import RunRefused
+from harness.core.config import enet_params
+from harness.core.provenance import artifact_provenance
+from harness.core.settings import RunSettings
 from harness.dagger import with_dagger
-from harness.provenance import artifact_provenance
-from harness.settings import RunSettings
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset, reusable, seed_chunks
 from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset

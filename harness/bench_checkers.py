@@ -13,9 +13,9 @@ import sys
 import time
 from pathlib import Path
 
-from harness.threads import single_threaded
+from harness.core.threads import single_threaded
 
-single_threaded()  # before numpy, scipy, torch or numba load (harness.threads)
+single_threaded()  # before numpy, scipy, torch or numba load (harness.core.threads)
 
 import numpy as np  # noqa: E402
 
@@ -112,7 +112,7 @@ def table(rows: list[dict]) -> list[str]:
 def write_report(out: Path, rows: list[dict], ratios: list[str], argv: list[str]) -> Path:
     """OUT/README.md (where it came from, the table, the ratios) and OUT/checkers.json: the
     file FINDINGS and the docs quote checker rates from."""
-    from harness.provenance import generated_by, machine_info
+    from harness.core.provenance import generated_by, machine_info
 
     m = machine_info()
     out.mkdir(parents=True, exist_ok=True)

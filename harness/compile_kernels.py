@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from harness.cli import CONF_DIR
+from harness.core.cli import CONF_DIR
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import SPECS, get_spec
 from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet, PnetArrays

@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import RunRefused, run_hydra, user_errors
+from harness.core.cli import RunRefused, run_hydra, user_errors
 
 if TYPE_CHECKING:
-    from harness.settings import RunSettings
+    from harness.core.settings import RunSettings
 
 
 def _missing_shards(e, shards: int) -> str:
@@ -63,7 +63,7 @@ def _build(run: RunSettings) -> None:
 @hydra.main(version_base="1.3", config_path="../conf", config_name="data")
 @user_errors
 def main(cfg: DictConfig) -> None:
-    from harness.settings import settings_of
+    from harness.core.settings import settings_of
 
     run = settings_of(cfg)
     if run.shard is not None:

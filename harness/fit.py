@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.threads import training_threads
+from harness.core.threads import training_threads
 from mpnet.data.dataset import Dataset
 from mpnet.envs.spec import EnvSpec
 

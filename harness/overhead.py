@@ -14,15 +14,15 @@ import statistics
 import tempfile
 from pathlib import Path
 
-from harness.threads import single_threaded
+from harness.core.threads import single_threaded
 
-single_threaded()  # before numpy, scipy, torch or numba load (harness.threads)
+single_threaded()  # before numpy, scipy, torch or numba load (harness.core.threads)
 
 import hydra  # noqa: E402
 import numpy as np  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
-from harness.cli import run_hydra  # noqa: E402
+from harness.core.cli import run_hydra  # noqa: E402
 
 
 def _row(name: str, xs: list[float], plan: list[float]) -> str:

@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
 def write_report(out: Path, total: int, bad: int, unreadable: int, summary: str, lines: list[str], argv) -> Path:
     """OUT/recheck.md: "N successes, N verified", per file, with where and when it ran; the file
     a report folder's "0 false successes" is quoted from."""
-    from harness.provenance import generated_by, machine_info
+    from harness.core.provenance import generated_by, machine_info
 
     m = machine_info()
     argv = sys.argv[1:] if argv is None else argv

@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
 def write_report(out: Path, result: dict, lines: list[str], argv: list[str]) -> Path:
     """OUT/README.md (where it came from, the two counts) and OUT/audit.json: the file FINDINGS
     and the docs quote the audit from."""
-    from harness.provenance import generated_by, machine_info
+    from harness.core.provenance import generated_by, machine_info
 
     m = machine_info()
     out.mkdir(parents=True, exist_ok=True)

@@ -8,14 +8,14 @@ import json
 import hydra
 from omegaconf import DictConfig
 
-from harness.cli import run_hydra, user_errors
+from harness.core.cli import run_hydra, user_errors
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 @user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts import ensure_models
-    from harness.settings import settings_of
+    from harness.core.settings import settings_of
 
     run = settings_of(cfg)
     folder, manifest, built = ensure_models(run, progress=run.progress)

@@ -142,8 +142,8 @@ def compose_config(repo):
 
 @pytest.fixture(scope="session")
 def settings(compose_config):
-    """settings(overrides) -> the run's settings (harness.settings), as a command parses them."""
-    from harness.settings import settings_of
+    """settings(overrides) -> the run's settings (harness.core.settings), as a command parses them."""
+    from harness.core.settings import settings_of
 
     return lambda overrides: settings_of(compose_config(overrides))
 

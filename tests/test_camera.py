@@ -75,7 +75,7 @@ def test_a_hidden_obstacle_gives_no_points():
 
 
 def test_the_camera_is_another_dataset_and_needs_posed_obstacles(settings):
-    from harness.cli import UsageError
+    from harness.core.cli import UsageError
 
     surface = settings(["+env=panda_mbm", "scale=tiny"])
     camera = settings(["+env=panda_mbm", "scale=tiny", "env.cloud=camera"])

@@ -336,7 +336,7 @@ def test_a_planner_of_ones_own_runs_beside_bit_star_and_in_the_report(tmp_path, 
 
 
 def _base_and_variants():
-    from harness.cli import choices
+    from harness.core.cli import choices
 
     planners = choices("planner")
     base = [
@@ -366,7 +366,7 @@ VARIANTS = [
 def test_every_env_and_planner_config_runs(env, which, tmp_path, run_cli, sweeps_cache):
     """Each conf/env × base planner, and s2d × a variant of each kind (ablations, time to equal
     quality, the numpy loop), at the smallest size."""
-    from harness.cli import choices
+    from harness.core.cli import choices
 
     base, variants = _base_and_variants()
     assert set(VARIANTS) < set(variants)

@@ -13,9 +13,9 @@ import pytest
 from mcap.reader import make_reader
 from omegaconf import OmegaConf
 
-from harness.cli import UsageError
-from harness.config import lightning_params
-from harness.settings import settings_of
+from harness.core.cli import UsageError
+from harness.core.config import lightning_params
+from harness.core.settings import settings_of
 from mpnet.data.expert import chunks_of
 
 

@@ -10,8 +10,8 @@ import pytest
 from omegaconf import open_dict
 
 from harness.bench.run import runtime_objects
-from harness.cli import UsageError, choices
-from harness.settings import settings_of
+from harness.core.cli import UsageError, choices
+from harness.core.settings import settings_of
 from mpnet.envs.specs import get_spec
 from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner

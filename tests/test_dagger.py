@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from harness.cli import UsageError
+from harness.core.cli import UsageError
 from mpnet.envs import get_spec
 from mpnet.envs.scenes.generators import make_workspace
 from mpnet.planners.base import Problem

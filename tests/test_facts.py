@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from omegaconf import OmegaConf
 
-from harness.cli import choices
+from harness.core.cli import choices
 from harness.log.facts import FACTS_FORMAT, facts_from_config, legacy_facts, run_facts
 
 

@@ -17,7 +17,7 @@ import yaml
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from harness.cli import CONF_DIR
+from harness.core.cli import CONF_DIR
 from harness.log import TrialLog, read_log, run_segments
 from harness.report import arena
 from harness.report.__main__ import main

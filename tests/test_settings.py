@@ -1,4 +1,4 @@
-"""harness.settings: the composed config parsed once into frozen settings, and the cache
+"""harness.core.settings: the composed config parsed once into frozen settings, and the cache
 keys derived from them exactly as before they existed (tests/data/cache_keys.json: every env x
 scale tiny, quick and paper x {mpnet_nr, mpnet_nr_dense}, computed by revision be8f9e8, which read the DictConfig;
 recomputed once since, when a workspace's cloud became a function of its geometry alone (issue 42): every
@@ -14,8 +14,8 @@ import pytest
 from omegaconf import open_dict
 
 from harness import artifacts
-from harness.cli import UsageError
-from harness.settings import settings_of
+from harness.core.cli import UsageError
+from harness.core.settings import settings_of
 from mpnet.data.store import content_key
 
 

@@ -1,4 +1,4 @@
-"""One thread per timed process (harness.threads): every pool a run loads, scipy's OpenBLAS that
+"""One thread per timed process (harness.core.threads): every pool a run loads, scipy's OpenBLAS that
 numba's kernels load after the run started included, at one thread, and recorded in /run."""
 
 from __future__ import annotations
@@ -11,12 +11,12 @@ import sys
 import pytest
 from test_cli import read_mcap
 
-from harness.threads import extra_threads
+from harness.core.threads import extra_threads
 
 PROBE = """
 import json, os
 import numpy  # a BLAS loaded before: limited where it is
-from harness.threads import single_threaded, thread_pools
+from harness.core.threads import single_threaded, thread_pools
 single_threaded()
 import scipy.linalg  # scipy's own OpenBLAS, loaded after: reads the variables
 print(json.dumps(thread_pools()))
@@ -88,7 +88,7 @@ def test_training_a_run_does_first_uses_every_core_again():
     import torch
 
     from harness import fit
-    from harness.threads import training_threads
+    from harness.core.threads import training_threads
 
     before = torch.get_num_threads()
     torch.set_num_threads(1)

@@ -11,9 +11,9 @@ import os
 import pytest
 from omegaconf import OmegaConf
 
-from harness.cli import UsageError, check_files, check_groups, check_keys, check_output_dirs, check_plus
-from harness.cli_help import ENTRIES
-from harness.settings import settings_of
+from harness.core.cli import UsageError, check_files, check_groups, check_keys, check_output_dirs, check_plus
+from harness.core.cli_help import ENTRIES
+from harness.core.settings import settings_of
 
 
 @pytest.mark.parametrize(
@@ -160,7 +160,7 @@ def test_keys_passed_without_composing_are_in_every_composition(config):
     scale or experiment, and holds a value (`budget_s=1` replaces it; no + is needed)."""
     from hydra import compose, initialize_config_dir
 
-    from harness.cli import CONF_DIR, _lookup, _plain_keys
+    from harness.core.cli import CONF_DIR, _lookup, _plain_keys
 
     choices = [[], ["+env=arm7", "+planner=mpnet_hr", "scale=paper"], ["+experiment=findings"], ["+env=c3d"]]
     for overrides in choices if config != "perf_main" else [[]]:

@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from harness.provenance import machine_info, write_readme
+from harness.core.provenance import machine_info, write_readme
 from harness.report.load import read_trials
 
 SAMPLE = "tests/data/mbm"

@@ -16,7 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.provenance import machine_info, write_readme
+from harness.core.provenance import machine_info, write_readme
 from harness.report.load import find_logs, read_trials
 
 

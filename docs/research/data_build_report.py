@@ -15,7 +15,7 @@ import json
 import re
 from pathlib import Path
 
-from harness.provenance import write_readme
+from harness.core.provenance import write_readme
 
 
 def _time_log(path: Path) -> dict[str, float]:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ompl import util as ou
 
-from harness.provenance import git_rev, machine_info
+from harness.core.provenance import git_rev, machine_info
 from mpnet.data.expert import workspace_paths
 from mpnet.envs.specs import get_spec
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
-from harness.provenance import machine_info, write_readme
+from harness.core.provenance import machine_info, write_readme
 
 BURNERS = 4
 PLANNERS = ("mpnet_nr", "bit_star")

@@ -13,11 +13,11 @@ from omegaconf import DictConfig, OmegaConf
 from harness.artifacts import ensure_models, ensure_testset, training_paths
 from harness.bench.loop import CostTarget, QueryTiming, first_problem, run_bench, warm_up
 from harness.bench.summary import format_summary, summarize
-from harness.cli import RunRefused, UsageError, refuse, status_of
+from harness.core.cli import RunRefused, UsageError, refuse, status_of
+from harness.core.provenance import run_info
+from harness.core.settings import RunSettings, settings_of
+from harness.core.threads import extra_threads, single_threaded, thread_pools
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
-from harness.provenance import run_info
-from harness.settings import RunSettings, settings_of
-from harness.threads import extra_threads, single_threaded, thread_pools
 from mpnet.envs.mbm.files import is_mbm, load_mbm
 from mpnet.planners.base import sub_seed
 from mpnet.planners.reference import reference_costs
@@ -115,7 +115,7 @@ def bench(
         warm_up(planner, problem)  # every library the queries use is loaded now: its pool is recorded
     pools = thread_pools()
     if extra := extra_threads(pools):
-        raise RunRefused(f"a timed run needs one thread per pool, and {'; '.join(extra)} (harness.threads)")
+        raise RunRefused(f"a timed run needs one thread per pool, and {'; '.join(extra)} (harness.core.threads)")
     name = run.planner.label(planner)
     info = run_info(run.env.name, name, run.seed, split, run.config_yaml)
     info["threads"] = pools
@@ -167,7 +167,7 @@ def bench(
 
 def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
     """bench(), with the user's mistakes and a refused or failed run as one line and its exit
-    status (harness.cli.refuse: 2 for a mistake in the command, 1 for the others)."""
+    status (harness.core.cli.refuse: 2 for a mistake in the command, 1 for the others)."""
     try:
         bench(cfg, run_dir, **kwargs)
     except (ProblemFileError, UsageError, ResumeRefused) as e:

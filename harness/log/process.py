@@ -19,8 +19,8 @@ import signal
 import time
 from pathlib import Path
 
+from harness.core.provenance import peak_rss_mb
 from harness.log.tally import Tally
-from harness.provenance import peak_rss_mb
 from mpnet.motion import path_cost, verify_path
 
 

@@ -94,7 +94,7 @@ RUN_SCHEMA = {
             "type": "array",
             "items": {"type": "object"},
             "description": "The process's thread pools once its kernels were loaded, before the first query "
-            "(harness/threads.py): each {api, library, file, threads}; a timed run has one thread in each",
+            "(harness/core/threads.py): each {api, library, file, threads}; a timed run has one thread in each",
         },
         "facts": {
             "type": "object",

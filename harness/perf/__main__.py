@@ -13,14 +13,14 @@ import sys
 import time
 from pathlib import Path
 
-from harness.threads import single_threaded
+from harness.core.threads import single_threaded
 
-single_threaded()  # before numpy, scipy, torch or numba load (harness.threads)
+single_threaded()  # before numpy, scipy, torch or numba load (harness.core.threads)
 
 import hydra  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from harness.cli import run_hydra  # noqa: E402
+from harness.core.cli import run_hydra  # noqa: E402
 
 
 def _sizes(names) -> dict:
@@ -39,12 +39,12 @@ def _step(name: str, t0: float) -> None:
 
 @hydra.main(version_base="1.3", config_path="../../conf", config_name="perf_main")
 def main(cfg: DictConfig) -> None:
+    from harness.core.provenance import machine_info
+    from harness.core.settings import EnvSettings
     from harness.perf import render, sections
     from harness.perf.batched import batched
     from harness.perf.obstacles import obstacles
     from harness.perf.planners import planners
-    from harness.provenance import machine_info
-    from harness.settings import EnvSettings
 
     p = cfg.perf
     t0 = time.perf_counter()

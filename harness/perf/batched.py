@@ -18,7 +18,7 @@ from harness.perf.planners import compose_run, run_one
 def _child(overrides: list[str], conn) -> None:
     from harness.bench.loop import query_seed
     from harness.bench.run import build_testset, runtime_objects, seed_everything
-    from harness.settings import settings_of
+    from harness.core.settings import settings_of
     from mpnet.planners.base import Problem
     from mpnet.planners.compiled.batched import plan_batch, warm_up
 

@@ -26,7 +26,7 @@ def _child(overrides: list[str], conn) -> None:
     """One bench run, composed as `python -m harness` would compose it; sends back the
     timing, the logged queries and the peak memory, or the error as one line."""
     from harness.bench import QueryTiming, bench
-    from harness.provenance import peak_rss_mb
+    from harness.core.provenance import peak_rss_mb
     from harness.report.load import read_trials
 
     try:

@@ -124,7 +124,7 @@ def checkers(envs: list[str], workspaces: int) -> list[dict]:
 def data_generation(env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
     """Expert paths per second of the data stage (RRT* as the env's settings say, spawned
     worker processes, one workspace per task) with each number of workers; env is an
-    harness.settings.EnvSettings."""
+    harness.core.settings.EnvSettings."""
     from mpnet.data.expert import expert_paths
 
     spec, expert = env.spec, env.expert

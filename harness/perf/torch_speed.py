@@ -19,7 +19,7 @@ import time
 import numpy as np
 import torch
 
-from harness.provenance import machine_info
+from harness.core.provenance import machine_info
 from mpnet.models.networks import ENET_LATENT, Pnet, paper_s2d, pnet_numpy
 
 SIZES = {  # (latent, hidden) of conf/scale/quick.yaml and of the paper's s2D Pnet

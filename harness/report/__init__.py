@@ -25,7 +25,7 @@ How the numbers are computed (also written to OUT/README.md):
   `collision_checks_median` are over all successful queries (each over those that logged it).
 - `cpu_share`: the CPU time of every planned query over its wall time, pooled: below 0.9 the
   queries waited for the CPU (a loaded machine) and the report warns; above 1.1 a second thread
-  ran (a run from before `harness.threads` made every timed process single-threaded).
+  ran (a run from before `harness.core.threads` made every timed process single-threaded).
 - `timeouts`: queries that ran out of budget; `timeout_cpu_share`: their CPU time over their
   wall time, pooled. Below 0.9 the machine was loaded (the planner got less computing than
   its budget), the report warns, and that row's success rate is a lower bound.

@@ -91,7 +91,7 @@ def loaded_warnings(res: pd.DataFrame) -> list[str]:
     ]
     threaded = [
         f"warning: {r.env} {r.split} {r.planner}: its queries used {r.cpu_share:.0%} of a CPU: more than one "
-        "thread, so its times are not one core's (a run before harness.threads, or a pool it did not limit)"
+        "thread, so its times are not one core's (a run before harness.core.threads, or a pool it did not limit)"
         for r in res[res["cpu_share"] > THREADED].itertuples()
     ]
     timeouts = [

@@ -1,4 +1,4 @@
-"""The checks of the app's own keys, and what harness.settings derives from the config with
+"""The checks of the app's own keys, and what harness.core.settings derives from the config with
 them: the env object and the model parameters (which are also cache keys).
 
 A planner's settings are checked where its config's `_target_` makes them (one place: a
@@ -17,7 +17,7 @@ from dataclasses import replace
 
 from omegaconf import DictConfig, OmegaConf
 
-from harness.cli import UsageError, missing_file
+from harness.core.cli import UsageError, missing_file
 from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
 from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud

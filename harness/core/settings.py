@@ -4,7 +4,7 @@ built once from the composed config by `settings_of`. Every stage after it (arti
 bench, data, training, export) takes these, never the DictConfig.
 
 The cache keys (data, models, test set) are computed here from the config exactly as they
-always were (harness.config), so that a settings change can never move an artifact's key
+always were (harness.core.config), so that a settings change can never move an artifact's key
 without a test seeing it (tests/test_settings.py pins them to the keys the config gave).
 """
 
@@ -16,8 +16,8 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-from harness.cli import UsageError
-from harness.config import (
+from harness.core.cli import UsageError
+from harness.core.config import (
     check_env,
     check_planner,
     check_run,

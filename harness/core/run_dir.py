@@ -1,7 +1,7 @@
 """A refused command leaves no run folder behind.
 
 Hydra makes a job's folder (`outputs/<date>/<time>/`, with `.hydra/` and an empty job log)
-before our code runs, so a one-line refusal (harness.cli.refuse) removes it again when
+before our code runs, so a one-line refusal (harness.core.cli.refuse) removes it again when
 nothing but those start files is in it. RunDirRecord, a Hydra callback (conf/config.yaml),
 notes before Hydra makes a single run's folder which of it and the folders above it are
 missing: only those are removed, so a folder that existed before (a `hydra.run.dir=` the user

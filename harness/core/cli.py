@@ -9,7 +9,7 @@ code runs, and reports the OSError with a traceback), and so does a `problems=` 
 not exist (before Hydra makes the run folder). A key override is checked against
 the composed config (composed only when some key is not one of the command's own config
 file's): Hydra accepts `+budget=5` and nothing reads it, and answers `budget=5` and `env=s2d`
-with several lines of advice. `--help` is ours (harness/cli_help.py).
+with several lines of advice. `--help` is ours (harness/core/cli_help.py).
 """
 
 from __future__ import annotations
@@ -24,13 +24,13 @@ import time
 from pathlib import Path
 from typing import NoReturn
 
-CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
+CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 MULTIRUN_FLAGS = ("-m", "--multirun")
 ADDED_GROUPS = ("env", "planner", "experiment")  # no default: chosen with +group=NAME
-# Keys the code reads when present (harness/config.py env_spec) that not every env declares.
+# Keys the code reads when present (harness/core/config.py env_spec) that not every env declares.
 OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin", "env.expert.pairs", "env.expert.check")
 # Maps that take any of their options with + whether a config has them or not (the networks'
-# recipe options: harness.config.NETWORK_KEYS checks the names).
+# recipe options: harness.core.config.NETWORK_KEYS checks the names).
 OPEN_MAPS = ("planner.networks.", "env.networks.", "env.paper_networks.")
 # Hydra's flags that take the next argument as their value.
 VALUE_FLAGS = ("-c", "--cfg", "-p", "--package", "-cn", "--config-name", "-cp", "--config-path", "-cd", "--config-dir")
@@ -370,8 +370,8 @@ def _try_writable_dir(path: Path) -> None:
 def refuse(message, status: int, run_dir: Path | str | None = None) -> NoReturn:
     """One line on stderr and exit `status`; the run folder Hydra made for the job (run_dir
     where no Hydra job runs in this process: a sweep's job in its own process) is removed
-    when nothing but Hydra's start files is in it (harness.run_dir)."""
-    from harness.run_dir import discard
+    when nothing but Hydra's start files is in it (harness.core.run_dir)."""
+    from harness.core.run_dir import discard
 
     print(f"error: {message}", file=sys.stderr)
     discard(run_dir)
@@ -408,7 +408,7 @@ def _prog() -> str:
 
 def run_hydra(main, required: tuple[str, ...], optional: tuple[str, ...] = ("scale",)) -> None:
     """Check and normalise sys.argv, then call a @hydra.main function."""
-    from harness.cli_help import ENTRIES, help_text
+    from harness.core.cli_help import ENTRIES, help_text
 
     argv = sys.argv[1:]
     prog = _prog()

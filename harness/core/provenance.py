@@ -11,7 +11,7 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 PACKAGES = ("numpy", "ompl", "python-fcl", "hydra-core", "mcap", "rerun-sdk", "torch", "lightning", "mpnet-bench")
 
 
