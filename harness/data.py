@@ -27,7 +27,7 @@ def _missing_shards(e, shards: int) -> str:
 
 
 def _shard(run: RunSettings) -> None:
-    from harness.artifacts import dataset_shard
+    from harness.artifacts.ensure import dataset_shard
 
     folder, paths = dataset_shard(run, run.shard, run.shards, progress=run.progress)
     if paths is None:
@@ -40,7 +40,7 @@ def _shard(run: RunSettings) -> None:
 
 
 def _build(run: RunSettings) -> None:
-    from harness.artifacts import ensure_dataset, ensure_testset
+    from harness.artifacts.ensure import ensure_dataset, ensure_testset
     from mpnet.data.expert import MissingChunks
 
     try:

@@ -18,9 +18,9 @@ from harness.core.cli import run_hydra, user_errors
 @hydra.main(version_base="1.3", config_path="../conf", config_name="export")
 @user_errors
 def main(cfg: DictConfig) -> None:
-    from harness.artifacts import ensure_models, ensure_testset_artifact, models_key_config, training_paths
+    from harness.artifacts.ensure import ensure_models, ensure_testset_artifact, models_key_config, training_paths
+    from harness.artifacts.fit import PNET_FILE
     from harness.core.settings import settings_of
-    from harness.fit import PNET_FILE
     from mpnet.data.shipped import SHIPPED as SHIPPED_TESTSETS
     from mpnet.data.shipped import export_testset
     from mpnet.models.pretrained import SHIPPED, export_pretrained

@@ -14,7 +14,7 @@ from harness.core.cli import run_hydra, user_errors
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 @user_errors
 def main(cfg: DictConfig) -> None:
-    from harness.artifacts import ensure_models
+    from harness.artifacts.ensure import ensure_models
     from harness.core.settings import settings_of
 
     run = settings_of(cfg)

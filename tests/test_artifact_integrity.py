@@ -129,7 +129,7 @@ def test_unreadable_checkpoint_is_one_line_naming_it(tmp_path, damage):
 def test_hand_edited_cached_test_set_is_rebuilt(tmp_path, settings, capsys):
     """The probe's case: a cached test set edited by hand (still a valid problem file) was
     used as is; now it is rebuilt, with a warning naming the file."""
-    from harness.artifacts import ensure_testset
+    from harness.artifacts.ensure import ensure_testset
 
     run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
     want = ensure_testset(run, progress=False)

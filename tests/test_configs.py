@@ -124,7 +124,7 @@ def test_a_bad_planner_setting_is_one_line_naming_the_key(compose_config, models
 
 @pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_a_planners_networks_are_checked_and_change_only_their_own_models_key(settings):
-    from harness.artifacts import models_key_config
+    from harness.artifacts.ensure import models_key_config
 
     for override, key in (
         ("+planner.networks.bogus=1", "planner.networks.bogus"),
@@ -205,7 +205,7 @@ def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(se
     """env.networks is the env's default recipe: under every planner's own options key by key;
     `recipe: paper` trains on the env's paper_networks, or the scale's own where it has none;
     sizes and min_waypoints are checked. (arm7 carries neither recipe; panda_mbm both.)"""
-    from harness.artifacts import models_key_config
+    from harness.artifacts.ensure import models_key_config
 
     def key(*o, env="arm7"):
         return models_key_config(settings([f"+env={env}", *o]))

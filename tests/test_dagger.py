@@ -46,7 +46,7 @@ def test_visited_states_are_the_first_runs_valid_proposals_toward_their_trees_en
 
 
 def test_dagger_settings_are_in_the_models_key_and_need_rounds(settings):
-    from harness.artifacts import models_key_config
+    from harness.artifacts.ensure import models_key_config
     from harness.log.facts import planner_facts
 
     plain = models_key_config(settings(["+env=s2d", "+planner=mpnet_nr"]))

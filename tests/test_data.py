@@ -135,7 +135,7 @@ def test_data_cli_builds_once_under_concurrency(tmp_path, repo):
 def test_cached_testset_is_the_generated_one(tmp_path, settings):
     """The data stage's test set (problem files in the cache) holds exactly the queries the
     generator makes, with their splits; a second call reads the cache."""
-    from harness.artifacts import ensure_testset
+    from harness.artifacts.ensure import ensure_testset
     from mpnet.data.queries import make_testset
 
     run = settings(["+env=c3d", "+planner=bit_star", "scale=tiny", f"cache_dir={tmp_path}"])

@@ -20,7 +20,7 @@ def test_every_env_ships_a_quick_set():
 
 @pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])
 def test_shipped_set_loads_and_matches_its_key(folder, tmp_path, settings):
-    from harness.artifacts import models_key_config
+    from harness.artifacts.ensure import models_key_config
     from mpnet.data.store import content_key
 
     meta = read_meta(folder)
@@ -50,7 +50,7 @@ def test_damaged_set_is_refused(tmp_path):
 @pytest.mark.slow
 def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     """Tiny s2d trained, exported, and both planning the tiny test set: the same paths."""
-    from harness.artifacts import ensure_testset
+    from harness.artifacts.ensure import ensure_testset
     from harness.bench.run import runtime_objects
     from mpnet.planners.base import Problem
     from mpnet.planners.mpnet import from_checkpoint

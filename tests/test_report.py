@@ -294,7 +294,7 @@ def test_only_some_planners_blank_cells_and_paper(tmp_path, capsys):
 
 @pytest.mark.slow  # the whole report, end to end
 def test_paper_numbers_as_printed(tmp_path):
-    """--paper shows the paper's numbers exactly as harness/paper_table1.csv gives them."""
+    """--paper shows the paper's numbers exactly as harness/report/paper_table1.csv gives them."""
     logs = tmp_path / "logs"
     write_log(logs / "nr", "rigid", "mpnet_nr", 0, [Q("seen", "0", 0, True, 0.5)])
     write_log(logs / "s", "s2d", "mpnet_nr", 0, [Q("seen", "0", 0, True, 0.5)])

@@ -13,7 +13,7 @@ import json
 import pytest
 from omegaconf import open_dict
 
-from harness import artifacts
+from harness.artifacts import ensure as artifacts
 from harness.core.cli import UsageError
 from harness.core.settings import settings_of
 from mpnet.data.store import content_key

@@ -19,7 +19,7 @@ def test_every_env_ships_a_quick_test_set():
 
 @pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])
 def test_shipped_test_set_is_the_artifact_of_its_key(folder, tmp_path, settings):
-    from harness.artifacts import testset_key_config
+    from harness.artifacts.ensure import testset_key_config
     from mpnet.problems import load_problems
 
     meta = read_meta(folder)

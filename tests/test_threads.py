@@ -87,7 +87,7 @@ def test_training_a_run_does_first_uses_every_core_again():
     trains Enet and Pnet on every core, and is single-threaded again after."""
     import torch
 
-    from harness import fit
+    from harness.artifacts import fit
     from harness.core.threads import training_threads
 
     before = torch.get_num_threads()

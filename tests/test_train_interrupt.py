@@ -78,8 +78,8 @@ def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli):
 def test_enet_artifact_trains_what_one_fit_did(tmp_path, settings):
     """Enet cached on its own, then Pnet: the same Pnet as one fit of both with no artifact
     between (Pnet's fit starts from the random state Enet's left, kept in the artifact)."""
-    from harness.artifacts import ensure_dataset
-    from harness.fit import _fit_autoencoder, _fit_pnet, _quiet_lightning, fit_enet, fit_models, load_encoder
+    from harness.artifacts.ensure import ensure_dataset
+    from harness.artifacts.fit import _fit_autoencoder, _fit_pnet, _quiet_lightning, fit_enet, fit_models, load_encoder
     from mpnet.data.dataset import load_dataset
 
     run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
@@ -110,8 +110,8 @@ def test_a_fit_cut_short_goes_on_from_its_last_epoch(tmp_path, settings, monkeyp
     """A fit stopped after its second epoch (a killed job, a session's end) resumes from the
     epoch kept in its partial folder and trains the Pnet a fit run straight through trains,
     bit for bit; a kept epoch that does not load is dropped with a warning, not used."""
-    from harness import fit
-    from harness.artifacts import ensure_dataset
+    from harness.artifacts import fit
+    from harness.artifacts.ensure import ensure_dataset
     from mpnet.data.dataset import load_dataset
 
     run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}", "scale.fit.pnet_epochs=4"])

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from harness.artifacts import ensure_models, ensure_testset, training_paths
+from harness.artifacts.ensure import ensure_models, ensure_testset, training_paths
 from harness.bench.loop import CostTarget, QueryTiming, first_problem, run_bench, warm_up
 from harness.bench.summary import format_summary, summarize
 from harness.core.cli import RunRefused, UsageError, refuse, status_of

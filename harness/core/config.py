@@ -132,7 +132,7 @@ PLANNER_HOOKS = ("cost_target", "networks")
 # model.dropout otherwise), at training and at planning time. input_noise: each training state
 # moved by Gaussian noise of this standard deviation (state units; DART-style), the target kept.
 # pnet_hidden, enet_hidden, latent: the networks' sizes (the scale's otherwise). dagger_rounds:
-# rounds of DAgger (harness.dagger): each rolls out the networks of the round before on
+# rounds of DAgger (harness.artifacts.dagger): each rolls out the networks of the round before on
 # dagger_queries expert queries per training scene and adds the expert's paths from
 # dagger_states of the states each first NeuralPlanner run visited (budget dagger_budget_s).
 NETWORK_KEYS = {

@@ -251,10 +251,10 @@ def ratio_col(label: str | None) -> str:
 
 
 def load_paper() -> pd.DataFrame:
-    """The paper's Table I (harness/paper_table1.csv: env, split, planner, time_mean_s, time_std_s),
+    """The paper's Table I (harness/report/paper_table1.csv: env, split, planner, time_mean_s, time_std_s),
     with the times also as printed (`time_mean_text`, `time_std_text`): the tables show the
     paper's numbers exactly as given, never reformatted."""
-    with resources.files("harness").joinpath("paper_table1.csv").open("r") as f:
+    with resources.files("harness.report").joinpath("paper_table1.csv").open("r") as f:
         df = pd.read_csv(f, dtype=str, keep_default_na=False)
     for c, text in (("time_mean_s", "time_mean_text"), ("time_std_s", "time_std_text")):
         df[text] = df[c].str.strip()

@@ -1,5 +1,5 @@
 """Lightning training of MPNet's networks into artifact folders (called by
-harness.artifacts.ensure_models; Lightning is imported only here).
+harness.artifacts.ensure.ensure_models; Lightning is imported only here).
 
 Enet's autoencoder is an artifact of its own, so that a fit cut short during Pnet resumes
 at Pnet. It keeps the random state Pnet's fit starts from, so that a resumed fit trains
@@ -146,7 +146,7 @@ def _trainer(
             resume,
             *([bar] if bar else []),
         ],
-        enable_progress_bar=False,  # the stage's own bar (harness.fit_progress) instead of Lightning's
+        enable_progress_bar=False,  # the stage's own bar (harness.artifacts.fit_progress) instead of Lightning's
         enable_model_summary=False,
         # every 10 steps, or each epoch's last when an epoch has fewer (Lightning warns otherwise)
         log_every_n_steps=max(1, min(10, batches, limit_batches or batches)),
@@ -246,7 +246,7 @@ def _collect(workdir: Path, folder: Path, name: str) -> None:
 
 
 def _bar(progress: bool, name: str, epochs: int, stage: int, stages: int, later=()):
-    from harness.fit_progress import StageBar
+    from harness.artifacts.fit_progress import StageBar
 
     return StageBar(name, epochs, stage, stages, tuple(later)) if progress else None
 

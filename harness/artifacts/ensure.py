@@ -12,11 +12,11 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from harness.artifacts.dagger import with_dagger
 from harness.core.cli import RunRefused
 from harness.core.config import enet_params
 from harness.core.provenance import artifact_provenance
 from harness.core.settings import RunSettings
-from harness.dagger import with_dagger
 from mpnet.data.dataset import build_dataset, build_expert_shard, load_dataset, reusable, seed_chunks
 from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
@@ -78,7 +78,7 @@ def _testset_check(spec):
 
 
 def _check_models(folder: Path, manifest: dict) -> None:
-    from harness.fit import ENET_FILE
+    from harness.artifacts.fit import ENET_FILE
     from mpnet.models.checkpoint import load_enet_checkpoint, load_pnet_checkpoint
 
     _check_sizes(folder, manifest.get("fit", {}).get("bytes", {}))
@@ -226,7 +226,7 @@ def ensure_testset(run: RunSettings, progress: bool = True):
 
 
 def _check_enet(folder: Path, manifest: dict) -> None:
-    from harness.fit import ENET_FILE
+    from harness.artifacts.fit import ENET_FILE
     from mpnet.models.checkpoint import load_enet_checkpoint
 
     try:
@@ -266,7 +266,7 @@ def training_paths(run: RunSettings) -> int | None:
 def _shipped_models(run: RunSettings, key_config: dict):
     """The package's pretrained set for these models, as a checkpoint in the cache (kind
     "pretrained"), when the cache has no models artifact of this key; else None."""
-    from harness.fit import PNET_FILE
+    from harness.artifacts.fit import PNET_FILE
     from mpnet.models.pretrained import find_pretrained, read_meta, write_checkpoint
 
     key = content_key({"kind": "models", **key_config})
@@ -305,7 +305,7 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
     data_folder = run.cache_dir / "data" / key_config["data"]
 
     def build(folder: Path) -> dict:
-        from harness.fit import fit_enet, fit_models
+        from harness.artifacts.fit import fit_enet, fit_models
 
         _, data_manifest, _ = ensure_dataset(run, progress)
         try:
