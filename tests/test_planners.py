@@ -101,16 +101,18 @@ def test_optimizing_planners_log_best_cost_over_time(algorithm):
     falling, the last one the returned path's; RRT-Connect, which does not optimize, has none."""
     start, goal = (-10.0, 0.0), (10.0, 0.0)
     optimum = 2 * math.hypot(8.0, 15.0) + 4.0
-    p = problem("s2d", WALL, start, goal, reference_cost=optimum)
+    # Seeded: unseeded, BIT*'s first path was within 1.1x the optimum in about one run in three
+    # (one point of progress: the test failed). Seed 2's first paths are 1.08-1.42x, above 1.04x.
+    p = replace(problem("s2d", WALL, start, goal, reference_cost=optimum), seed=2)
     t = time.perf_counter()
-    res = OmplPlanner(algorithm, algorithm, stop="cost", cost_factor=1.1).solve(p, 10.0)
+    res = OmplPlanner(algorithm, algorithm, stop="cost", cost_factor=1.04).solve(p, 10.0)
     elapsed = time.perf_counter() - t
     assert res.solved
     prog = res.stats["progress"]
     assert len(prog) >= 2  # a first path, then better ones down to the target
     times, costs = np.array(prog).T
     assert np.all(np.diff(times) >= 0) and 0 < times[0] and times[-1] <= elapsed
-    assert np.all(np.diff(costs) < 0) and costs[0] > 1.1 * optimum
+    assert np.all(np.diff(costs) < 0) and costs[0] > 1.04 * optimum
     assert costs[-1] == pytest.approx(res.stats["best_cost"])
     assert costs[-1] == pytest.approx(path_cost(p.spec, res.path), rel=1e-6)
     first = OmplPlanner(algorithm, algorithm).solve(problem("s2d", WALL, start, goal), 10.0)
