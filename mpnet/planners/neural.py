@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -29,6 +29,28 @@ from mpnet.planners.base import (
     check_endpoints,
     sub_seed,
 )
+
+
+@dataclass(frozen=True)
+class NeuralSettings:
+    """MPNetPlanner's settings (see it) and their defaults, written once: MPNetSettings, what a
+    config makes, extends them; ablation_of measures an ablation from them; conf/planner/mpnet_nr.yaml
+    spells them out for the logs (tests/test_configs.py holds it to these)."""
+
+    max_steps: int = 80
+    replan_steps: int = 50
+    replan_rounds: int = 10
+    steer_steps: tuple | None = None
+    proposal: str = "pnet"
+    straight_step: float = 0.1
+    fallback_restart_s: float | None = 0.5
+    encoding: str = "cloud"
+    dropout: bool = True
+    replanning: str = "original"
+
+    def shared(self) -> dict:
+        """These settings by name (a subclass's own left out): what MPNetPlanner takes."""
+        return {f.name: getattr(self, f.name) for f in fields(NeuralSettings)}
 
 
 class MPNetPlanner:
@@ -80,49 +102,30 @@ class MPNetPlanner:
         cloud: Callable | None,
         *,
         hybrid: bool = False,
-        max_steps: int = 80,
-        replan_steps: int = 50,
-        replan_rounds: int = 10,
         seed: int = 0,
         fallback=None,
-        steer_steps=None,
-        proposal: str = "pnet",
-        straight_step: float = 0.1,
-        fallback_restart_s: float | None = 0.5,
-        encoding: str = "cloud",
-        dropout: bool = True,
-        replanning: str = "original",
+        **settings,
     ):
-        check_settings(
-            name,
-            max_steps=max_steps,
-            replan_steps=replan_steps,
-            replan_rounds=replan_rounds,
-            steer_steps=steer_steps,
-            proposal=proposal,
-            straight_step=straight_step,
-            fallback_restart_s=fallback_restart_s,
-            encoding=encoding,
-            dropout=dropout,
-            replanning=replanning,
-        )
+        """settings: NeuralSettings' (their defaults there); checked, ValueError naming the key."""
+        s = NeuralSettings(**settings)
+        check_settings(name, **s.shared())
         self.name = name
         self.encode = encode
         self.step = step
         self.cloud = cloud
         self.hybrid = hybrid
-        self.max_steps = max_steps
-        self.replan_steps = replan_steps
-        self.replan_rounds = replan_rounds
+        self.max_steps = s.max_steps
+        self.replan_steps = s.replan_steps
+        self.replan_rounds = s.replan_rounds
         self.rng = np.random.default_rng(seed)
         self.fallback = fallback
-        self.steer_steps = list(steer_steps) if steer_steps else [None]
-        self.proposal = proposal
-        self.fallback_restart_s = None if fallback_restart_s is None else float(fallback_restart_s)
-        self.straight_step = float(straight_step)
-        self.encoding = encoding
-        self.dropout = dropout
-        self.replanning = replanning
+        self.steer_steps = list(s.steer_steps) if s.steer_steps else [None]
+        self.proposal = s.proposal
+        self.fallback_restart_s = None if s.fallback_restart_s is None else float(s.fallback_restart_s)
+        self.straight_step = float(s.straight_step)
+        self.encoding = s.encoding
+        self.dropout = s.dropout
+        self.replanning = s.replanning
         self.trace: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.codes: dict[str, np.ndarray] = {}
         self.last_code = None
