@@ -17,26 +17,21 @@ from mpnet.envs.spec import EnvSpec
 from mpnet.models.checkpoint import load_pnet_numpy
 from mpnet.models.numpy_nets import NumpyPnet
 from mpnet.planners.classical import ALGORITHMS, OmplPlanner
-from mpnet.planners.neural import MPNetPlanner, NeuralSettings, check_settings
+from mpnet.planners.neural import MPNetPlanner, check_settings
+from mpnet.settings import MPNetOptions
 
 PNET_FILE = "pnet.ckpt"
 
 
 @dataclass(frozen=True, kw_only=True)
-class MPNetSettings(NeuralSettings):
-    """MPNet (NR, or HR with the OMPL planner `fallback`), as a config gives it: MPNetPlanner's
-    settings (NeuralSettings, where their defaults are written) and the assembly's. proposal,
+class MPNetSettings(MPNetOptions):
+    """MPNet (NR, or HR with the OMPL planner `fallback`), as a config gives it, checked: the
+    settings and their defaults are mpnet.settings' (MPNetOptions), the name the config's. proposal,
     encoding and dropout ablate one piece each (Pnet's proposals, the workspace code Pnet
     sees, Pnet's dropout at planning time); replanning="forgiving" is CMPNet's replanning
     (MPNetPlanner)."""
 
     name: str
-    hybrid: bool = False
-    fallback: str = "rrt_star"
-    clip: bool = False  # named variant (issue 26): Pnet's proposal clipped into the joint bounds
-    # The loop compiled (mpnet.planners.compiled): the same answers. The configs' default; a
-    # library caller gets the numpy loop unless it asks (no kernels to compile).
-    compiled: bool = False
 
     def __post_init__(self):
         check_settings(self.name, **self.shared(), clip=self.clip)

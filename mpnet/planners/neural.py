@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -29,28 +29,7 @@ from mpnet.planners.base import (
     check_endpoints,
     sub_seed,
 )
-
-
-@dataclass(frozen=True)
-class NeuralSettings:
-    """MPNetPlanner's settings (see it) and their defaults, written once: MPNetSettings, what a
-    config makes, extends them; ablation_of measures an ablation from them; conf/planner/mpnet_nr.yaml
-    spells them out for the logs (tests/test_configs.py holds it to these)."""
-
-    max_steps: int = 80
-    replan_steps: int = 50
-    replan_rounds: int = 10
-    steer_steps: tuple | None = None
-    proposal: str = "pnet"
-    straight_step: float = 0.1
-    fallback_restart_s: float | None = 0.5
-    encoding: str = "cloud"
-    dropout: bool = True
-    replanning: str = "original"
-
-    def shared(self) -> dict:
-        """These settings by name (a subclass's own left out): what MPNetPlanner takes."""
-        return {f.name: getattr(self, f.name) for f in fields(NeuralSettings)}
+from mpnet.settings import NeuralSettings, ablation_of
 
 
 class MPNetPlanner:
@@ -352,22 +331,6 @@ ENCODINGS = ("cloud", "zeros")
 BASE_NAMES = ("mpnet_nr", "mpnet_hr")
 
 
-def ablation_of(
-    proposal: str = "pnet",
-    encoding: str = "cloud",
-    dropout: bool = True,
-    replanning: str = "original",
-    clip: bool = False,
-) -> str:
-    """'' for MPNet as the paper, else what differs (e.g. 'proposal=random')."""
-    changed = [f"proposal={proposal}"] if proposal != "pnet" else []
-    changed += ["clip=true"] if clip else []
-    changed += [f"replanning={replanning}"] if replanning != "original" else []
-    changed += [f"encoding={encoding}"] if encoding != "cloud" else []
-    changed += ["dropout=false"] if not dropout else []
-    return ", ".join(changed)
-
-
 def _count(key: str, value, least: int) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or value < least:
         raise ValueError(f"config key planner.{key}: expected an integer >= {least}, got {value!r}")
@@ -422,7 +385,7 @@ def check_settings(
         raise ValueError(f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}")
     if not isinstance(clip, bool):
         raise ValueError(f"config key planner.clip: expected true or false, got {clip!r}")
-    ablated = ablation_of(proposal, encoding, dropout, replanning, clip)
+    ablated = ablation_of(proposal=proposal, encoding=encoding, dropout=dropout, replanning=replanning, clip=clip)
     if ablated and name in BASE_NAMES:
         raise ValueError(
             f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
