@@ -4,6 +4,7 @@ planning: env x planner at the default scale, every scale, and every experiment'
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 
 import pytest
@@ -16,6 +17,7 @@ from mpnet.envs.specs import get_spec
 from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner
 from mpnet.planners.compiled.planner import supports
+from mpnet.planners.mpnet import MPNetSettings
 
 ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "scale", "experiment"))
 
@@ -245,3 +247,16 @@ def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(se
     ):
         with pytest.raises(UsageError, match=name):
             settings(["+env=arm7", "+planner=mpnet_nr", bad])
+
+
+@pytest.mark.parametrize("planner", ["mpnet_nr", "mpnet_hr"])
+def test_the_mpnet_configs_spell_out_the_librarys_defaults(planner, planner_configs):
+    """MPNet's defaults are written once, in the library (NeuralSettings, MPNetSettings); the
+    configs repeat them because a run logs its config's settings and a resumed run is held to
+    them, so here they are held equal: only the label, HR's hybrid and the compiled loop (the
+    configs' choice) differ; clip, newer than the logs, is left to the default."""
+    defaults = {f.name: f.default for f in dataclasses.fields(MPNetSettings) if f.default is not dataclasses.MISSING}
+    section = planner_configs[planner]
+    spelled = {k: section[k] for k in section if k in defaults}
+    expected = {k: v for k, v in defaults.items() if k != "clip"} | {"hybrid": planner == "mpnet_hr", "compiled": True}
+    assert spelled == expected

@@ -107,6 +107,8 @@ def test_the_repository_kernels_reach_what_they_inline():
         "models/pnet_kernel.py",
     } <= reach("planners/compiled/kernels.py")
     assert "envs/checkers/sphere_kernels.py" in reach("envs/checkers/sphere_checks.py")
+    # the packed layout the views are generated from
+    assert "envs/checkers/sphere_layout.py" in reach("envs/checkers/sphere_checks.py")
     # a Python-side module does not recompile it
     assert "envs/checkers/spheres.py" not in reach("envs/checkers/sphere_checks.py")
 

@@ -3,6 +3,7 @@ geometry against python-fcl, agreement with pybullet's mesh model, certified mot
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 
@@ -16,6 +17,7 @@ from mpnet.envs.arm.model import ArmModelError, load_arm_model
 from mpnet.envs.arm.spherize import link_hull, spherize
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
+from mpnet.envs.checkers import sphere_layout as L
 from mpnet.envs.checkers.spheres import pack_obstacles, read_spheres, sphere_model
 from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.shapes import Primitive
@@ -63,6 +65,23 @@ def test_kernel_kinematics_match_the_model():
         assert np.allclose(pose[:-1], MODEL.link_transforms(q)[:, :3, :], atol=1e-12)
 
 
+def test_the_kernels_views_are_the_model_fields_the_layout_names():
+    """unpack gives back each field SphereModel packed, at its constant's index; the scratch's
+    views tile it exactly; a field of the wrong shape is refused."""
+    m = sphere_model("panda")
+    views = L.unpack(m.mi, m.mf)
+    assert len(views) == len(L.MODEL) and L.TABLE_BITS == len(L.MODEL) - 1
+    for i, field in enumerate(L.MODEL):
+        assert np.array_equal(views[i], getattr(m, field.name)), field.name
+    scratch = L.unpack_buffers(m.mi, m.buffers())
+    assert sum(v.size for v in scratch) == m.buffers().size
+    assert scratch[L.POSE].shape == (len(m.parent) + 1, 3, 4) and scratch[L.T0S].size == L.QUEUE
+    bad = copy.copy(m)
+    bad.glever = m.glever[:, :-1]
+    with pytest.raises(ValueError, match="glever"):
+        L.pack(bad)
+
+
 @settings(deadline=None, max_examples=40)
 @given(st.integers(0, 10_000))
 def test_levers_bound_how_far_spheres_move(seed):
@@ -100,8 +119,8 @@ def test_pair_tables_certify_whole_cells(seed):
     tested), with any other joints, the tabled pairs' spheres do not overlap; and the
     kernels' lookup agrees with the table's bits."""
     m = sphere_model("panda")
-    (ja, jb, na, nb, _), (lo_a, wa, lo_b, wb) = m._tables[0][0], m._tables[1][0]
-    bits = np.unpackbits(m._tables[2].view(np.uint8), bitorder="little")[: na * nb].reshape(na, nb)
+    (ja, jb, na, nb, _), (lo_a, wa, lo_b, wb) = m.table_i[0], m.table_f[0]
+    bits = np.unpackbits(m.table_bits.view(np.uint8), bitorder="little")[: na * nb].reshape(na, nb)
     rng = np.random.default_rng(seed)
     free_cells = np.argwhere(bits == 1)
     near_cells = np.argwhere(bits == 0)
@@ -110,7 +129,7 @@ def test_pair_tables_certify_whole_cells(seed):
         q = ARM.space.sample(rng)
         q[ja] = lo_a + (i + rng.uniform()) * wa
         q[jb] = lo_b + (k + rng.uniform()) * wb
-        looked_up = K._table_free(q, m._tables[0][0], m._tables[1][0], m._tables[2], 0.0, np.zeros(7))
+        looked_up = K._table_free(q, m.table_i[0], m.table_f[0], m.table_bits, 0.0, np.zeros(7))
         assert looked_up == free
         if free:
             assert not _table_pairs_overlap(m, q)

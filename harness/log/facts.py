@@ -6,11 +6,10 @@ same from the config text their `/run` holds (the only place that still parses i
 - planner: what kind of planner the run is (never read off its name, so a run keeps its place
   whatever it is called): `cost_target` a mapping, a time-to-equal-quality run of `algorithm`
   to reach MPNet (HR if the target is hybrid, else NR)'s cost times `cost_factor`; `hybrid`
-  present, an MPNet run, base mpnet_hr if it is true, else mpnet_nr, and an ablation of that
-  base when `proposal` is not pnet, `encoding` is zeros, `dropout` is false, `replanning` is
-  not original (a config without the key predates it: its runs replanned the forgiving way),
-  its proposals are clipped into the bounds (`clip`), its loop is numpy's (`compiled` false), HR's
-  `fallback` is not RRT*, or its `networks` were trained on resampled expert paths;
+  present, an MPNet run, base mpnet_hr if it is true, else mpnet_nr, and a variant of that
+  base by MPNet's own rule (mpnet.settings.variant_tags: an ablation, the numpy loop, HR's
+  fallback), a config without `replanning` replanning the forgiving way (it predates the key),
+  or by its `networks` (network_variant);
   `algorithm`, a classical run; else a plain planner (a planner of one's own). None when
   the config has no `planner` mapping.
 - budget_s, the training set's size (train_workspaces x train_paths asked, and, where the
@@ -26,6 +25,8 @@ from __future__ import annotations
 
 import functools
 import math
+
+from mpnet.settings import variant_tags
 
 FACTS_FORMAT = "mpnet-bench/facts@1"
 
@@ -65,21 +66,9 @@ def planner_facts(p) -> dict | None:
         out["factor"] = _number(p.get("cost_factor")) or 1.0
         return out
     if "hybrid" in p:
-        variant = [] if p.get("proposal", "pnet") in ("pnet", None) else [str(p["proposal"])]
-        if p.get("replanning", "forgiving") != "original":
-            variant.append(str(p.get("replanning", "forgiving")))
-        if p.get("encoding") == "zeros":
-            variant.append("zeros")
-        if p.get("dropout") is False:
-            variant.append("nodropout")
-        if p.get("clip") is True:
-            variant.append("clip")
-        if p.get("compiled") is False:  # the numpy reference (a config without the key predates the choice)
-            variant.append("numpy")
-        variant += network_variant(p.get("networks"))
-        fallback = p.get("fallback", "rrt_star")
-        if p["hybrid"] is True and fallback != "rrt_star":  # the paper's HR replans with RRT*
-            variant.append("rrtc" if fallback == "rrt_connect" else f"fallback_{fallback}")
+        # MPNet's own rule (mpnet.settings); a config without `replanning` predates the key (its
+        # runs replanned the forgiving way)
+        variant = variant_tags({"replanning": "forgiving", **p}, network_variant(p.get("networks")))
         out["base"] = "mpnet_hr" if p["hybrid"] is True else "mpnet_nr"
         out["variant"] = "+".join(variant) or None
         return out

@@ -47,7 +47,7 @@ ST_NO_TARGET = 11
 PARAMETERS = (("split", "VARCHAR(64)"),)
 
 
-_RUN_COLUMNS = (  # OMPL's own run properties first, then ours
+_OMPL_COLUMNS = (  # OMPL's own run properties
     ("time", "REAL"),
     ("solved", "BOOLEAN"),
     ("status", "ENUM"),
@@ -56,12 +56,15 @@ _RUN_COLUMNS = (  # OMPL's own run properties first, then ours
     ("solution_length", "REAL"),
     ("solution_segments", "INTEGER"),
     ("cpu_time", "REAL"),
-    ("collision_checks", "INTEGER"),
-    ("state_checks", "INTEGER"),
-    ("motion_checks", "INTEGER"),
-    ("pnet_calls", "INTEGER"),
-    ("replans", "INTEGER"),
-    ("fallback_used", "BOOLEAN"),
+)
+# Ours: /query fields as they are, then MPNet's own (a classical planner logs none of these: it
+# makes no Pnet call, replans and falls back never, so 0), each typed as the log's schema types it.
+_QUERY_FIELDS = ("collision_checks", "state_checks", "motion_checks")
+_MPNET_FIELDS = ("pnet_calls", "replans", "fallback_used")
+_SQL_TYPES = {"integer": "INTEGER", "boolean": "BOOLEAN", "number": "REAL", "string": "TEXT"}
+_RUN_COLUMNS = _OMPL_COLUMNS + tuple(
+    (name, next(sql for kind, sql in _SQL_TYPES.items() if name in query_columns(kind)))
+    for name in _QUERY_FIELDS + _MPNET_FIELDS
 )
 
 
@@ -265,15 +268,10 @@ def write_benchmark_db(q: pd.DataFrame, files: list[TrialFile], path: Path, fact
                 "solution_length": d["path_cost"].where(ok),
                 "solution_segments": np.where(ok & (plen > 0), np.maximum(plen - 1, 0), np.nan),
                 "cpu_time": d["cpu_s"],
-                "collision_checks": d["collision_checks"],
-                "state_checks": d["state_checks"],
-                "motion_checks": d["motion_checks"],
-                # A classical planner logs none of these: it makes no Pnet call, replans and falls back never.
-                "pnet_calls": d["pnet_calls"].fillna(0),
-                "replans": d["replans"].fillna(0),
-                "fallback_used": d["fallback_used"].fillna(0),
+                **{name: d[name] for name in _QUERY_FIELDS},
+                **{name: d[name].fillna(0) for name in _MPNET_FIELDS},
             }
-            ints = {"solution_segments", "fallback_used", *query_columns("integer")}
+            ints = {"solution_segments", *query_columns("integer", "boolean")}  # fallback_used: 0 or 1
             data = [[exp_id] * len(d), [file_config[f] for f in d["file"]]]
             for name, _ in _RUN_COLUMNS:
                 v = np.asarray(cols[name], dtype=object)

@@ -18,41 +18,23 @@ from mpnet.models.checkpoint import load_pnet_numpy
 from mpnet.models.numpy_nets import NumpyPnet
 from mpnet.planners.classical import ALGORITHMS, OmplPlanner
 from mpnet.planners.neural import MPNetPlanner, check_settings
+from mpnet.settings import MPNetOptions
 
 PNET_FILE = "pnet.ckpt"
 
 
-@dataclass(frozen=True)
-class MPNetSettings:
-    """MPNet (NR, or HR with the OMPL planner `fallback`), as a config gives it. proposal,
+@dataclass(frozen=True, kw_only=True)
+class MPNetSettings(MPNetOptions):
+    """MPNet (NR, or HR with the OMPL planner `fallback`), as a config gives it, checked: the
+    settings and their defaults are mpnet.settings' (MPNetOptions), the name the config's. proposal,
     encoding and dropout ablate one piece each (Pnet's proposals, the workspace code Pnet
     sees, Pnet's dropout at planning time); replanning="forgiving" is CMPNet's replanning
-    (MPNetPlanner). The defaults are MPNetPlanner's."""
+    (MPNetPlanner)."""
 
     name: str
-    hybrid: bool = False
-    max_steps: int = 80
-    replan_steps: int = 50
-    replan_rounds: int = 10
-    steer_steps: tuple | None = None
-    fallback: str = "rrt_star"
-    fallback_restart_s: float | None = 0.5
-    proposal: str = "pnet"
-    straight_step: float = 0.1
-    encoding: str = "cloud"
-    dropout: bool = True
-    replanning: str = "original"
-    clip: bool = False  # named variant (issue 26): Pnet's proposal clipped into the joint bounds
-    compiled: bool = False  # the loop compiled (mpnet.planners.compiled; the configs' default): the same answers
-
-    def _shared(self) -> dict:
-        """The settings MPNetPlanner takes as they are (and check_settings checks)."""
-        keys = ("max_steps", "replan_steps", "replan_rounds", "steer_steps", "proposal", "straight_step")
-        keys += ("fallback_restart_s", "encoding", "dropout", "replanning")
-        return {k: getattr(self, k) for k in keys}
 
     def __post_init__(self):
-        check_settings(self.name, **self._shared(), clip=self.clip)
+        check_settings(self.name, **self.shared(), clip=self.clip)
         if self.hybrid and self.fallback not in ALGORITHMS:
             raise ValueError(
                 f"config key planner.fallback: unknown OMPL algorithm {self.fallback!r}; "
@@ -117,10 +99,10 @@ class MPNetSettings:
                 hybrid=self.hybrid,
                 seed=seed,
                 fallback=fallback,
-                **self._shared(),
+                **self.shared(),
             )
         return MPNetPlanner(
-            self.name, encode, step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self._shared()
+            self.name, encode, step, cloud, hybrid=self.hybrid, seed=seed, fallback=fallback, **self.shared()
         )
 
 

@@ -29,6 +29,7 @@ from mpnet.planners.base import (
     check_endpoints,
     sub_seed,
 )
+from mpnet.settings import NeuralSettings, ablation_of
 
 
 class MPNetPlanner:
@@ -80,49 +81,30 @@ class MPNetPlanner:
         cloud: Callable | None,
         *,
         hybrid: bool = False,
-        max_steps: int = 80,
-        replan_steps: int = 50,
-        replan_rounds: int = 10,
         seed: int = 0,
         fallback=None,
-        steer_steps=None,
-        proposal: str = "pnet",
-        straight_step: float = 0.1,
-        fallback_restart_s: float | None = 0.5,
-        encoding: str = "cloud",
-        dropout: bool = True,
-        replanning: str = "original",
+        **settings,
     ):
-        check_settings(
-            name,
-            max_steps=max_steps,
-            replan_steps=replan_steps,
-            replan_rounds=replan_rounds,
-            steer_steps=steer_steps,
-            proposal=proposal,
-            straight_step=straight_step,
-            fallback_restart_s=fallback_restart_s,
-            encoding=encoding,
-            dropout=dropout,
-            replanning=replanning,
-        )
+        """settings: NeuralSettings' (their defaults there); checked, ValueError naming the key."""
+        s = NeuralSettings(**settings)
+        check_settings(name, **s.shared())
         self.name = name
         self.encode = encode
         self.step = step
         self.cloud = cloud
         self.hybrid = hybrid
-        self.max_steps = max_steps
-        self.replan_steps = replan_steps
-        self.replan_rounds = replan_rounds
+        self.max_steps = s.max_steps
+        self.replan_steps = s.replan_steps
+        self.replan_rounds = s.replan_rounds
         self.rng = np.random.default_rng(seed)
         self.fallback = fallback
-        self.steer_steps = list(steer_steps) if steer_steps else [None]
-        self.proposal = proposal
-        self.fallback_restart_s = None if fallback_restart_s is None else float(fallback_restart_s)
-        self.straight_step = float(straight_step)
-        self.encoding = encoding
-        self.dropout = dropout
-        self.replanning = replanning
+        self.steer_steps = list(s.steer_steps) if s.steer_steps else [None]
+        self.proposal = s.proposal
+        self.fallback_restart_s = None if s.fallback_restart_s is None else float(s.fallback_restart_s)
+        self.straight_step = float(s.straight_step)
+        self.encoding = s.encoding
+        self.dropout = s.dropout
+        self.replanning = s.replanning
         self.trace: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.codes: dict[str, np.ndarray] = {}
         self.last_code = None
@@ -349,22 +331,6 @@ ENCODINGS = ("cloud", "zeros")
 BASE_NAMES = ("mpnet_nr", "mpnet_hr")
 
 
-def ablation_of(
-    proposal: str = "pnet",
-    encoding: str = "cloud",
-    dropout: bool = True,
-    replanning: str = "original",
-    clip: bool = False,
-) -> str:
-    """'' for MPNet as the paper, else what differs (e.g. 'proposal=random')."""
-    changed = [f"proposal={proposal}"] if proposal != "pnet" else []
-    changed += ["clip=true"] if clip else []
-    changed += [f"replanning={replanning}"] if replanning != "original" else []
-    changed += [f"encoding={encoding}"] if encoding != "cloud" else []
-    changed += ["dropout=false"] if not dropout else []
-    return ", ".join(changed)
-
-
 def _count(key: str, value, least: int) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or value < least:
         raise ValueError(f"config key planner.{key}: expected an integer >= {least}, got {value!r}")
@@ -419,7 +385,7 @@ def check_settings(
         raise ValueError(f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}")
     if not isinstance(clip, bool):
         raise ValueError(f"config key planner.clip: expected true or false, got {clip!r}")
-    ablated = ablation_of(proposal, encoding, dropout, replanning, clip)
+    ablated = ablation_of(proposal=proposal, encoding=encoding, dropout=dropout, replanning=replanning, clip=clip)
     if ablated and name in BASE_NAMES:
         raise ValueError(
             f"config key planner.name: an ablation ({ablated}) is logged under its own name, "

@@ -2,35 +2,30 @@
 and free, a batch of them, and certified straight motions (an interval is cut until every
 sphere's swept reach is free, or a state on it is hit).
 
-The kernels here inline sphere_kernels' (verdict, unpack, ...); mpnet.jit's cache stamps
-them with both files' text, so a change there recompiles these too.
+The kernels here inline sphere_kernels' (verdict, ...) and sphere_layout's (unpack, ...);
+mpnet.jit's cache stamps them with those files' text, so a change there recompiles these too.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mpnet.envs.checkers.sphere_kernels import (
+from mpnet.envs.checkers.sphere_kernels import FREE, HIT, NEAR, _dist2, unpack_obstacles, verdict
+from mpnet.envs.checkers.sphere_layout import (
     BRADIUS,
     DQ,
-    FREE,
     GB,
     GLEVER,
     GRADIUS,
-    HIT,
     LB,
     LLEVER,
-    NEAR,
     QUEUE,
     QVEC,
     T0S,
     T1S,
     TOP,
-    _dist2,
     unpack,
     unpack_buffers,
-    unpack_obstacles,
-    verdict,
 )
 from mpnet.jit import njit
 
@@ -160,8 +155,3 @@ def any_hit(centres, radii, ob):
                 if _dist2(centres, k, boxes, cyls, balls, kind, j) <= r * r:
                     return True
     return False
-
-
-def buffer_size(F: int, L: int, G: int, S: int, D: int) -> int:
-    """The scratch array's length for a model of these sizes (sphere_kernels.unpack_buffers lays it out)."""
-    return 12 * (F + 1) + 3 * (S + L + G) + 3 * (L + G) + 9 * D + 1 + 2 * QUEUE + G

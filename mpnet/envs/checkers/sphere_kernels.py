@@ -6,13 +6,12 @@ Why numba: a sampling planner asks about one configuration at a time from Python
 configuration is ~13 frame transforms and a few hundred sphere tests with early exits, which
 numpy cannot batch without paying ~30 us of call overhead; compiled, one costs ~1-2 us.
 
-Data layout (built by mpnet.envs.checkers.spheres.SphereModel): frames in parent-before-child order
-(`parent`, `origin` (F, 3, 4), `kind`, `axis`, `coord`); a three-level sphere tree: links
-(each a bounding sphere and a range of groups), groups (each a bounding sphere and a range
-of spheres) and the spheres (`local` (S, 3) in their frame, `radius`); the self-collision
-link pairs; and, for every sphere, group and link, a lever per joint: a bound on how far its
-centre moves per radian of that joint. A test descends the tree only where a bounding sphere
-touches, so a configuration far from everything costs a few dozen tests, not thousands.
+The model (packed by mpnet.envs.checkers.spheres.SphereModel; its layout, the views'
+indices and the scratch: sphere_layout): frames in parent-before-child order; a three-level
+sphere tree of links, groups and spheres; the self-collision link pairs; and, for every
+sphere, group and link, a lever per joint: a bound on how far its centre moves per radian
+of that joint. A test descends the tree only where a bounding sphere touches, so a
+configuration far from everything costs a few dozen tests, not thousands.
 
 A state's verdict is one of FREE (free even with every sphere grown by its `extra`),
 NEAR (a grown sphere touches something: returned at the first such contact, without
@@ -26,63 +25,56 @@ import math
 
 import numpy as np
 
+from mpnet.envs.checkers.sphere_layout import (
+    AXDIR,
+    AXIS,
+    AXPOINT,
+    BLOCAL,
+    BRADIUS,
+    CENTRES,
+    COORD,
+    FIRST,
+    GB,
+    GCENTRES,
+    GEXTRA,
+    GLEVER,
+    GLOCAL,
+    GPLACED,
+    GRADIUS,
+    GROUP_FRAME,
+    GROUP_S0,
+    GROUP_S1,
+    KIND,
+    LB,
+    LCENTRES,
+    LEXTRA,
+    LINK_FRAME,
+    LINK_G0,
+    LINK_G1,
+    LLEVER,
+    LOCAL,
+    LPLACED,
+    ORIGIN,
+    PAIR_A,
+    PAIR_B,
+    PAIR_J0,
+    PAIR_TABLE,
+    PARENT,
+    PG,
+    POSE,
+    PRIS,
+    RADIUS,
+    TABLE_BITS,
+    TABLE_F,
+    TABLE_I,
+    TOP,
+    unpack,
+    unpack_buffers,
+)
 from mpnet.jit import njit
 
 FREE, NEAR, HIT = 0, 1, 2
-QUEUE = 1 << 14  # motion intervals pending at once; a motion that needs more is called blocked
-HEAD = 8  # mi starts with F, L, G, S, P, D, first, T (pair tables)
 TABLE_SPAN = 16  # a motion interval's lookup reads at most this many table cells, else tests spheres
-# The model tuple's fields, in unpack's order.
-PARENT, ORIGIN, KIND, AXIS, COORD = 0, 1, 2, 3, 4
-LINK_FRAME, LINK_G0, LINK_G1, GROUP_FRAME, GROUP_S0, GROUP_S1 = 5, 6, 7, 8, 9, 10
-LOCAL, RADIUS, BLOCAL, BRADIUS, GLOCAL, GRADIUS = 11, 12, 13, 14, 15, 16
-PAIR_A, PAIR_B, FIRST, LLEVER, GLEVER, PAIR_J0 = 17, 18, 19, 20, 21, 22
-PAIR_TABLE, TABLE_I, TABLE_F, TABLE_BITS = 23, 24, 25, 26
-
-
-@njit(cache=True)
-def unpack(mi, mf):
-    """The model's arrays as views of its two packed arrays (one int64, one float64: two
-    arguments dispatch from Python in well under a microsecond, a tuple of 27 does not)."""
-    F, L, G, S, P, D, first, T = mi[0], mi[1], mi[2], mi[3], mi[4], mi[5], mi[6], mi[7]
-    o = HEAD
-    parent, kind, coord = mi[o : o + F], mi[o + F : o + 2 * F], mi[o + 2 * F : o + 3 * F]
-    o += 3 * F
-    link_frame, link_g0, link_g1 = mi[o : o + L], mi[o + L : o + 2 * L], mi[o + 2 * L : o + 3 * L]
-    o += 3 * L
-    group_frame, group_s0, group_s1 = mi[o : o + G], mi[o + G : o + 2 * G], mi[o + 2 * G : o + 3 * G]
-    o += 3 * G
-    pair_a, pair_b, pair_j0 = mi[o : o + P], mi[o + P : o + 2 * P], mi[o + 2 * P : o + 3 * P]
-    o += 3 * P
-    pair_table = mi[o : o + P]
-    o += P
-    table_i = mi[o : o + 5 * T].reshape((T, 5))
-    table_bits = mi[o + 5 * T :]
-    o = 0
-    origin = mf[o : o + 12 * F].reshape((F, 3, 4))
-    o += 12 * F
-    axis = mf[o : o + 3 * F].reshape((F, 3))
-    o += 3 * F
-    local = mf[o : o + 3 * S].reshape((S, 3))
-    o += 3 * S
-    radius = mf[o : o + S]
-    o += S
-    blocal = mf[o : o + 3 * L].reshape((L, 3))
-    o += 3 * L
-    bradius = mf[o : o + L]
-    o += L
-    glocal = mf[o : o + 3 * G].reshape((G, 3))
-    o += 3 * G
-    gradius = mf[o : o + G]
-    o += G
-    llever = mf[o : o + L * D].reshape((L, D))
-    o += L * D
-    glever = mf[o : o + G * D].reshape((G, D))
-    o += G * D
-    table_f = mf[o : o + 4 * T].reshape((T, 4))
-    return (parent, origin, kind, axis, coord, link_frame, link_g0, link_g1, group_frame, group_s0,
-            group_s1, local, radius, blocal, bradius, glocal, gradius, pair_a, pair_b, first, llever, glever,
-            pair_j0, pair_table, table_i, table_f, table_bits)  # fmt: skip
 
 
 @njit(cache=True)
@@ -100,47 +92,6 @@ def unpack_obstacles(ob):
     o += 4 * nk
     bounds = ob[o : o + 6 * (nb + nc + nk)].reshape((nb + nc + nk, 6))
     return boxes, cyls, balls, ob[3], bounds
-
-
-# The scratch tuple's fields, in unpack_buffers' order.
-POSE, CENTRES, LCENTRES, GCENTRES, LPLACED, GPLACED, LEXTRA, GEXTRA, LB, GB = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
-QVEC, DQ, AXPOINT, AXDIR, PRIS, TOP, T0S, T1S, PG = 10, 11, 12, 13, 14, 15, 16, 17, 18
-
-
-@njit(cache=True)
-def unpack_buffers(mi, buf):
-    """Scratch views: poses (F + 1, 3, 4); sphere, link and group centres; link and group
-    placed flags; link and group growth and second-order terms; a joint vector and the
-    motion's joint steps; the joints' axes (points, directions, prismatic flags); the
-    largest growth; the motion queue's interval ends."""
-    F, L, G, S, D = mi[0], mi[1], mi[2], mi[3], mi[5]
-    o = 12 * (F + 1)
-    pose = buf[:o].reshape((F + 1, 3, 4))
-    centres = buf[o : o + 3 * S].reshape((S, 3))
-    o += 3 * S
-    lcentres = buf[o : o + 3 * L].reshape((L, 3))
-    o += 3 * L
-    gcentres = buf[o : o + 3 * G].reshape((G, 3))
-    o += 3 * G
-    lplaced, gplaced = buf[o : o + L], buf[o + L : o + L + G]
-    o += L + G
-    lextra, gextra = buf[o : o + L], buf[o + L : o + L + G]
-    o += L + G
-    lb, gb = buf[o : o + L], buf[o + L : o + L + G]
-    o += L + G
-    q, dq = buf[o : o + D], buf[o + D : o + 2 * D]
-    o += 2 * D
-    ap = buf[o : o + 3 * D].reshape((D, 3))
-    o += 3 * D
-    au = buf[o : o + 3 * D].reshape((D, 3))
-    o += 3 * D
-    pris, top = buf[o : o + D], buf[o + D : o + D + 1]
-    o += D + 1
-    t0s, t1s = buf[o : o + QUEUE], buf[o + QUEUE : o + 2 * QUEUE]
-    o += 2 * QUEUE
-    pg = buf[o : o + G]
-    return (pose, centres, lcentres, gcentres, lplaced, gplaced, lextra, gextra, lb, gb, q, dq, ap, au, pris,
-            top, t0s, t1s, pg)  # fmt: skip
 
 
 @njit(cache=True)

@@ -20,6 +20,7 @@ import numpy as np
 from mpnet.envs.arm.model import PRISMATIC, ArmModel, load_arm_model
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
+from mpnet.envs.checkers import sphere_layout
 from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.workspace import Workspace
 
@@ -83,24 +84,16 @@ class SphereModel:
         self.lower = np.array([b[0] for b in model.limits])
         self.upper = np.array([b[1] for b in model.limits])
         self.pair_table = np.full(len(pairs), -1, np.int64)
-        self._tables = (np.zeros((0, 5), np.int64), np.zeros((0, 4)), np.zeros(0, np.int64))
-        F, L, G, S, D = len(self.parent), len(links), len(groups), len(self.radius), model.dof
-        self._buffer_size = C.buffer_size(F, L, G, S, D)
+        # The pair tables (_build_tables): rows of ints, rows of floats, and their bits
+        self.table_i, self.table_f = np.zeros((0, 5), np.int64), np.zeros((0, 4))
+        self.table_bits = np.zeros(0, np.int64)
         self._pack()
         self._build_tables()
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
 
     def _pack(self) -> None:
-        """The kernels' two packed arrays (sphere_kernels.unpack reads them)."""
-        table_i, table_f, bits = self._tables
-        head = [len(self.parent), len(self.links), len(self.glocal), len(self.radius), len(self.pair_a)]
-        head += [self.model.dof, self.first, len(table_i)]
-        ints = [self.parent, self.kind, self.coord, self.link_frame, self.link_g0, self.link_g1, self.group_frame]
-        ints += [self.group_s0, self.group_s1, self.pair_a, self.pair_b, self.pair_j0, self.pair_table]
-        self.mi = np.concatenate([head, *ints, table_i.ravel(), bits]).astype(np.int64)
-        floats = (self.origin, self.axis, self.local, self.radius, self.blocal, self.bradius, self.glocal)
-        floats += (self.gradius, self.llever, self.glever, table_f)
-        self.mf = np.concatenate([a.ravel() for a in floats])
+        """The kernels' packed arrays and the scratch's length (sphere_layout lays them out)."""
+        self.mi, self.mf, self._buffer_size = sphere_layout.pack(self)
 
     def _build_tables(self) -> None:
         """Pair tables (sphere_kernels.build_table) for the self-collision pairs whose
@@ -127,7 +120,8 @@ class SphereModel:
             words.append(bits)
             self.pair_table[pis] = t
         if rows_i:
-            self._tables = (np.array(rows_i, np.int64), np.array(rows_f), np.concatenate(words))
+            self.table_i, self.table_f = np.array(rows_i, np.int64), np.array(rows_f)
+            self.table_bits = np.concatenate(words)
             self._pack()
 
     def _coords_between(self, a: int, b: int) -> tuple[int, ...] | None:
