@@ -237,6 +237,6 @@ def test_stop_at_time_plans_most_of_the_budget_and_answers_within_it(algorithm):
     start, goal = (-10.0, 0.0), (10.0, 0.0)
     prob = problem("s2d", WALL, start, goal)
     prob.checker.warm_up(prob.start)  # numba's first compile, outside the clock (as run_bench does)
-    rec = plan_query(OmplPlanner(algorithm, algorithm, stop="time"), prob, 0.2)
+    rec = plan_query(OmplPlanner(algorithm, algorithm, stop="time"), prob, 1.0)
     assert rec["failure"] is None and rec["planner_status"] == EXACT
-    assert 0.9 * 0.2 < rec["time_s"] <= 0.2  # it plans to the budget, and answers within it
+    assert 0.9 < rec["time_s"] <= 1.0  # it plans to the budget less 50 ms, and answers within it

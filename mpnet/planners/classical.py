@@ -29,7 +29,9 @@ ALGORITHMS = {
     "rrt_connect": og.RRTConnect,
 }
 OPTIMIZING = {"informed_rrt_star", "bit_star", "rrt_star"}
-TIME_STOP_SHARE = 0.98  # stop=time: the share of the budget planned; the rest hands the path back in time
+# stop=time leaves the larger of this share of the budget and these seconds to hand the path back
+# within the budget (OMPL stops an iteration past its time; a loaded machine may preempt it then).
+TIME_STOP_MARGIN = (0.02, 0.05)
 
 
 class OmplPlanner:
@@ -39,8 +41,8 @@ class OmplPlanner:
     exact-solution condition does not stop optimizing planners, so a condition on the
     planner's best cost does. stop="cost": run until the path cost reaches
     cost_factor x the problem's reference cost; a path that never gets there is no
-    solution (timeout). stop="time": run to 98% of the budget and return the best path (a
-    budgeted reference run; the rest is the margin to hand it back within the budget).
+    solution (timeout). stop="time": run to the budget less a margin (TIME_STOP_MARGIN: 2%, at
+    least 50 ms) and return the best path (a budgeted reference run, back within the budget).
     `range` is the planner's maximum edge length (None: the env's `planner_range`, else
     OMPL's default); `params` are OMPL planner parameters by snake_case name
     (rewire_factor -> setRewireFactor). keep_partial: a failed solve's
@@ -103,9 +105,9 @@ class OmplPlanner:
         planner.setup()
 
         watch = BestCostWatch(planner, t0, self.stop, target) if self.algorithm in OPTIMIZING else None
-        # stop=time plans to TIME_STOP_SHARE of the budget, not all of it: OMPL's timed condition
-        # stops an iteration past its time, and a path handed back after the budget is a timeout.
-        plan_s = budget_s * (TIME_STOP_SHARE if self.stop == "time" else 1.0)
+        # stop=time stops a margin short of the budget: a path handed back after it is a timeout.
+        share, least_s = TIME_STOP_MARGIN
+        plan_s = budget_s - (max(share * budget_s, least_s) if self.stop == "time" else 0.0)
         timed = ob.timedPlannerTerminationCondition(max(0.0, plan_s - (time.perf_counter() - t0)))
         # No period argument: a periodic condition runs on a thread and aborts at exit.
         ptc = timed if watch is None else ob.plannerOrTerminationCondition(timed, ob.PlannerTerminationCondition(watch))
