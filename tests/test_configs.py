@@ -250,13 +250,13 @@ def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(se
 
 
 @pytest.mark.parametrize("planner", ["mpnet_nr", "mpnet_hr"])
-def test_the_mpnet_configs_spell_out_the_librarys_defaults(planner, planner_configs):
+def test_the_mpnet_configs_spell_out_the_librarys_defaults(planner, compose_config):
     """MPNet's defaults are written once, in the library (NeuralSettings, MPNetSettings); the
     configs repeat them because a run logs its config's settings and a resumed run is held to
     them, so here they are held equal: only the label, HR's hybrid and the compiled loop (the
     configs' choice) differ; clip, newer than the logs, is left to the default."""
     defaults = {f.name: f.default for f in dataclasses.fields(MPNetSettings) if f.default is not dataclasses.MISSING}
-    section = planner_configs[planner]
+    section = compose_config(["+env=s2d", f"+planner={planner}"]).planner  # not every config's: the fast loop
     spelled = {k: section[k] for k in section if k in defaults}
     expected = {k: v for k, v in defaults.items() if k != "clip"} | {"hybrid": planner == "mpnet_hr", "compiled": True}
     assert spelled == expected

@@ -63,6 +63,7 @@ def mpnet_sections(compose_config) -> dict:
     return out
 
 
+@pytest.mark.slow  # composes every planner config (~6 s): out of the fast loop
 def test_every_mpnet_config_gets_the_facts_and_verdict_the_two_old_rules_gave(mpnet_sections):
     assert {"mpnet_nr", "mpnet_hr", "mpnet_hr_rrtc_clip", "mpnet_nr_numpy", "bit_star_to_nr@cost_target"} <= set(
         mpnet_sections
