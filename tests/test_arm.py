@@ -3,6 +3,7 @@ scene generator, problems@2 and MotionBenchMaker's problems."""
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 
@@ -12,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mpnet.envs.arm.model import load_arm_model
-from mpnet.envs.checkers.pybullet_arm import arm_world, coarse_to_fine
+from mpnet.envs.checkers.pybullet_arm import PybulletArmChecker, coarse_to_fine, lent_world
 from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.shapes import Primitive, quat_matrix, surface_cloud, yaw_quat
 from mpnet.envs.specs import get_spec
@@ -33,7 +34,8 @@ EMPTY = ws_of()
 
 
 def hand_position(q=HOME) -> np.ndarray:
-    return np.array(arm_world("panda").hand_position(q))
+    with lent_world(load_arm_model("panda")) as w:
+        return np.array(w.hand_position(q))
 
 
 @pytest.fixture(params=BACKENDS)
@@ -53,20 +55,21 @@ def test_limits_are_motionbenchmakers():
 
 def test_pybullet_allows_the_models_pairs_only():
     """The pairs pybullet ignores are the model's (MotionBenchMaker's allowed collision matrix)."""
-    world = arm_world("panda")
-    names = {tuple(sorted((world.link_names[a], world.link_names[b]))) for a, b in world.allowed}
+    with lent_world(load_arm_model("panda")) as world:
+        names = {tuple(sorted((world.link_names[a], world.link_names[b]))) for a, b in world.allowed}
     assert names == set(load_arm_model("panda").allowed)
     assert len(names) == 34
 
 
 def test_forward_kinematics_match_pybullet():
-    world, model = arm_world("panda"), load_arm_model("panda")
+    model = load_arm_model("panda")
     rng = np.random.default_rng(0)
-    for _ in range(20):
-        q = ARM.space.sample(rng)
-        poses = world.link_poses(q)  # inertial frames; the hand's link frame via hand_position
-        assert np.allclose(model.end_effector_position(q), world.hand_position(q), atol=1e-6)
-        assert len(poses) == len(world.links)
+    with lent_world(model) as world:
+        for _ in range(20):
+            q = ARM.space.sample(rng)
+            poses = world.link_poses(q)  # inertial frames; the hand's link frame via hand_position
+            assert np.allclose(model.end_effector_position(q), world.hand_position(q), atol=1e-6)
+            assert len(poses) == len(world.links)
 
 
 def test_self_collision_is_checked(checker):
@@ -112,21 +115,46 @@ def test_planning_margin_inflates_obstacles(checker):
     assert not checker(near, margin=0.15).is_valid(HOME)
 
 
-def test_obstacle_swaps_do_not_leak_bodies():
-    world = arm_world("panda")
-    a = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)), backend="pybullet")
-    b = ARM.make_checker(ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1)), backend="pybullet")
-    a.is_valid(HOME)
-    n = world.pb.getNumBodies(physicsClientId=world.client)
+def _pybullet(ws: Workspace) -> PybulletArmChecker:
+    return ARM.make_checker(ws, backend="pybullet")
+
+
+TWO_SPHERES = ws_of(Primitive.sphere((1, 1, 1), 0.1), Primitive.sphere((1, 1, 2), 0.1))
+
+
+def test_live_checkers_hold_worlds_of_their_own():
+    """Two checkers alive at once never share a pybullet world (no obstacles swapped between
+    them); each world holds the arm and its checker's obstacles only."""
+    a, b = _pybullet(TWO_SPHERES), _pybullet(ws_of(Primitive.sphere(hand_position(), 0.05)))
+    assert a.is_valid(HOME) and not b.is_valid(HOME) and a.is_valid(HOME)
+    assert a.world is not b.world and a.world.client != b.world.client
+    assert len(a.world.bodies) == 2 and len(b.world.bodies) == 1
+    assert a.world.pb.getNumBodies(physicsClientId=a.world.client) == 3
+
+
+def test_a_world_let_go_is_emptied_and_lent_again_without_leaking():
+    """A collected checker's world goes to the next checker, its old obstacles removed, its
+    collision shapes reused (pybullet never frees one), so thousands of workspaces cost one world."""
+    a = _pybullet(TWO_SPHERES)
+    assert a.is_valid(HOME)
+    world, shapes = a.world, len(a.world.shapes)
+    del a
+    gc.collect()
     for _ in range(5):
-        b.is_valid(HOME)
-        a.is_valid(HOME)
-    shapes = len(world.shapes)
-    b.is_valid(HOME)
-    assert world.pb.getNumBodies(physicsClientId=world.client) == n and len(world.shapes) == shapes
+        c = _pybullet(TWO_SPHERES)
+        assert c.is_valid(HOME) and c.world is world
+        del c
+        gc.collect()
+    assert world.bodies == [] and world.pb.getNumBodies(physicsClientId=world.client) == 1
+    assert len(world.shapes) == shapes
 
 
-def test_checkers_of_two_workspaces_take_turns_with_one_world(checker):
+def test_a_checker_never_used_borrows_no_world():
+    ch = _pybullet(TWO_SPHERES)
+    assert ch._world is None and ch.counts()["configurations_checked"] == 0
+
+
+def test_checkers_of_two_workspaces_answer_apart_when_interleaved(checker):
     blocked, free = checker(ws_of(Primitive.sphere(hand_position(), 0.05))), checker(EMPTY)
     for _ in range(3):
         assert not blocked.is_valid(HOME) and free.is_valid(HOME)

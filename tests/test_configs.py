@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import itertools
+from pathlib import Path
 
 import pytest
 from omegaconf import open_dict
@@ -260,3 +261,25 @@ def test_the_mpnet_configs_spell_out_the_librarys_defaults(planner, compose_conf
     spelled = {k: section[k] for k in section if k in defaults}
     expected = {k: v for k, v in defaults.items() if k != "clip"} | {"hybrid": planner == "mpnet_hr", "compiled": True}
     assert spelled == expected
+
+
+def test_every_recipe_option_is_checked_against_its_schema_entry():
+    """The recipe's options are one typed schema (harness.core.recipe): each takes a value of
+    its type within its bounds, and refuses another type, or a value out of bounds, in one
+    line naming the key; docs/mpnet.md names every option."""
+    from omegaconf import OmegaConf
+
+    from harness.core.config import _networks
+    from harness.core.recipe import OPTIONS
+
+    good = {bool: True, int: 4, float: 0.5, list: [64, 32]}
+    bad = {bool: 1, int: 1.5, float: "x", list: [64, 0]}
+    for f in OPTIONS:
+        kind, name = f.metadata["kind"], f"env.networks.{f.name}"
+        ok = _networks(OmegaConf.create({f.name: good[kind]}), "env.networks")
+        assert ok == {f.name: good[kind]} and type(ok[f.name]) is kind, f.name
+        for value in (bad[kind], *((f.metadata["minimum"] - 1,) if f.metadata["minimum"] is not None else ())):
+            with pytest.raises(UsageError, match=f"^config key {name}: expected"):
+                _networks(OmegaConf.create({f.name: value}), "env.networks")
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "mpnet.md").read_text(encoding="utf-8")
+    assert [f.name for f in OPTIONS if f"`{f.name}`" not in docs and f"`{f.name}:" not in docs] == []

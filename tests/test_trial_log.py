@@ -992,17 +992,19 @@ def test_arm_link_boxes_cover_the_links_where_pybullet_has_them():
     """Each drawn link box matches the world AABB of that link's collision mesh (the
     boxes were once placed in the link frame, 2-13 cm off)."""
     from harness.log.arm_painter import arm_boxes, link_boxes
-    from mpnet.envs.checkers.pybullet_arm import arm_world
+    from mpnet.envs.arm.model import load_arm_model
+    from mpnet.envs.checkers.pybullet_arm import lent_world
     from mpnet.envs.shapes import quat_matrix
 
-    w = arm_world("panda")
     q = [0.3, -0.5, 0.2, -2.0, 0.4, 1.8, 0.5]
     corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
-    for (k, _, _), (centre, quat, size) in zip(link_boxes(), arm_boxes(q), strict=True):
-        world = (corners * size) @ quat_matrix(quat).T + centre
+    boxes = list(zip(link_boxes(), arm_boxes(q), strict=True))
+    with lent_world(load_arm_model("panda")) as w:
         w.set_q(q)
-        lo, hi = np.array(w.pb.getAABB(w.robot, w.links[k], physicsClientId=w.client))
-        assert np.abs(world.min(0) - lo).max() < 0.015 and np.abs(world.max(0) - hi).max() < 0.015, k
+        for (k, _, _), (centre, quat, size) in boxes:
+            world = (corners * size) @ quat_matrix(quat).T + centre
+            lo, hi = np.array(w.pb.getAABB(w.robot, w.links[k], physicsClientId=w.client))
+            assert np.abs(world.min(0) - lo).max() < 0.015 and np.abs(world.max(0) - hi).max() < 0.015, k
 
 
 def test_an_optimizing_planners_best_cost_over_time_is_logged(tmp_path):

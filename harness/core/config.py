@@ -18,6 +18,7 @@ from dataclasses import replace
 from omegaconf import DictConfig, OmegaConf
 
 from harness.core.cli import UsageError, missing_file
+from harness.core.recipe import DAGGER_DEFAULTS, OPTIONS, RECIPES
 from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
 from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud
@@ -121,43 +122,9 @@ def _check_training(cfg: DictConfig) -> None:
 # planner (time to equal quality) and the networks' training variant (`networks`).
 PLANNER_HOOKS = ("cost_target", "networks")
 
-# What a planner's `networks` (and an env's, its default recipe) may set: the training knobs
-# of a named recipe of the networks, overriding the scale's; the models' cache key then differs.
-# waypoint_step: expert paths resampled so that consecutive states are at most this far apart;
-# min_waypoints: ... and have at least this many states (MoveIt's interpolation: 10).
-# equal_steps: Pnet's epochs scaled by (the scale's pairs / these pairs), for the same number of
-# gradient steps as the scale's networks. bounded: Pnet's output softsign-bounded inside the
-# state bounds (centred normaliser). bidirectional: false trains on each path forward only
-# (the public code's pairs; true adds the reversed path). dropout: Pnet's rate (the scale's
-# model.dropout otherwise), at training and at planning time. input_noise: each training state
-# moved by Gaussian noise of this standard deviation (state units; DART-style), the target kept.
-# pnet_hidden, enet_hidden, latent: the networks' sizes (the scale's otherwise). dagger_rounds:
-# rounds of DAgger (harness.artifacts.dagger): each rolls out the networks of the round before on
-# dagger_queries expert queries per training scene and adds the expert's paths from
-# dagger_states of the states each first NeuralPlanner run visited (budget dagger_budget_s).
-NETWORK_KEYS = {
-    "waypoint_step": float,
-    "min_waypoints": int,
-    "equal_steps": bool,
-    "bounded": bool,
-    "bidirectional": bool,
-    "dropout": float,
-    "input_noise": float,
-    "pnet_hidden": list,
-    "enet_hidden": list,
-    "latent": int,
-    "voxels": int,
-    "dagger_rounds": int,
-    "dagger_queries": int,
-    "dagger_states": int,
-    "dagger_budget_s": float,
-}
-# DAgger's settings when a recipe asks for rounds and leaves them out (in the models key).
-DAGGER_DEFAULTS = {"dagger_queries": 5, "dagger_states": 3, "dagger_budget_s": 2.0}
-# A planner's `networks: {recipe: ...}`: the env's recipe (env.networks, the default) or the
-# paper's for this env (env.paper_networks: the paper's arm recipe on the arm; the scale's own,
-# which is the paper's, where an env has none).
-RECIPES = {"env": "networks", "paper": "paper_networks"}
+# The networks' recipe options: their names, types and bounds (harness.core.recipe).
+NETWORK_KEYS = {f.name: f.metadata["kind"] for f in OPTIONS}
+OPTION_BY_NAME = {f.name: f for f in OPTIONS}
 
 
 def networks_params(cfg: DictConfig) -> dict:
@@ -194,27 +161,34 @@ def _networks(nets, where: str) -> dict:
             continue
         if key not in NETWORK_KEYS:
             raise UsageError(f"config key {name}: unknown (expected one of {', '.join(NETWORK_KEYS)}, recipe)")
-        kind = NETWORK_KEYS[key]
-        if kind is bool:
-            if not isinstance(value, bool):
-                raise UsageError(f"config key {name}: expected true or false, got {value!r}")
-        elif key == "dropout":
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 1:
-                raise UsageError(f"config key {name}: expected a number in [0, 1), got {value!r}")
-        elif kind is int:
-            _integer(name, value, 2 if key in ("min_waypoints", "voxels") else 1)
-        elif kind is list:
-            value = list(value) if OmegaConf.is_list(value) or isinstance(value, list) else value
-            if (
-                not isinstance(value, list)
-                or not value
-                or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)
-            ):
-                raise UsageError(f"config key {name}: expected a list of layer widths (integers >= 1), got {value!r}")
-        else:
-            _number(name, value)
-        out[key] = [int(v) for v in value] if kind is list else kind(value)
+        out[key] = _option(name, value, OPTION_BY_NAME[key].metadata)
     return out
+
+
+def _option(name: str, value, meta) -> object:
+    """A recipe option's value, checked against its schema entry (UsageError naming the key)."""
+    kind, minimum, below = meta["kind"], meta["minimum"], meta["below"]
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise UsageError(f"config key {name}: expected true or false, got {value!r}")
+        return value
+    if below is not None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not minimum <= value < below:
+            raise UsageError(f"config key {name}: expected a number in [{minimum}, {below}), got {value!r}")
+    elif kind is int:
+        _integer(name, value, 1 if minimum is None else minimum)
+    elif kind is list:
+        value = list(value) if OmegaConf.is_list(value) or isinstance(value, list) else value
+        if (
+            not isinstance(value, list)
+            or not value
+            or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)
+        ):
+            raise UsageError(f"config key {name}: expected a list of layer widths (integers >= 1), got {value!r}")
+        return [int(v) for v in value]
+    else:
+        _number(name, value)
+    return kind(value)
 
 
 def _call(func, args: tuple, given: dict, runtime: dict, key: str):

@@ -8,7 +8,7 @@ logged arm model's forward kinematics in pybullet (mpnet.envs.checkers.pybullet_
 from __future__ import annotations
 
 import json
-from functools import cache
+from functools import cache, cached_property
 from typing import Any
 
 import numpy as np
@@ -17,7 +17,8 @@ from harness.log import mpl
 from harness.log.foxglove import LINE_LIST, cube, line, p3, rgba
 from harness.log.painters import Painter, register
 from harness.log.style import C_ARM, C_BOUNDS, C_OBSTACLE, rgba8
-from mpnet.envs.checkers.pybullet_arm import arm_world
+from mpnet.envs.arm.model import load_arm_model
+from mpnet.envs.checkers.pybullet_arm import ArmWorld, borrow_world, lent_world
 from mpnet.envs.robots import logged_model_name
 from mpnet.envs.shapes import IDENTITY, quat_matrix
 
@@ -30,19 +31,20 @@ GHOSTS = 6  # arm poses drawn along each path (start and goal included)
 def link_boxes(model: str = "panda") -> list[tuple[int, np.ndarray, np.ndarray]]:
     """(link index in the pose list, centre, size) of each link's collision mesh, as a box
     in the link's inertial frame (where getMeshData's vertices are)."""
-    w = arm_world(model)
     out = []
-    for k, link in enumerate(w.links):
-        n, verts = w.pb.getMeshData(w.robot, link, physicsClientId=w.client)
-        if n:
-            v = np.asarray(verts, float)
-            out.append((k, (v.min(0) + v.max(0)) / 2, v.max(0) - v.min(0)))
+    with lent_world(load_arm_model(model)) as w:
+        for k, link in enumerate(w.links):
+            n, verts = w.pb.getMeshData(w.robot, link, physicsClientId=w.client)
+            if n:
+                v = np.asarray(verts, float)
+                out.append((k, (v.min(0) + v.max(0)) / 2, v.max(0) - v.min(0)))
     return out
 
 
 def arm_boxes(q, model: str = "panda") -> list[tuple[np.ndarray, list[float], np.ndarray]]:
     """(centre, quaternion, size) of every link box at configuration q."""
-    poses = arm_world(model).link_poses(q)
+    with lent_world(load_arm_model(model)) as w:
+        poses = w.link_poses(q)
     out = []
     for k, c, s in link_boxes(model):
         pos, quat = poses[k]
@@ -88,8 +90,13 @@ class ArmPainter(Painter):
     def model(self) -> str:
         return logged_model_name(self.robot) if isinstance(self.robot, dict) else "panda"
 
+    @cached_property
+    def world(self) -> ArmWorld:
+        """The painter's own pybullet world of the logged model (no obstacles): the hand's positions."""
+        return borrow_world(load_arm_model(self.model), self)
+
     def trace(self, msg):
-        w = arm_world(self.model)
+        w = self.world
         path = msg.get("path") or []
         pts = [w.hand_position(q) for q in _dense(np.asarray(path, float), TRACE_STEP)] if len(path) else []
         return pts, w.hand_position(msg["start"]), w.hand_position(msg["goal"])
@@ -100,7 +107,7 @@ class ArmPainter(Painter):
         q = q[np.isfinite(q).all(axis=1)]
         if not len(q):
             return np.zeros((0, 3))
-        w = arm_world(self.model)
+        w = self.world
         length = float(np.linalg.norm(np.diff(q, axis=0), axis=1).sum()) if len(q) > 1 else 0.0
         step = max(TRACE_STEP, length / MAX_TRACE_POINTS)  # a failed MPNet query's trees span many radians
         return np.array([w.hand_position(x) for x in _dense(q, step)], float).reshape(-1, 3)
@@ -133,7 +140,7 @@ class ArmPainter(Painter):
         pts = np.asarray(self.trace(msg)[0], float).reshape(-1, 3)
         if len(pts) < 2:
             return []
-        w = arm_world(self.model)
+        w = self.world
         mpl.path(ax, pts, color, label, marks=[w.hand_position(q) for q in _states(msg)])
         return [pts]
 

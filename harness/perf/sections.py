@@ -73,7 +73,7 @@ def networks(sizes: dict, state_dim: int, cloud_dim: int, repeats: int, inner: i
             rows.append(_net_row(what, name, pnet.in_dim, step, floor))
         out = np.empty(state_dim)
         loop = _best_per_call(
-            lambda k=kernel, z=z, x=x, g=g, o=out: _steps(inner, z, x, g, *k.args, rng, True, k._scratch, o), repeats, 1
+            lambda k=kernel, z=z, x=x, g=g, o=out: _steps(inner, z, x, g, *k.args, rng, True, k.buffers, o), repeats, 1
         )
         rows.append(_net_row("pnet_step_in_loop", name, pnet.in_dim, (loop[0] / inner, loop[1] / inner), floor))
         enet = enet_numpy(Enet(cloud_dim, list(s["enet_hidden"]), latent).eval(), Normalizer.points(2))

@@ -43,7 +43,7 @@ class PnetKernel:
             bool(net._prelu_max),
         )
         self.zdim, self.state_dim = net._zdim, net.state_dim
-        self._scratch = scratch(self.args[0])
+        self.buffers = scratch(self.args[0])  # the step's work arrays, reused by every call (and the planner)
         self._off = np.random.default_rng(0)  # never drawn from: stands in for "no rng"
 
     def step(self, z, x, goal, rng: np.random.Generator | None = None) -> np.ndarray:
@@ -54,7 +54,7 @@ class PnetKernel:
                 f"expected z ({self.zdim},), x and goal ({self.state_dim},); got {z.shape}, {x.shape}, {goal.shape}"
             )
         out = np.empty(self.state_dim, np.float64)
-        pnet_step(z, x, goal, *self.args, rng if rng is not None else self._off, rng is not None, self._scratch, out)
+        pnet_step(z, x, goal, *self.args, rng if rng is not None else self._off, rng is not None, self.buffers, out)
         return out
 
     __call__ = step

@@ -1,9 +1,10 @@
 """An arm model (mpnet.envs.arm.model) in pybullet: the mesh checker that judges every
 logged arm success (`env.collision=pybullet` plans with it too), and link poses for the logs.
 
-One DIRECT client per process and model holds the arm (loading it costs ~0.3 s, so checkers
-share it) and the obstacles of the checker that used it last; a checker whose workspace is
-not the loaded one swaps its obstacles in first. A configuration collides when any link of
+Each checker holds its own DIRECT client (an ArmWorld: the arm and that checker's obstacles)
+for as long as it lives; no two checkers or painters ever use one world at once. Loading an arm
+costs ~0.5 s and a checker is made per workspace, so a world its holder let go is emptied and
+lent to the next holder instead of closed (`borrow_world`, `lent_world`). A configuration collides when any link of
 the arm (fingers held where the model holds them) is closer than the margin to an obstacle,
 or two links that are not an allowed pair of the model touch (parent and child links are
 never checked). pybullet tests each collision mesh as its convex hull.
@@ -12,11 +13,14 @@ never checked). pybullet tests each collision mesh as its convex hull.
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import cache
 
 import numpy as np
 
-from mpnet.envs.arm.model import ArmModel, load_arm_model
+from mpnet.envs.arm.model import ArmModel
 from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
@@ -42,7 +46,6 @@ class ArmWorld:
         self.joints = [by_joint[j] for j in model.joints] + [by_joint[j] for j in model.fingers]
         self._held = [[v] for v in model.fingers.values()]
         self._ee = next(i for i, name in self.link_names.items() if name == model.end_effector)
-        self.owner: object = None
         self.bodies: list[int] = []
         self.shapes: dict[tuple, int] = {}
         self.margin = 0.0
@@ -65,14 +68,10 @@ class ArmWorld:
             physicsClientId=self.client,
         )
 
-    def load(self, owner: object, primitives: list[Primitive], margin: float) -> None:
-        """Make `primitives` the world's obstacles for collision tests at `margin` (no-op
-        when `owner` loaded them last)."""
-        if self.owner is owner:
-            return
+    def load(self, primitives: list[Primitive], margin: float) -> None:
+        """Make `primitives` the world's obstacles for collision tests at `margin`."""
+        self.clear()
         pb, c = self.pb, self.client
-        for b in self.bodies:
-            pb.removeBody(b, physicsClientId=c)
         self.bodies = [
             pb.createMultiBody(
                 0, self._shape(p), basePosition=p.center, baseOrientation=p.orientation, physicsClientId=c
@@ -85,7 +84,12 @@ class ArmWorld:
         self.base_blocked = any(
             pb.getClosestPoints(self.robot, b, margin, linkIndexA=-1, physicsClientId=c) for b in self.bodies
         )
-        self.owner = owner
+
+    def clear(self) -> None:
+        """No obstacles: the arm alone (for link poses, or before a new holder loads its own)."""
+        for b in self.bodies:
+            self.pb.removeBody(b, physicsClientId=self.client)
+        self.bodies, self.margin, self.base_blocked = [], 0.0, False
 
     def _shape(self, p: Primitive) -> int:
         """A collision shape per distinct geometry, shared by bodies and kept: pybullet 3.2.7
@@ -149,11 +153,37 @@ class ArmWorld:
         return list(s[4])
 
 
-@cache
-def arm_world(model: str) -> ArmWorld:
-    """This process's pybullet world of arm model `model` (created on first use; checkers
-    take turns with it)."""
-    return ArmWorld(load_arm_model(model))
+# Worlds no holder uses, by arm model: emptied, and lent again rather than closed. The only
+# state kept across holders; a world is never lent to two at once.
+_IDLE: dict[str, list[ArmWorld]] = {}  # by the model's repr: every field the world is built from
+
+
+def borrow_world(model: ArmModel, holder: object) -> ArmWorld:
+    """A world of `model` that `holder` alone uses until it is garbage-collected: an idle one
+    (no obstacles) or, when none is idle, a new one."""
+    world = _take(model)
+    weakref.finalize(holder, _give_back, world).atexit = False
+    return world
+
+
+@contextmanager
+def lent_world(model: ArmModel) -> Iterator[ArmWorld]:
+    """A world of `model` for the length of a `with` block (link poses, mesh sizes)."""
+    world = _take(model)
+    try:
+        yield world
+    finally:
+        _give_back(world)
+
+
+def _take(model: ArmModel) -> ArmWorld:
+    idle = _IDLE.get(repr(model))
+    return idle.pop() if idle else ArmWorld(model)
+
+
+def _give_back(world: ArmWorld) -> None:
+    world.clear()
+    _IDLE.setdefault(repr(world.model), []).append(world)
 
 
 class PybulletArmChecker(SampledConfigurations):
@@ -162,12 +192,19 @@ class PybulletArmChecker(SampledConfigurations):
 
     def __init__(self, spec, ws: Workspace, margin: float):
         super().__init__(spec, ws, margin)
-        self.world = arm_world(spec.robot.model.name)
-        self._primitives = ws.all_primitives()
+        self._model: ArmModel = spec.robot.model
+        self._world: ArmWorld | None = None  # borrowed at the first check: a checker never used costs nothing
         self._step = float(spec.motion_step)
 
+    @property
+    def world(self) -> ArmWorld:
+        """This checker's own pybullet world, its workspace's obstacles loaded."""
+        if self._world is None:
+            self._world = borrow_world(self._model, self)
+            self._world.load(self.workspace.all_primitives(), self.margin)
+        return self._world
+
     def _free(self, q) -> bool:
-        self.world.load(self, self._primitives, self.margin)
         self.configurations += 1
         return not self.world.collides(q)
 

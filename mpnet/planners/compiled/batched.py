@@ -54,12 +54,9 @@ def _first(batch: _Batch, b: int, shared_s: float):
     def adopt(planner: CompiledMPNetPlanner, stats: dict):
         stats["pnet_s"] += shared_s  # the query waited for the whole lockstep
         stats["pnet_calls"] += steps
-        planner.trace.extend((0, x, y) for x, y in trace)
-        planner._counts += batch.counts[b]
-        if batch.connected[b]:
-            return a + g[::-1]
-        planner._trees = (a, g)
-        return None
+        connected = bool(batch.connected[b])
+        planner.adopt_run(batch.counts[b], trace, None if connected else (a, g))
+        return a + g[::-1] if connected else None
 
     return adopt
 

@@ -59,7 +59,7 @@ class CompiledMPNetPlanner(MPNetPlanner):
         self._envs: dict[int, tuple] = {}  # id(checker) -> (checker, its kernel env)
         self._memo = K.new_memo(net.state_dim)
         self._counts = np.zeros(3, np.int64)  # states, motions, configurations (SampledConfigurations)
-        self._buf = self.kernel._scratch
+        self._buf = self.kernel.buffers
         steps = max(self.max_steps, self.replan_steps)
         self._tree_buf = np.empty((2, steps + 1, net.state_dim))
         self._trace_buf = np.empty((steps, 2, net.state_dim))
@@ -139,6 +139,15 @@ class CompiledMPNetPlanner(MPNetPlanner):
             return a + b[::-1]
         self._trees = (a, b)
         return None
+
+    def adopt_run(self, counts, trace, trees) -> None:
+        """A first NeuralPlanner run planned outside this planner (batched planning's lockstep),
+        taken as its own: its checks counted, its trace kept, and its trees (None: it
+        connected) left for replanning, as neural_planner leaves them."""
+        self._counts += counts
+        self.trace.extend((0, x, y) for x, y in trace)
+        if trees is not None:
+            self._trees = trees
 
     def repair(self, checker, path, connect, step=None, stop_on_fail: bool = False):
         """neural.repair_path on the compiled memo (continuous steerTo): neural replanning's and
