@@ -264,13 +264,13 @@ def test_the_mpnet_configs_spell_out_the_librarys_defaults(planner, compose_conf
 
 
 def test_every_recipe_option_is_checked_against_its_schema_entry():
-    """The recipe's options are one typed schema (harness.core.recipe): each takes a value of
+    """The recipe's options are one typed schema (harness.core.schema): each takes a value of
     its type within its bounds, and refuses another type, or a value out of bounds, in one
     line naming the key; docs/mpnet.md names every option."""
     from omegaconf import OmegaConf
 
     from harness.core.config import _networks
-    from harness.core.recipe import OPTIONS
+    from harness.core.schema import OPTIONS
 
     good = {bool: True, int: 4, float: 0.5, list: [64, 32]}
     bad = {bool: 1, int: 1.5, float: "x", list: [64, 0]}
@@ -283,3 +283,25 @@ def test_every_recipe_option_is_checked_against_its_schema_entry():
                 _networks(OmegaConf.create({f.name: value}), "env.networks")
     docs = (Path(__file__).resolve().parents[1] / "docs" / "mpnet.md").read_text(encoding="utf-8")
     assert [f.name for f in OPTIONS if f"`{f.name}`" not in docs and f"`{f.name}:" not in docs] == []
+
+
+def test_every_env_knob_is_checked_against_its_schema_entry(compose_config):
+    """conf/env's knobs are typed by harness.core.schema.EnvKnobs: panda_mbm's config (which
+    has every knob) conforms, and a wrong value of each is one line naming its key."""
+    from harness.core.config import check_env
+    from harness.core.schema import EnvKnobs, ExpertKnobs
+
+    env = compose_config(["+env=panda_mbm", "+planner=bit_star"]).env
+    check_env(env)
+    bad = {float: -1.0, int: 0, bool: "yes", str: "bogus"}
+    for schema, where in ((EnvKnobs, "env"), (ExpertKnobs, "env.expert")):
+        for f in dataclasses.fields(schema):
+            if "section" in f.metadata:
+                continue
+            node = copy.deepcopy(env)
+            section = node if where == "env" else node.expert
+            assert f.name in section, f"panda_mbm's config lacks {where}.{f.name}"
+            with open_dict(section):
+                section[f.name] = bad[f.metadata["kind"]]
+            with pytest.raises(UsageError, match=f"^config key {where}.{f.name}: expected"):
+                check_env(node)

@@ -16,7 +16,7 @@ import numpy as np
 
 from harness.core.cli import RunRefused
 from harness.core.provenance import artifact_provenance
-from harness.core.recipe import DAGGER_DEFAULTS
+from harness.core.schema import DAGGER_DEFAULTS
 from mpnet.data.expert import ExpertPaths, _load_chunk, save_chunk
 from mpnet.data.store import ArtifactError, ensure
 from mpnet.envs.scenes.generators import make_workspaces

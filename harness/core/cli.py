@@ -30,7 +30,7 @@ ADDED_GROUPS = ("env", "planner", "experiment")  # no default: chosen with +grou
 # Keys the code reads when present (harness/core/config.py env_spec) that not every env declares.
 OPTIONAL_KEYS = ("env.motion_step", "env.planner_range", "env.planning_margin", "env.expert.pairs", "env.expert.check")
 # Maps that take any of their options with + whether a config has them or not (the networks'
-# recipe options: harness.core.recipe is their schema).
+# recipe options: harness.core.schema is their schema).
 OPEN_MAPS = ("planner.networks.", "env.networks.", "env.paper_networks.")
 # Hydra's flags that take the next argument as their value.
 VALUE_FLAGS = ("-c", "--cfg", "-p", "--package", "-cn", "--config-name", "-cp", "--config-path", "-cd", "--config-dir")

@@ -1,5 +1,7 @@
 """The checks of the app's own keys, and what harness.core.settings derives from the config with
-them: the env object and the model parameters (which are also cache keys).
+them: the env object and the model parameters (which are also cache keys). Typed values are
+checked against their schema entries (harness.core.schema: the networks' recipe, the env's
+knobs); the rules between keys are here.
 
 A planner's settings are checked where its config's `_target_` makes them (one place: a
 planner's constructor, or MPNet's MPNetSettings); the keys checked here are the app's:
@@ -12,14 +14,12 @@ in one step with the resolved networks.
 from __future__ import annotations
 
 import inspect
-import math
 from dataclasses import replace
 
 from omegaconf import DictConfig, OmegaConf
 
 from harness.core.cli import UsageError, missing_file
-from harness.core.recipe import DAGGER_DEFAULTS, OPTIONS, RECIPES
-from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
+from harness.core.schema import DAGGER_DEFAULTS, OPTIONS, RECIPES, EnvKnobs, check_section, check_value, integer, number
 from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
@@ -62,21 +62,6 @@ def env_spec(env_cfg) -> EnvSpec:
     return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **extra)
 
 
-def _number(key: str, value, positive: bool = True) -> None:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or not math.isfinite(value)
-        or (positive and value <= 0)
-    ):
-        raise UsageError(f"config key {key}: expected a {'positive ' if positive else ''}finite number, got {value!r}")
-
-
-def _integer(key: str, value, minimum: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise UsageError(f"config key {key}: expected an integer >= {minimum}, got {value!r}")
-
-
 # Counts and sizes a user may type: (key, smallest sensible value). A key a config lacks is
 # skipped. Negative or zero counts were accepted silently before (jobs=-3 built with no workers).
 INTEGER_KEYS = (
@@ -104,16 +89,16 @@ def _check_training(cfg: DictConfig) -> None:
     for key, minimum in INTEGER_KEYS:
         value = OmegaConf.select(cfg, key, default=None)
         if value is not None:
-            _integer(key, value, minimum)
+            integer(key, value, minimum)
     if OmegaConf.select(cfg, "train.lr", default=None) is not None:
-        _number("train.lr", cfg.train.lr)
+        number("train.lr", cfg.train.lr)
     if OmegaConf.select(cfg, "train.lam", default=None) is not None:
-        _number("train.lam", cfg.train.lam, positive=False)
+        number("train.lam", cfg.train.lam, positive=False)
         if cfg.train.lam < 0:
             raise UsageError(f"config key train.lam: expected a number >= 0, got {cfg.train.lam}")
     fraction = OmegaConf.select(cfg, "train.val_fraction", default=None)
     if fraction is not None:
-        _number("train.val_fraction", fraction)
+        number("train.val_fraction", fraction)
         if not 0 < fraction < 1:
             raise UsageError(f"config key train.val_fraction: expected a number between 0 and 1, got {fraction}")
 
@@ -122,7 +107,7 @@ def _check_training(cfg: DictConfig) -> None:
 # planner (time to equal quality) and the networks' training variant (`networks`).
 PLANNER_HOOKS = ("cost_target", "networks")
 
-# The networks' recipe options: their names, types and bounds (harness.core.recipe).
+# The networks' recipe options: their names, types and bounds (harness.core.schema).
 NETWORK_KEYS = {f.name: f.metadata["kind"] for f in OPTIONS}
 OPTION_BY_NAME = {f.name: f for f in OPTIONS}
 
@@ -161,34 +146,8 @@ def _networks(nets, where: str) -> dict:
             continue
         if key not in NETWORK_KEYS:
             raise UsageError(f"config key {name}: unknown (expected one of {', '.join(NETWORK_KEYS)}, recipe)")
-        out[key] = _option(name, value, OPTION_BY_NAME[key].metadata)
+        out[key] = check_value(name, value, OPTION_BY_NAME[key].metadata)
     return out
-
-
-def _option(name: str, value, meta) -> object:
-    """A recipe option's value, checked against its schema entry (UsageError naming the key)."""
-    kind, minimum, below = meta["kind"], meta["minimum"], meta["below"]
-    if kind is bool:
-        if not isinstance(value, bool):
-            raise UsageError(f"config key {name}: expected true or false, got {value!r}")
-        return value
-    if below is not None:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not minimum <= value < below:
-            raise UsageError(f"config key {name}: expected a number in [{minimum}, {below}), got {value!r}")
-    elif kind is int:
-        _integer(name, value, 1 if minimum is None else minimum)
-    elif kind is list:
-        value = list(value) if OmegaConf.is_list(value) or isinstance(value, list) else value
-        if (
-            not isinstance(value, list)
-            or not value
-            or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)
-        ):
-            raise UsageError(f"config key {name}: expected a list of layer widths (integers >= 1), got {value!r}")
-        return [int(v) for v in value]
-    else:
-        _number(name, value)
-    return kind(value)
 
 
 def _call(func, args: tuple, given: dict, runtime: dict, key: str):
@@ -265,7 +224,7 @@ def check_run(cfg: DictConfig) -> None:
     """The run's own values as a user types them (UsageError naming the key): budget, seed,
     splits, the problem file (it exists), switches, and the counts, sizes and knobs of data
     and training."""
-    _number("budget_s", cfg.budget_s)
+    number("budget_s", cfg.budget_s)
     _check_training(cfg)
     if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
         raise UsageError(f"config key seed: expected an integer >= 0, got {cfg.seed!r}")
@@ -278,7 +237,7 @@ def check_run(cfg: DictConfig) -> None:
     if message := missing_file("problems", cfg.get("problems")):
         raise UsageError(message)
     if (per_set := cfg.get("problems_per_set")) is not None:
-        _integer("problems_per_set", per_set, 1)
+        integer("problems_per_set", per_set, 1)
         if not cfg.get("problems") or not is_mbm(cfg.problems):
             raise UsageError(
                 "config key problems_per_set: takes the first problems of each MotionBenchMaker problem set; "
@@ -313,46 +272,21 @@ def _check_sharding(cfg: DictConfig) -> None:
 
 
 def check_env(env_cfg: DictConfig) -> None:
-    """The env's knobs as a user types them (UsageError naming the key)."""
-    _number("env.validation_step", env_cfg.validation_step)
-    _number("env.solvable_s", env_cfg.solvable_s)
-    if env_cfg.get("motion_step") is not None:
-        _number("env.motion_step", env_cfg.motion_step)
-        if env_cfg.validation_step * 10 > env_cfg.motion_step * (1 + 1e-9):
-            raise UsageError(
-                f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
-                f"({env_cfg.motion_step}), got {env_cfg.validation_step}"
-            )
-    if env_cfg.get("planner_range") is not None:
-        _number("env.planner_range", env_cfg.planner_range)
-    if env_cfg.get("planning_margin") is not None:
-        _number("env.planning_margin", env_cfg.planning_margin, positive=False)
-        if env_cfg.planning_margin < 0:
-            raise UsageError(f"config key env.planning_margin: expected a number >= 0, got {env_cfg.planning_margin}")
+    """The env's knobs as a user types them (UsageError naming the key): each against its
+    schema entry (harness.core.schema.EnvKnobs), then the rules between them and the robot's
+    choices."""
+    check_section(env_cfg, EnvKnobs, "env")
+    if env_cfg.get("motion_step") is not None and env_cfg.validation_step * 10 > env_cfg.motion_step * (1 + 1e-9):
+        raise UsageError(
+            f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
+            f"({env_cfg.motion_step}), got {env_cfg.validation_step}"
+        )
     checkers = get_spec(env_cfg.name).robot.checkers
     if env_cfg.collision not in checkers:
         raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {env_cfg.collision!r}")
-    for key in ("blocked_only", "contract"):
-        if not isinstance(env_cfg.expert.get(key, False), bool):
-            raise UsageError(f"config key env.expert.{key}: expected true or false, got {env_cfg.expert[key]!r}")
     cloud = env_cfg.get("cloud", "surface")
     if cloud not in ("surface", "camera") or (cloud == "camera" and not get_spec(env_cfg.name).robot.posed_obstacles):
         raise UsageError(f"config key env.cloud: expected surface, or camera (envs of posed obstacles), got {cloud!r}")
-    if env_cfg.expert.get("planner", "rrt_star") not in EXPERTS:
-        raise UsageError(
-            f"config key env.expert.planner: expected one of {', '.join(EXPERTS)}, got {env_cfg.expert.planner!r}"
-        )
-    if env_cfg.expert.get("check", "judge") not in CHECKS:
-        raise UsageError(
-            f"config key env.expert.check: expected one of {', '.join(CHECKS)}, got {env_cfg.expert.check!r}"
-        )
-    if env_cfg.expert.get("pairs", "env") not in PAIRS:
-        raise UsageError(
-            f"config key env.expert.pairs: expected one of {', '.join(PAIRS)}, got {env_cfg.expert.pairs!r}"
-        )
-    chunk = env_cfg.expert.get("chunk", 1)
-    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-        raise UsageError(f"config key env.expert.chunk: expected an integer >= 1, got {chunk!r}")
 
 
 def model_params(cfg: DictConfig) -> dict:
