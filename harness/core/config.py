@@ -19,7 +19,17 @@ from dataclasses import replace
 from omegaconf import DictConfig, OmegaConf
 
 from harness.core.cli import UsageError, missing_file
-from harness.core.schema import DAGGER_DEFAULTS, OPTIONS, RECIPES, EnvKnobs, check_section, check_value, integer, number
+from harness.core.schema import (
+    DAGGER_DEFAULTS,
+    OPTIONS,
+    RECIPES,
+    EnvKnobs,
+    check_section,
+    check_value,
+    integer,
+    number,
+    value_of,
+)
 from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
@@ -40,7 +50,7 @@ def geometry_params(env_cfg) -> dict:
     it differs from the env's registry value (existing caches keep their keys)."""
     spec = get_spec(env_cfg.name)
     out = _geometry(env_cfg) | spec.robot.cache_identity()
-    if env_cfg.get("cloud", "surface") != "surface":  # envs without the key keep their keys
+    if value_of(env_cfg, EnvKnobs, "cloud") != "surface":  # envs without the key keep their keys
         out["cloud"] = str(env_cfg.cloud)
     version = getattr(spec.generator, "VERSION", None)  # generators that version their output
     if version is not None:
@@ -55,7 +65,7 @@ def env_spec(env_cfg) -> EnvSpec:
     """The env's fixed geometry with the config's validation step (and motion step and
     planning margin, where the env has them)."""
     extra = _geometry(env_cfg)
-    if env_cfg.get("cloud", "surface") == "camera":
+    if value_of(env_cfg, EnvKnobs, "cloud") == "camera":
         extra["sample_cloud"] = camera_cloud
     if env_cfg.get("planner_range") is not None:  # not geometry: no data or test set depends on it
         extra["planner_range"] = float(env_cfg.planner_range)
@@ -284,9 +294,10 @@ def check_env(env_cfg: DictConfig) -> None:
     checkers = get_spec(env_cfg.name).robot.checkers
     if env_cfg.collision not in checkers:
         raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {env_cfg.collision!r}")
-    cloud = env_cfg.get("cloud", "surface")
-    if cloud not in ("surface", "camera") or (cloud == "camera" and not get_spec(env_cfg.name).robot.posed_obstacles):
-        raise UsageError(f"config key env.cloud: expected surface, or camera (envs of posed obstacles), got {cloud!r}")
+    if value_of(env_cfg, EnvKnobs, "cloud") == "camera" and not get_spec(env_cfg.name).robot.posed_obstacles:
+        raise UsageError(
+            f"config key env.cloud: camera sees posed obstacles (the arm's envs); env {env_cfg.name} has surface only"
+        )
 
 
 def model_params(cfg: DictConfig) -> dict:

@@ -105,6 +105,18 @@ def check_section(node, schema, where: str) -> None:
             check_value(f"{where}.{f.name}", node[f.name], f.metadata)
 
 
+def value_of(node, schema, name: str):
+    """`node`'s value of `schema`'s field `name`, or the field's default where the node lacks
+    it (or holds null): the one place an absent key's meaning is written."""
+    value = node.get(name) if node is not None else None
+    if value is not None:
+        return value
+    default = next(f.default for f in fields(schema) if f.name == name)
+    if default is MISSING:
+        raise UsageError(f"config key {name}: required, and missing")
+    return default
+
+
 @dataclass(frozen=True)
 class Recipe:
     """A named recipe of the networks (conf/env/*.yaml `networks`, `paper_networks`;
@@ -151,11 +163,15 @@ class Recipe:
 class ExpertKnobs:
     """An env's `expert:` section (conf/env/*.yaml says each env's choice and why)."""
 
+    iterations: int = _option(
+        int, "RRT*'s iterations a path (rrt_connect: runs a query, the shortest kept)", default=MISSING
+    )
+    max_seconds: float = _option(float, "the expert's time limit a run", default=MISSING)
     planner: str = _option(str, "the expert planner", choices=tuple(EXPERTS), default="rrt_star")
     check: str = _option(str, "which checker a kept path must pass", choices=tuple(CHECKS), default="judge")
     pairs: str = _option(str, "where the start/goal pairs come from", choices=tuple(PAIRS), default="env")
     chunk: int = _option(int, "scenes per expert process", minimum=1, default=1)
-    blocked_only: bool = _option(bool, "only queries whose straight line is blocked", default=False)
+    blocked_only: bool = _option(bool, "only start/goal pairs whose straight line is blocked", default=True)
     contract: bool = _option(bool, "each expert path contracted (lazy states contraction)", default=False)
 
 
@@ -163,7 +179,8 @@ class ExpertKnobs:
 class EnvKnobs:
     """The knobs of an env's config that a user may type (conf/env/*.yaml; the env's fixed
     geometry is the registry's, mpnet.envs.specs). `collision` and `cloud` take what the
-    env's robot offers (harness.core.config.check_env)."""
+    env's robot offers (harness.core.config.check_env): collision one of its checkers, a camera
+    cloud only for posed obstacles."""
 
     validation_step: float = _option(float, "the step of the fine re-check that decides success", default=MISSING)
     solvable_s: float = _option(
@@ -172,6 +189,12 @@ class EnvKnobs:
     motion_step: float | None = _option(float, "collision=pybullet: motions sampled at this step")
     planner_range: float | None = _option(float, "OMPL's RRT-Connect / RRT* / Informed-RRT* maximum edge length")
     planning_margin: float | None = _option(float, "obstacles inflated by this much while planning", minimum=0)
+    cloud: str = _option(
+        str,
+        "surface: points on every obstacle surface; camera: what a fixed depth camera sees",
+        choices=("surface", "camera"),
+        default="surface",
+    )
     expert: ExpertKnobs | None = field(default=None, metadata={"section": ExpertKnobs})
 
 

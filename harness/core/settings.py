@@ -28,6 +28,7 @@ from harness.core.config import (
     model_params,
     networks_params,
 )
+from harness.core.schema import ExpertKnobs, value_of
 from harness.log.facts import facts_from_config
 from mpnet.data.dataset import DataParams
 from mpnet.envs.spec import EnvSpec
@@ -69,6 +70,10 @@ class EnvSettings:
     def of(cls, env_cfg: DictConfig) -> EnvSettings:
         check_env(env_cfg)
         expert = env_cfg.expert
+
+        def knob(name: str):  # the config's value, or the schema's default for an absent key
+            return value_of(expert, ExpertKnobs, name)
+
         reference = env_cfg.get("reference")
         return cls(
             name=str(env_cfg.name),
@@ -78,14 +83,14 @@ class EnvSettings:
             solvable_s=float(env_cfg.solvable_s),
             collision=str(env_cfg.collision),
             expert=ExpertSettings(
-                planner=str(expert.get("planner", "rrt_star")),
+                planner=str(knob("planner")),
                 iterations=int(expert.iterations),
                 max_seconds=float(expert.max_seconds),
-                blocked_only=bool(expert.get("blocked_only", True)),
-                contract=bool(expert.get("contract", False)),
-                chunk=int(expert.get("chunk", 1)),
-                pairs=str(expert.get("pairs", "env")),
-                check=str(expert.get("check", "judge")),
+                blocked_only=bool(knob("blocked_only")),
+                contract=bool(knob("contract")),
+                chunk=int(knob("chunk")),
+                pairs=str(knob("pairs")),
+                check=str(knob("check")),
             ),
             reference_bit_star_s=None if reference is None else float(reference.bit_star_s),
             geometry=geometry_params(env_cfg),
