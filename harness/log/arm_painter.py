@@ -41,10 +41,16 @@ def link_boxes(model: str = "panda") -> list[tuple[int, np.ndarray, np.ndarray]]
     return out
 
 
-def arm_boxes(q, model: str = "panda") -> list[tuple[np.ndarray, list[float], np.ndarray]]:
-    """(centre, quaternion, size) of every link box at configuration q."""
-    with lent_world(load_arm_model(model)) as w:
-        poses = w.link_poses(q)
+def arm_boxes(
+    q, model: str = "panda", world: ArmWorld | None = None
+) -> list[tuple[np.ndarray, list[float], np.ndarray]]:
+    """(centre, quaternion, size) of every link box at configuration q (in `world` when the
+    caller holds one of the model: a painter's)."""
+    if world is not None:
+        poses = world.link_poses(q)
+    else:
+        with lent_world(load_arm_model(model)) as w:
+            poses = w.link_poses(q)
     out = []
     for k, c, s in link_boxes(model):
         pos, quat = poses[k]
@@ -166,7 +172,7 @@ class ArmPainter(Painter):
         return ",".join(
             json.dumps(cube(p3(c), p3(s), C_ARM, _fquat(q)), separators=(",", ":"))
             for state in ghost_states(msg)
-            for c, q, s in arm_boxes(state, self.model)
+            for c, q, s in arm_boxes(state, self.model, self.world)
         )
 
     # ----------------------------------------------------------------- Rerun
@@ -225,7 +231,7 @@ class ArmPainter(Painter):
 
     def rerun_queries(self, rr, msgs, planner=""):
         out = super().rerun_queries(rr, msgs, planner)  # end-effector traces (via trace) and end points
-        boxes = [[b for st in ghost_states(m) for b in arm_boxes(st, self.model)] for m in msgs]
+        boxes = [[b for st in ghost_states(m) for b in arm_boxes(st, self.model, self.world)] for m in msgs]
         lens = [len(b) for b in boxes]
         flat = [b for bs in boxes for b in bs]
         out.append(
