@@ -51,6 +51,24 @@ class MPNetOptions(NeuralSettings):
 PAPER = MPNetOptions()
 
 
+@dataclass(frozen=True)
+class ExpertSettings:
+    """How expert paths are made where an env's `expert:` section leaves a key out: the paper's
+    expert (RRT*'s raw vertex list, start/goal pairs of the env's own kind, each kept path passed by
+    the env's judge). Read by the data build (mpnet.data), the configs' schema
+    (harness.core.schema) and the logs (harness.log.facts), so that they cannot disagree."""
+
+    planner: str = "rrt_star"  # or rrt_connect (mpnet.data.expert.EXPERTS)
+    pairs: str = "env"  # or uniform (mpnet.data.expert.PAIRS)
+    check: str = "judge"  # or planner (mpnet.data.expert.CHECKS)
+    chunk: int = 1  # workspaces per expert process
+    blocked_only: bool = True  # only start/goal pairs whose straight line is blocked
+    contract: bool = False  # each path contracted
+
+
+EXPERT = ExpertSettings()
+
+
 class Variant(NamedTuple):
     key: str
     tag: Callable[[object], str | None]  # the setting's value -> its tag, None where it is the paper's

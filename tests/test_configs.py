@@ -305,3 +305,23 @@ def test_every_env_knob_is_checked_against_its_schema_entry(compose_config):
                 section[f.name] = bad[f.metadata["kind"]]
             with pytest.raises(UsageError, match=f"^config key {where}.{f.name}: expected"):
                 check_env(node)
+
+
+def test_an_absent_expert_knob_has_one_default(compose_config):
+    """The expert's defaults are written once (mpnet.settings.EXPERT): an env's `expert:` that
+    leaves a knob out (s2d names no planner, pairs or check) builds its data with it, the
+    schema holds it, and the logs' facts fill it in for a config that omits it."""
+    from harness.core.schema import ExpertKnobs
+    from harness.core.settings import settings_of
+    from harness.log.facts import facts_from_config
+    from mpnet.settings import EXPERT
+
+    cfg = compose_config(["+env=s2d", "+planner=bit_star"])
+    absent = [f.name for f in dataclasses.fields(EXPERT) if f.name not in cfg.env.expert]
+    assert {"planner", "pairs", "check"} <= set(absent)
+    data = settings_of(cfg).data
+    for name in absent:
+        assert getattr(data, f"expert_{name}") == getattr(EXPERT, name), name
+    schema = {f.name: f.default for f in dataclasses.fields(ExpertKnobs)}
+    assert {n: schema[n] for n in dataclasses.asdict(EXPERT)} == dataclasses.asdict(EXPERT)
+    assert facts_from_config({"env": {"expert": {}}})["expert_planner"] == EXPERT.planner

@@ -25,6 +25,7 @@ from mpnet.data.store import ArtifactError, content_key, ensure, partial_dir, re
 from mpnet.envs.spec import TestSet
 from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import ProblemFileError, dump_problems, load_problems
+from mpnet.settings import EXPERT
 
 
 def _made(folder: Path) -> Path:
@@ -203,7 +204,7 @@ def ensure_testset_artifact(run: RunSettings, progress: bool = True):
             "files": [f"{s}.json" for s in sizes],
             "queries": {s: sum(q.split == s for q in ts.queries) for s in sizes},
             "reference": {
-                "method": describe(spec, key_config["reference"].get("expert", "rrt_star")),
+                "method": describe(spec, key_config["reference"].get("expert", EXPERT.planner)),
                 "seconds": ref_s,
             },
         }

@@ -16,6 +16,7 @@ from omegaconf import OmegaConf
 
 from harness.core.cli import UsageError
 from mpnet.data.expert import CHECKS, EXPERTS, PAIRS
+from mpnet.settings import EXPERT
 
 
 def _option(
@@ -167,12 +168,14 @@ class ExpertKnobs:
         int, "RRT*'s iterations a path (rrt_connect: runs a query, the shortest kept)", default=MISSING
     )
     max_seconds: float = _option(float, "the expert's time limit a run", default=MISSING)
-    planner: str = _option(str, "the expert planner", choices=tuple(EXPERTS), default="rrt_star")
-    check: str = _option(str, "which checker a kept path must pass", choices=tuple(CHECKS), default="judge")
-    pairs: str = _option(str, "where the start/goal pairs come from", choices=tuple(PAIRS), default="env")
-    chunk: int = _option(int, "scenes per expert process", minimum=1, default=1)
-    blocked_only: bool = _option(bool, "only start/goal pairs whose straight line is blocked", default=True)
-    contract: bool = _option(bool, "each expert path contracted (lazy states contraction)", default=False)
+    planner: str = _option(str, "the expert planner", choices=tuple(EXPERTS), default=EXPERT.planner)
+    check: str = _option(str, "which checker a kept path must pass", choices=tuple(CHECKS), default=EXPERT.check)
+    pairs: str = _option(str, "where the start/goal pairs come from", choices=tuple(PAIRS), default=EXPERT.pairs)
+    chunk: int = _option(int, "scenes per expert process", minimum=1, default=EXPERT.chunk)
+    blocked_only: bool = _option(
+        bool, "only start/goal pairs whose straight line is blocked", default=EXPERT.blocked_only
+    )
+    contract: bool = _option(bool, "each expert path contracted (lazy states contraction)", default=EXPERT.contract)
 
 
 @dataclass(frozen=True)

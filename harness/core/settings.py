@@ -32,6 +32,7 @@ from harness.core.schema import ExpertKnobs, value_of
 from harness.log.facts import facts_from_config
 from mpnet.data.dataset import DataParams
 from mpnet.envs.spec import EnvSpec
+from mpnet.settings import EXPERT
 
 # Keys that change how a run is carried out, never what it finds: left out of `results`.
 NOT_RESULTS = ("rerun", "resume", "progress", "cache_dir", "jobs", "hydra", "shard", "shards", "merge")
@@ -102,7 +103,7 @@ class EnvSettings:
             return {"iterations": 0, "expert_s": 0.0, "bit_star_s": 0.0}
         out = {"iterations": self.expert.iterations, "expert_s": self.expert.max_seconds}
         out["bit_star_s"] = self.reference_bit_star_s
-        if self.expert.planner != "rrt_star":  # the RRT* expert's test sets keep their keys
+        if self.expert.planner != EXPERT.planner:  # the RRT* expert's test sets keep their keys
             out["expert"] = self.expert.planner
         return out
 

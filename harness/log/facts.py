@@ -26,7 +26,7 @@ from __future__ import annotations
 import functools
 import math
 
-from mpnet.settings import variant_tags
+from mpnet.settings import EXPERT, variant_tags
 
 FACTS_FORMAT = "mpnet-bench/facts@1"
 
@@ -114,7 +114,7 @@ def facts_from_config(cfg: dict, workspace_dim: int | None = None, robot: str | 
         "train_workspaces": _int(_get(cfg, "scale", "train", "workspaces")),
         "train_paths": _int(_get(cfg, "scale", "train", "paths")),
         "training_paths_built": None,  # the bench sets it: the expert paths its networks were trained on
-        "expert_planner": str(_get(cfg, "env", "expert", "planner") or "rrt_star") if "env" in cfg else None,
+        "expert_planner": str(_get(cfg, "env", "expert", "planner") or EXPERT.planner) if "env" in cfg else None,
         "expert_iterations": _int(_get(cfg, "env", "expert", "iterations")),
         "reference_bit_star_s": _number(_get(cfg, "env", "reference", "bit_star_s")),
         "workspace_dim": workspace_dim,

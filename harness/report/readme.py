@@ -19,6 +19,7 @@ from harness.report.load import TrialFile
 from harness.report.names import APPROX, CITATION, PAPER_PNET_HIDDEN, PAPER_SCALE, PAPER_SCALE_TEXT, env_label, env_rank
 from harness.report.stats import BOOT_N, BOOT_SEED
 from mpnet.envs.specs import SPECS
+from mpnet.settings import EXPERT
 
 
 def scale_sizes(scale) -> tuple[int, ...] | None:
@@ -169,12 +170,12 @@ def reference_notes(q: pd.DataFrame, files: list[TrialFile]) -> list[str]:
             )
         else:
             facts = [logged_facts(files[int(i)].run) for i in fidx]
-            experts = sorted({str(f["expert_planner"]) for f in facts if f["expert_planner"]}) or ["rrt_star"]
+            experts = sorted({str(f["expert_planner"]) for f in facts if f["expert_planner"]}) or [EXPERT.planner]
             expert = {"rrt_star": "RRT*", "rrt_connect": "RRT-Connect"}
             its = sorted({str(f["expert_iterations"]) for f in facts if f["expert_iterations"] is not None})
             bit = sorted({str(f["reference_bit_star_s"]) for f in facts if f["reference_bit_star_s"] is not None})
             what = "/".join(expert.get(e, e) for e in experts)
-            runs = "iterations" if experts == ["rrt_star"] else "runs"
+            runs = "iterations" if experts == [EXPERT.planner] else "runs"
             ref = (
                 f"the better of the expert's {what} path ({'/'.join(its) or 'unknown'} {runs}, "
                 f"`env.expert.iterations`) and BIT* run for {'/'.join(bit) or 'unknown'} s "

@@ -24,6 +24,7 @@ from mpnet.data.store import ArtifactError
 from mpnet.envs.scenes.clouds import clouds
 from mpnet.envs.scenes.generators import extra_ids, make_workspaces, split_ids, split_sizes
 from mpnet.envs.spec import EnvSpec
+from mpnet.settings import EXPERT
 
 DATA_FILE = "data.npz"
 # @4: clouds drawn from the obstacles in their canonical order, seeded by the geometry (Workspace);
@@ -43,23 +44,23 @@ class DataParams:
     ae_workspaces: int
     expert_iterations: int
     expert_max_seconds: float
-    expert_blocked_only: bool = True
-    expert_contract: bool = False
+    expert_blocked_only: bool = EXPERT.blocked_only
+    expert_contract: bool = EXPERT.contract
     geometry: dict | None = None  # the env's motion step and planning margin, where it has them
-    expert_chunk: int = 1  # workspaces per expert process (OMPL's RNG is seeded per chunk)
-    expert_planner: str = "rrt_star"  # or rrt_connect (mpnet.data.expert.EXPERTS)
-    expert_pairs: str = "env"  # or uniform (mpnet.data.expert.PAIRS)
-    expert_check: str = "judge"  # or planner (mpnet.data.expert.CHECKS)
+    expert_chunk: int = EXPERT.chunk  # workspaces per expert process (OMPL's RNG is seeded per chunk)
+    expert_planner: str = EXPERT.planner  # mpnet.data.expert.EXPERTS
+    expert_pairs: str = EXPERT.pairs  # mpnet.data.expert.PAIRS
+    expert_check: str = EXPERT.check  # mpnet.data.expert.CHECKS
 
     def key_config(self) -> dict:
         key = {"format": FORMAT, **self.__dict__}
         if not self.geometry:  # envs without them keep their keys
             key.pop("geometry")
         for name, default in (
-            ("expert_chunk", 1),
-            ("expert_planner", "rrt_star"),
-            ("expert_pairs", "env"),
-            ("expert_check", "judge"),
+            ("expert_chunk", EXPERT.chunk),
+            ("expert_planner", EXPERT.planner),
+            ("expert_pairs", EXPERT.pairs),
+            ("expert_check", EXPERT.check),
         ):
             if key[name] == default:  # keys of the datasets built before these existed
                 key.pop(name)

@@ -25,6 +25,7 @@ import numpy as np
 from mpnet.envs.spec import EnvSpec, random_pairs
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
+from mpnet.settings import EXPERT
 
 
 @dataclass
@@ -188,12 +189,12 @@ def workspace_paths(
     seed: int,
     iterations: int,
     max_seconds: float,
-    blocked_only: bool = True,
+    blocked_only: bool = EXPERT.blocked_only,
     max_tries: int = 50,
-    contract: bool = False,
-    planner: str = "rrt_star",
-    pairs: str = "env",
-    check: str = "judge",
+    contract: bool = EXPERT.contract,
+    planner: str = EXPERT.planner,
+    pairs: str = EXPERT.pairs,
+    check: str = EXPERT.check,
 ) -> ExpertPaths:
     """`count` expert paths between valid start/goal pairs of one workspace (PAIRS: the env's
     own, random states or MotionBenchMaker's queries, or uniform); fewer when they run out.
@@ -277,14 +278,14 @@ def expert_paths(
     jobs: int = 2,
     chunk_size: int = 1,
     progress=None,
-    blocked_only: bool = True,
-    contract: bool = False,
+    blocked_only: bool = EXPERT.blocked_only,
+    contract: bool = EXPERT.contract,
     resume_dir: Path | None = None,
     shard: tuple[int, int] | None = None,
     plan: bool = True,
-    planner: str = "rrt_star",
-    pairs: str = "env",
-    check: str = "judge",
+    planner: str = EXPERT.planner,
+    pairs: str = EXPERT.pairs,
+    check: str = EXPERT.check,
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 

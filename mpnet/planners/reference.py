@@ -24,11 +24,12 @@ from mpnet.envs.workspace import Query, Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
 from mpnet.planners.base import Problem
 from mpnet.planners.classical import OmplPlanner
+from mpnet.settings import EXPERT
 
 EPS = 1e-9
 
 
-def describe(spec: EnvSpec, expert: str = "rrt_star") -> str:
+def describe(spec: EnvSpec, expert: str = EXPERT.planner) -> str:
     """How the env's reference cost is computed, in words (for the report)."""
     if spec.exact_reference:
         return "exact shortest path (visibility graph over the box corners)"
@@ -100,7 +101,7 @@ def planned_cost(
     iterations: int,
     expert_s: float,
     bit_star_s: float,
-    expert: str = "rrt_star",
+    expert: str = EXPERT.planner,
 ) -> float:
     """The best verified, contracted cost of the expert's path (the data's expert planner:
     mpnet.data.expert.EXPERTS) and a BIT* run of bit_star_s seconds; inf when neither finds
@@ -127,7 +128,7 @@ def workspace_references(
     iterations: int,
     expert_s: float,
     bit_star_s: float,
-    expert: str = "rrt_star",
+    expert: str = EXPERT.planner,
 ) -> list[float]:
     """The reference cost of each query of one workspace."""
     if spec.exact_reference:
@@ -154,7 +155,7 @@ def reference_costs(
     iterations: int,
     expert_s: float,
     bit_star_s: float,
-    expert: str = "rrt_star",
+    expert: str = EXPERT.planner,
     seed: int = 0,
     jobs: int = 2,
     progress=None,
