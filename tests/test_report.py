@@ -1364,3 +1364,27 @@ def test_judge_bullet_says_how_each_env_was_judged():
         "mystery: as its runs' config says",
     ]
     assert "exact boxes" not in judge_bullet({"arm7": {0.002}})
+
+
+def test_generated_and_file_runs_of_a_planner_are_not_labelled_apart(tmp_path):
+    """A planner run on the generated split and on a problem file (the same settings but
+    `problems`) keeps its plain name: the two never share a split, so nothing pools them. Before,
+    a recipe screen's tables named them `mpnet_nr [problems=null]` and `mpnet_nr [problems=298f2524]`.
+    Two problem files are still two variants."""
+    logs = tmp_path / "logs"
+    settings = {"seed": 0, "budget_s": 10.0, "planner.name": "rrt_connect", "problems": None}
+    gen = [Q("seen", "0", i, True, 1.0) for i in range(2)]
+    on_file = [Q("file", "0", i, True, 1.0) for i in range(2)]
+    write_log(logs / "gen", "s2d", "rrt_connect", 0, gen, settings=settings)
+    write_log(logs / "a", "s2d", "rrt_connect", 0, on_file, settings={**settings, "problems": "sha256:" + "a" * 64})
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    assert set(pd.read_csv(out / "results.csv")["planner"]) == {"rrt_connect"}
+    write_log(logs / "b", "s2d", "rrt_connect", 0, on_file, settings={**settings, "problems": "sha256:" + "b" * 64})
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    assert set(pd.read_csv(out / "results.csv")["planner"]) == {
+        "rrt_connect",
+        "rrt_connect [problems=aaaaaaaa]",
+        "rrt_connect [problems=bbbbbbbb]",
+    }

@@ -164,9 +164,14 @@ def variant_names(files: list[TrialFile], within_env: bool = False) -> list[str]
     planner differ in a setting other than the seed, the settings that tell them apart
     (`rrt_connect [env.collision=pybullet]`): Planner Arena groups runs by name, so two variants
     under one name would be shown as one planner with both variants' runs. within_env: runs
-    compared only with the same planner's in the same env (the tables: a row is env x planner)."""
-    keys = [(str(tf.run.get("env")) if within_env else "", str(tf.run["planner"])) for tf in files]
+    compared only with the same planner's in the same env (the tables: a row is env x planner).
+    A run of generated queries and one of a problem file are never compared: their queries
+    are of other splits (seen/unseen against file), so no row or problem pools them."""
     variants = [_variant(tf.run) for tf in files]
+    keys = [
+        (str(tf.run.get("env")) if within_env else "", str(tf.run["planner"]), json.loads(v).get("problems") is None)
+        for tf, v in zip(files, variants)
+    ]
     by_key: dict[tuple, list[dict]] = {}
     for k, v in dict.fromkeys(zip(keys, variants)):
         by_key.setdefault(k, []).append(json.loads(v))
