@@ -8,6 +8,7 @@ key; then `merge=true` assembles the one dataset from them, planning nothing.
 from __future__ import annotations
 
 import json
+import sys
 from typing import TYPE_CHECKING
 
 import hydra
@@ -58,6 +59,13 @@ def _build(run: RunSettings) -> None:
         f"{m['sizes']['ae_clouds'][0]} autoencoder clouds, {m['bytes'] / 1e6:.1f} MB"
     )
     print(json.dumps(m["expert"], indent=2))
+    stops = m["expert"].get("runs_ended_by_clock")
+    if stops:  # the expert's paths then depend on the machine's speed and load (ExpertPaths.clock_stops)
+        print(
+            f"warning: {stops} expert runs ended on their clock (env.expert.max_seconds), not their own count: "
+            "these paths depend on this machine's speed and load, and a build elsewhere may keep others",
+            file=sys.stderr,
+        )
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="data")

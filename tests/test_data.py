@@ -198,3 +198,30 @@ def test_partial_pieces_are_removed_once_the_artifact_is_built(tmp_path):
 
     ensure(tmp_path, "thing", {"a": 1}, build)
     assert not piece.exists()
+
+
+@pytest.mark.slow  # RRT* and RRT-Connect planned to their ends, about 10 s
+def test_expert_runs_ended_by_the_clock_are_counted_and_kept_through_chunks(tmp_path):
+    """A run that max_seconds ends, not its own count, makes the paths depend on the machine's
+    speed (two builds of one key differed so: FINDINGS, issue 42): each expert counts them, a
+    chunk keeps the count, and the build's summary says it; RRT* stopped by its iterations,
+    RRT-Connect runs that find their path: none."""
+    from mpnet.data.expert import _load_chunk, rrt_connect_path, rrt_star_path, save_chunk, summary, workspace_paths
+
+    spec = get_spec("s2d")
+    ws = make_workspace(spec, 0, "train")
+    checker = spec.make_checker(ws)
+    start, goal = (-18.0, -18.0), (18.0, 18.0)
+    assert checker.is_valid(list(start)) and checker.is_valid(list(goal))
+    clock = []
+    rrt_star_path(spec, checker, start, goal, 50, 30.0, clock)
+    assert clock == []  # 50 iterations end long before 30 s
+    rrt_star_path(spec, checker, start, goal, 10**9, 0.05, clock)
+    assert clock == [1]  # a billion iterations do not: the clock did
+    assert rrt_connect_path(spec, checker, start, goal, 2, 30.0, clock) is not None and clock == [1]
+    got = workspace_paths(spec, ws, 0, 2, 3, iterations=10**9, max_seconds=0.02)
+    assert got.clock_stops > 0 and summary(got)["runs_ended_by_clock"] == got.clock_stops
+    save_chunk(tmp_path, 0, got)
+    assert _load_chunk(tmp_path, 0).clock_stops == got.clock_stops
+    quick = workspace_paths(spec, ws, 0, 2, 3, iterations=100, max_seconds=30.0)
+    assert quick.clock_stops == 0 and summary(quick)["runs_ended_by_clock"] == 0

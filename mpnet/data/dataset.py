@@ -186,6 +186,7 @@ def _subset(paths: ExpertPaths, idx: np.ndarray) -> ExpertPaths:
         paths.workspace[idx],
         paths.cost[idx],
         paths.raw_cost[idx],
+        clock_stops=None,  # a part of another build: its runs' clock stops are not known per path
     )
 
 
@@ -195,7 +196,12 @@ def load_dataset(folder: Path, manifest: dict) -> Dataset:
     try:
         with np.load(path) as z:
             paths = ExpertPaths(
-                z["path_states"], z["path_offsets"], z["path_workspace"], z["path_cost"], z["path_raw_cost"]
+                z["path_states"],
+                z["path_offsets"],
+                z["path_workspace"],
+                z["path_cost"],
+                z["path_raw_cost"],
+                clock_stops=None,  # the manifest's `expert` summary says (runs_ended_by_clock)
             )
             return Dataset(z["train_ids"], z["train_clouds"], z["ae_clouds"], paths, manifest)
     except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as e:

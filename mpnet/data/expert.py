@@ -39,6 +39,10 @@ class ExpertPaths:
     raw_cost: np.ndarray
     seconds: float = 0.0
     raw_states: int = 0  # states of the RRT* paths before contraction (== len(states) without it)
+    # expert runs that ended on their clock (max_seconds), not their own count: where it is above
+    # 0 the paths depend on the machine's speed and load, and another build under the same key
+    # may keep others (FINDINGS, issue 42); None: not known (chunks taken from another dataset)
+    clock_stops: int | None = 0
 
     def __len__(self) -> int:
         return len(self.workspace)
@@ -51,7 +55,14 @@ class ExpertPaths:
 
     @staticmethod
     def of(
-        paths: list[np.ndarray], workspace, cost, raw_cost, state_dim: int, seconds: float = 0.0, raw_states: int = 0
+        paths: list[np.ndarray],
+        workspace,
+        cost,
+        raw_cost,
+        state_dim: int,
+        seconds: float = 0.0,
+        raw_states: int = 0,
+        clock_stops: int | None = 0,
     ) -> ExpertPaths:
         """The paths (each (n_i, state_dim)) flattened, with their workspace rows and costs."""
         lengths = [len(p) for p in paths]
@@ -63,6 +74,7 @@ class ExpertPaths:
             np.asarray(raw_cost, float).reshape(-1),
             seconds,
             raw_states,
+            clock_stops,
         )
 
     @staticmethod
@@ -80,11 +92,15 @@ class ExpertPaths:
             np.concatenate([p.raw_cost for p in parts]),
             sum(p.seconds for p in parts),
             sum(p.raw_states for p in parts),
+            None if any(p.clock_stops is None for p in parts) else sum(p.clock_stops for p in parts),
         )
 
 
-def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seconds: float) -> list | None:
-    """RRT* run for `iterations` iterations (or max_seconds, whichever ends first)."""
+def rrt_star_path(
+    spec: EnvSpec, checker, start, goal, iterations: int, max_seconds: float, clock: list | None = None
+) -> list | None:
+    """RRT* run for `iterations` iterations (or max_seconds, whichever ends first; clock: gets
+    one entry when max_seconds ended it)."""
     from ompl import base as ob
     from ompl import geometric as og
 
@@ -105,6 +121,8 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
             ob.timedPlannerTerminationCondition(max_seconds), ob.PlannerTerminationCondition(spent)
         )
     )
+    if count[0] <= iterations and clock is not None:  # the clock ended it, not the count
+        clock.append(1)
     if not pdef.hasExactSolution():
         return None
     path = [list(to_tuple(x)) for x in pdef.getSolutionPath().getStates()]
@@ -112,9 +130,11 @@ def rrt_star_path(spec: EnvSpec, checker, start, goal, iterations: int, max_seco
     return path
 
 
-def rrt_connect_path(spec: EnvSpec, checker, start, goal, runs: int, max_seconds: float) -> list | None:
+def rrt_connect_path(
+    spec: EnvSpec, checker, start, goal, runs: int, max_seconds: float, clock: list | None = None
+) -> list | None:
     """The shortest of `runs` RRT-Connect paths (the env's planner_range; the runs stop at the
-    first that finds none within max_seconds), each shortened by
+    first that finds none within max_seconds, which clock gets an entry for), each shortened by
     OMPL's rope shortcut and lazy states contraction: the expert where RRT* for a fixed number
     of iterations rarely solves the queries (panda_mbm's goals deep in shelves; FINDINGS,
     issue 26, compares its costs with BIT*'s)."""
@@ -132,7 +152,9 @@ def rrt_connect_path(spec: EnvSpec, checker, start, goal, runs: int, max_seconds
         planner.setProblemDefinition(pdef)
         planner.setup()
         planner.solve(ob.timedPlannerTerminationCondition(max_seconds))
-        if not pdef.hasExactSolution():
+        if not pdef.hasExactSolution():  # only the clock ends an RRT-Connect run without a path
+            if clock is not None:
+                clock.append(1)
             break  # a pair RRT-Connect cannot solve in max_seconds costs one run, not `runs`
         solution = pdef.getSolutionPath()
         og.PathSimplifier(si).ropeShortcutPath(solution)
@@ -210,7 +232,7 @@ def workspace_paths(
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
-    states, costs, raws, raw_states = [], [], [], 0
+    states, costs, raws, raw_states, clock = [], [], [], 0, []
     for s, g in itertools.islice(PAIRS[pairs](spec)(spec, ws, checker, rng), count * max_tries):
         if len(states) == count:
             break
@@ -218,7 +240,7 @@ def workspace_paths(
             continue
         if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):
             continue
-        path = EXPERTS[planner](spec, checker, s, g, iterations, max_seconds)
+        path = EXPERTS[planner](spec, checker, s, g, iterations, max_seconds, clock)
         if path is None:
             continue
         path = dedupe(path)
@@ -232,7 +254,8 @@ def workspace_paths(
         costs.append(path_cost(spec, path))
         raws.append(raw)
     workspace = [ws_index] * len(states)
-    return ExpertPaths.of(states, workspace, costs, raws, spec.state_dim, time.perf_counter() - t0, raw_states)
+    seconds = time.perf_counter() - t0
+    return ExpertPaths.of(states, workspace, costs, raws, spec.state_dim, seconds, raw_states, len(clock))
 
 
 def chunk_worker(args: tuple) -> ExpertPaths:
@@ -349,7 +372,14 @@ def save_chunk(folder: Path | None, k: int, paths: ExpertPaths) -> None:
         return
     folder.mkdir(parents=True, exist_ok=True)
     tmp = folder / f".chunk_{k}.{uuid.uuid4().hex[:8]}.tmp.npz"  # two jobs of one shard (a requeue) never share it
-    np.savez(tmp, seconds=paths.seconds, raw_states=paths.raw_states, **{f: getattr(paths, f) for f in _FIELDS})
+    stops = -1 if paths.clock_stops is None else paths.clock_stops  # -1: not known
+    np.savez(
+        tmp,
+        seconds=paths.seconds,
+        raw_states=paths.raw_states,
+        clock_stops=stops,
+        **{f: getattr(paths, f) for f in _FIELDS},
+    )
     os.replace(tmp, folder / f"chunk_{k}.npz")
 
 
@@ -359,7 +389,10 @@ def _load_chunk(folder: Path | None, k: int) -> ExpertPaths | None:
         return None
     try:
         with np.load(path) as z:
-            return ExpertPaths(*(z[f] for f in _FIELDS), float(z["seconds"]), int(z["raw_states"]))
+            stops = int(z["clock_stops"]) if "clock_stops" in z.files else -1  # a chunk from before the count
+            return ExpertPaths(
+                *(z[f] for f in _FIELDS), float(z["seconds"]), int(z["raw_states"]), None if stops < 0 else stops
+            )
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):  # a damaged piece is planned again
         return None
 
@@ -375,4 +408,5 @@ def summary(paths: ExpertPaths) -> dict:
         "cost_mean": float(paths.cost.mean()) if n else math.nan,
         "raw_cost_mean": float(paths.raw_cost.mean()) if n else math.nan,
         "planning_seconds": float(paths.seconds),
+        "runs_ended_by_clock": paths.clock_stops,  # > 0: the paths depend on the machine (ExpertPaths)
     }
