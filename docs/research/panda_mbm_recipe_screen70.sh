@@ -6,7 +6,7 @@
 # screened before: start/goal pairs drawn uniformly in each scene (`env.expert.pairs=uniform`; with
 # `blocked_only=true` as well, arm7's: only pairs whose straight line is blocked),
 # forward-only pairs (`bidirectional=false`, the public code's), Gaussian input noise (`input_noise`,
-# MpiNets'), and the paper's arm recipe by name (`mpnet_nr_paper`: >= 10 waypoints a path, forward
+# MpiNets'), waypoints every 0.25 rad, two rounds of DAgger, and the paper's arm recipe by name (`mpnet_nr_paper`: >= 10 waypoints a path, forward
 # pairs, the 9-layer Pnet on a 60-d code, unbounded, dropout 0.5). MPNet-NR as the paper runs it on the
 # generated test split (68 seen + 70 unseen MBM-style queries: where a recipe is chosen), then on
 # MotionBenchMaker's 700 (test data: read only by the mbm_* runs). One run at a time; a finished run
@@ -31,8 +31,10 @@ declare -A VARIANT=(
   [forward]="+planner=mpnet_nr +planner.networks.bidirectional=false"    # + forward pairs only
   [noise]="+planner=mpnet_nr +planner.networks.input_noise=0.05"         # + input noise, 0.05 rad
   [paper]="+planner=mpnet_nr_paper"                                      # the paper's arm recipe
+  [fine]="+planner=mpnet_nr +planner.networks.waypoint_step=0.25"        # waypoints every 0.25 rad, not 0.5
+  [dagger2]="+planner=mpnet_nr +planner.networks.dagger_rounds=2"        # two rounds of DAgger
 )
-ORDER=(env random uniform uniform_blocked forward noise paper)
+ORDER=(env random uniform uniform_blocked forward noise paper fine dagger2)
 for name in "${ORDER[@]}"; do VARIANT[mbm_$name]="${VARIANT[$name]} problems=$MBM"; done
 # How often the first NeuralPlanner run connects on MBM (MPNet-HR's premise), for the env's and the
 # paper's recipe: HR with RRT-Connect replanning, which closes the gaps a first run leaves (MPNet-HR
