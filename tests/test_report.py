@@ -1366,6 +1366,7 @@ def test_judge_bullet_says_how_each_env_was_judged():
     assert "exact boxes" not in judge_bullet({"arm7": {0.002}})
 
 
+@pytest.mark.slow  # two whole reports
 def test_generated_and_file_runs_of_a_planner_are_not_labelled_apart(tmp_path):
     """A planner run on the generated split and on a problem file (the same settings but
     `problems`) keeps its plain name: the two never share a split, so nothing pools them. Before,
