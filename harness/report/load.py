@@ -168,13 +168,14 @@ def variant_names(files: list[TrialFile], within_env: bool = False) -> list[str]
     A run of generated queries and one of a problem file are never compared: their queries
     are of other splits (seen/unseen against file), so no row or problem pools them."""
     variants = [_variant(tf.run) for tf in files]
+    parsed = {v: json.loads(v) for v in variants}  # each distinct variant parsed once
     keys = [
-        (str(tf.run.get("env")) if within_env else "", str(tf.run["planner"]), json.loads(v).get("problems") is None)
+        (str(tf.run.get("env")) if within_env else "", str(tf.run["planner"]), parsed[v].get("problems") is None)
         for tf, v in zip(files, variants)
     ]
     by_key: dict[tuple, list[dict]] = {}
     for k, v in dict.fromkeys(zip(keys, variants)):
-        by_key.setdefault(k, []).append(json.loads(v))
+        by_key.setdefault(k, []).append(parsed[v])
     out = []
     for k, v in zip(keys, variants):
         known = by_key[k]
@@ -183,7 +184,7 @@ def variant_names(files: list[TrialFile], within_env: bool = False) -> list[str]
             continue
         names = sorted({n for d in known for n in d})
         differ = [n for n in names if len({json.dumps(d.get(n), sort_keys=True, default=str) for d in known}) > 1]
-        mine = json.loads(v)
+        mine = parsed[v]
         out.append(f"{k[1]} [{', '.join(f'{n}={_short(mine.get(n))}' for n in differ)}]")
     return out
 
