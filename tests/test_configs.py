@@ -203,6 +203,21 @@ def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settin
         settings(["+env=panda_mbm", "env.expert.pairs=bogus"])
 
 
+def test_the_experts_run_budget_is_in_the_data_key_and_only_rrt_connects(settings):
+    """env.expert.run_iterations (panda_mbm's): in the data key where set, absent where not (the
+    datasets built before it keep their keys); the test set's reference is unchanged; with the
+    rrt_star expert it is one line naming the key."""
+    mbm, other = (settings(["+env=panda_mbm", *o]) for o in ([], ["env.expert.run_iterations=5000"]))
+    assert mbm.data.key_config()["expert_run_iterations"] == 20000
+    assert other.data.key_config() == {**mbm.data.key_config(), "expert_run_iterations": 5000}
+    assert other.env.reference_params() == mbm.env.reference_params()
+    assert "expert_run_iterations" not in settings(["+env=arm7"]).data.key_config()
+    with pytest.raises(UsageError, match="^config key env.expert.run_iterations: the rrt_connect"):
+        settings(["+env=s2d", "+env.expert.run_iterations=5"])
+    with pytest.raises(UsageError, match="^config key env.expert.run_iterations: expected"):
+        settings(["+env=panda_mbm", "env.expert.run_iterations=0"])
+
+
 @pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_an_envs_recipe_is_every_mpnet_planners_unless_it_asks_for_the_papers(settings):
     """env.networks is the env's default recipe: under every planner's own options key by key;

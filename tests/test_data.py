@@ -225,3 +225,23 @@ def test_expert_runs_ended_by_the_clock_are_counted_and_kept_through_chunks(tmp_
     assert _load_chunk(tmp_path, 0).clock_stops == got.clock_stops
     quick = workspace_paths(spec, ws, 0, 2, 3, iterations=100, max_seconds=30.0)
     assert quick.clock_stops == 0 and summary(quick)["runs_ended_by_clock"] == 0
+
+
+def test_an_rrt_connect_expert_on_an_iteration_budget_is_the_same_on_any_clock():
+    """With run_iterations the clock ends no RRT-Connect run (a 2 s clock made two builds of one
+    key differ: FINDINGS, issue 42): the same paths with a 30 s and a 1 ns max_seconds, no
+    clock stops; a budget too small to connect finds no path, and that is no clock stop."""
+    from mpnet.data.expert import rrt_connect_path
+
+    spec = get_spec("s2d")
+    wss = [(i, make_workspace(spec, i, "train")) for i in range(2)]
+    args = dict(planner="rrt_connect", jobs=1, run_iterations=5000, contract=True)
+    slow, fast = (expert_paths(spec, wss, 3, 5, 2, s, **args) for s in (30.0, 1e-9))
+    assert len(slow) == 6 and slow.clock_stops == fast.clock_stops == 0
+    assert np.array_equal(slow.states, fast.states) and np.array_equal(slow.offsets, fast.offsets)
+    ws = wss[0][1]
+    checker = spec.make_checker(ws)
+    clock = []
+    start, goal = (-18.0, -18.0), (18.0, 18.0)  # 36 apart, the straight line blocked
+    assert not checker.motion_valid(list(start), list(goal))
+    assert rrt_connect_path(spec, checker, start, goal, 2, 1e-9, clock, run_iterations=1) is None and clock == []

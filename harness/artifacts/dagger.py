@@ -52,6 +52,7 @@ def aggregated_paths(run, data, progress: bool, ensure_models) -> ExpertPaths:
         "iterations": env.expert.iterations,
         "max_seconds": env.expert.max_seconds,
         **({"check": env.expert.check} if env.expert.check != "judge" else {}),
+        **({"run_iterations": env.expert.run_iterations} if env.expert.run_iterations is not None else {}),
     }
 
     def build(folder: Path) -> dict:
@@ -69,6 +70,7 @@ def aggregated_paths(run, data, progress: bool, ensure_models) -> ExpertPaths:
             env.expert.iterations,
             env.expert.max_seconds,
             env.expert.check,
+            env.expert.run_iterations,
         )
         seed = int(np.random.default_rng([env.data_seed, 23, k]).integers(1, 2**31 - 1))
         print(f"DAgger round {k}: rolling out {prev_folder.name} on {len(items)} scenes", file=sys.stderr)

@@ -24,6 +24,7 @@ from harness.core.schema import (
     OPTIONS,
     RECIPES,
     EnvKnobs,
+    ExpertKnobs,
     check_section,
     check_value,
     integer,
@@ -290,6 +291,15 @@ def check_env(env_cfg: DictConfig) -> None:
         raise UsageError(
             f"config key env.validation_step: the re-check must be at least 10x finer than env.motion_step "
             f"({env_cfg.motion_step}), got {env_cfg.validation_step}"
+        )
+    expert = env_cfg.get("expert")
+    if (
+        expert is not None
+        and expert.get("run_iterations") is not None
+        and value_of(expert, ExpertKnobs, "planner") != "rrt_connect"
+    ):
+        raise UsageError(
+            "config key env.expert.run_iterations: the rrt_connect expert's budget (rrt_star's: iterations)"
         )
     checkers = get_spec(env_cfg.name).robot.checkers
     if env_cfg.collision not in checkers:

@@ -50,6 +50,7 @@ class ExpertSettings:
     chunk: int
     pairs: str = "env"  # mpnet.data.expert.PAIRS: the env's own start/goal pairs, or uniform
     check: str = "judge"  # mpnet.data.expert.CHECKS: what a kept path passes
+    run_iterations: int | None = None  # rrt_connect: iterations a run (None: its clock alone)
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,7 @@ class EnvSettings:
                 chunk=int(knob("chunk")),
                 pairs=str(knob("pairs")),
                 check=str(knob("check")),
+                run_iterations=None if expert.get("run_iterations") is None else int(expert.run_iterations),
             ),
             reference_bit_star_s=None if reference is None else float(reference.bit_star_s),
             geometry=geometry_params(env_cfg),
@@ -203,6 +205,7 @@ def data_params(env: EnvSettings, train) -> DataParams:
         expert_planner=expert.planner,
         expert_pairs=expert.pairs,
         expert_check=expert.check,
+        expert_run_iterations=expert.run_iterations,
     )
 
 

@@ -122,7 +122,7 @@ def checkers(envs: list[str], workspaces: int) -> list[dict]:
 
 
 def data_generation(env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
-    """Expert paths per second of the data stage (RRT* as the env's settings say, spawned
+    """Expert paths per second of the data stage (the expert as the env's settings say, spawned
     worker processes, one workspace per task) with each number of workers; env is an
     harness.core.settings.EnvSettings."""
     from mpnet.data.expert import expert_paths
@@ -141,6 +141,11 @@ def data_generation(env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> 
             expert.max_seconds,
             jobs=j,
             blocked_only=expert.blocked_only,
+            contract=expert.contract,
+            planner=expert.planner,
+            pairs=expert.pairs,
+            check=expert.check,
+            run_iterations=expert.run_iterations,
         )
         dt = time.perf_counter() - t
         n = len(out)

@@ -51,11 +51,14 @@ class DataParams:
     expert_planner: str = EXPERT.planner  # mpnet.data.expert.EXPERTS
     expert_pairs: str = EXPERT.pairs  # mpnet.data.expert.PAIRS
     expert_check: str = EXPERT.check  # mpnet.data.expert.CHECKS
+    expert_run_iterations: int | None = None  # rrt_connect: iterations a run (None: its clock alone)
 
     def key_config(self) -> dict:
         key = {"format": FORMAT, **self.__dict__}
         if not self.geometry:  # envs without them keep their keys
             key.pop("geometry")
+        if key["expert_run_iterations"] is None:  # keys of the datasets built before it existed
+            key.pop("expert_run_iterations")
         for name, default in (
             ("expert_chunk", EXPERT.chunk),
             ("expert_planner", EXPERT.planner),
@@ -90,6 +93,7 @@ def _expert_paths(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> Expert
         planner=p.expert_planner,
         pairs=p.expert_pairs,
         check=p.expert_check,
+        run_iterations=p.expert_run_iterations,
         **kwargs,
     )
 

@@ -2,7 +2,8 @@
 vertex list (exact duplicates removed), as the original trained on, or with `contract`
 lazy states contraction (a greedy exact shortcut); then the fine re-check.
 
-An iteration budget, not a time budget, keeps the paths reproducible: each chunk of
+An iteration budget, not a time budget, keeps the paths reproducible (RRT-Connect's with
+`run_iterations`; without it a run's clock decides, which a build counts and warns of): each chunk of
 workspaces runs in a fresh process whose OMPL RNG is seeded from (data seed, chunk), so
 the same config gives the same paths on any machine and with any number of processes,
 and a build sharded over a cluster (chunk k is shard k % shards's) gives the same paths as
@@ -96,11 +97,32 @@ class ExpertPaths:
         )
 
 
+def _budget(iterations: int):
+    """A termination test that is true from its (iterations + 1)-th call on, and its call count."""
+    count = [0]
+
+    def spent() -> bool:
+        count[0] += 1
+        return count[0] > iterations
+
+    return spent, count
+
+
 def rrt_star_path(
-    spec: EnvSpec, checker, start, goal, iterations: int, max_seconds: float, clock: list | None = None
+    spec: EnvSpec,
+    checker,
+    start,
+    goal,
+    iterations: int,
+    max_seconds: float,
+    clock: list | None = None,
+    run_iterations: int | None = None,
 ) -> list | None:
     """RRT* run for `iterations` iterations (or max_seconds, whichever ends first; clock: gets
-    one entry when max_seconds ended it)."""
+    one entry when max_seconds ended it). run_iterations is RRT-Connect's: here it must be None
+    (the configs refuse it with rrt_star, harness.core.config)."""
+    if run_iterations is not None:
+        raise ValueError("run_iterations is the rrt_connect expert's budget; rrt_star's is `iterations`")
     from ompl import base as ob
     from ompl import geometric as og
 
@@ -110,12 +132,7 @@ def rrt_star_path(
     planner = og.RRTstar(si)
     planner.setProblemDefinition(pdef)
     planner.setup()
-    count = [0]
-
-    def spent() -> bool:
-        count[0] += 1
-        return count[0] > iterations
-
+    spent, count = _budget(iterations)
     planner.solve(
         ob.plannerOrTerminationCondition(
             ob.timedPlannerTerminationCondition(max_seconds), ob.PlannerTerminationCondition(spent)
@@ -131,13 +148,24 @@ def rrt_star_path(
 
 
 def rrt_connect_path(
-    spec: EnvSpec, checker, start, goal, runs: int, max_seconds: float, clock: list | None = None
+    spec: EnvSpec,
+    checker,
+    start,
+    goal,
+    runs: int,
+    max_seconds: float,
+    clock: list | None = None,
+    run_iterations: int | None = None,
 ) -> list | None:
-    """The shortest of `runs` RRT-Connect paths (the env's planner_range; the runs stop at the
-    first that finds none within max_seconds, which clock gets an entry for), each shortened by
+    """The shortest of `runs` RRT-Connect paths (the env's planner_range), each shortened by
     OMPL's rope shortcut and lazy states contraction: the expert where RRT* for a fixed number
     of iterations rarely solves the queries (panda_mbm's goals deep in shelves; FINDINGS,
-    issue 26, compares its costs with BIT*'s)."""
+    issue 26, compares its costs with BIT*'s). The runs stop at the first that finds no path.
+
+    run_iterations: each run ends after this many iterations (calls of its termination
+    condition) and max_seconds is unused, so that the paths depend on the seed alone; None:
+    max_seconds ends a run without a path (clock gets an entry: the result then depends on
+    the machine's speed and load; the datasets built before run_iterations existed)."""
     from ompl import base as ob
     from ompl import geometric as og
 
@@ -151,11 +179,14 @@ def rrt_connect_path(
             planner.setRange(float(spec.planner_range))
         planner.setProblemDefinition(pdef)
         planner.setup()
-        planner.solve(ob.timedPlannerTerminationCondition(max_seconds))
-        if not pdef.hasExactSolution():  # only the clock ends an RRT-Connect run without a path
-            if clock is not None:
+        if run_iterations is None:
+            planner.solve(ob.timedPlannerTerminationCondition(max_seconds))
+        else:
+            planner.solve(ob.PlannerTerminationCondition(_budget(run_iterations)[0]))
+        if not pdef.hasExactSolution():
+            if clock is not None and run_iterations is None:  # the clock ended the run
                 clock.append(1)
-            break  # a pair RRT-Connect cannot solve in max_seconds costs one run, not `runs`
+            break  # a pair RRT-Connect cannot solve costs one run, not `runs`
         solution = pdef.getSolutionPath()
         og.PathSimplifier(si).ropeShortcutPath(solution)
         path = [list(to_tuple(x)) for x in solution.getStates()]
@@ -217,6 +248,7 @@ def workspace_paths(
     planner: str = EXPERT.planner,
     pairs: str = EXPERT.pairs,
     check: str = EXPERT.check,
+    run_iterations: int | None = None,
 ) -> ExpertPaths:
     """`count` expert paths between valid start/goal pairs of one workspace (PAIRS: the env's
     own, random states or MotionBenchMaker's queries, or uniform); fewer when they run out.
@@ -228,7 +260,8 @@ def workspace_paths(
     runs, see rrt_connect_path). check (CHECKS): what a path must pass to be kept: the
     judge's fine re-check (verify_path), or the planning checker's own states and motions
     (the arm's certified spheres: pybullet's re-check, sampled at the validation step, is a
-    large part of the arm expert's work, and stays the judge of logged results)."""
+    large part of the arm expert's work, and stays the judge of logged results).
+    run_iterations: rrt_connect's budget a run (see rrt_connect_path)."""
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, 7, ws_index])
     checker = spec.make_checker(ws)
@@ -240,7 +273,7 @@ def workspace_paths(
             continue
         if blocked_only and checker.motion_valid(s.tolist(), g.tolist()):
             continue
-        path = EXPERTS[planner](spec, checker, s, g, iterations, max_seconds, clock)
+        path = EXPERTS[planner](spec, checker, s, g, iterations, max_seconds, clock, run_iterations)
         if path is None:
             continue
         path = dedupe(path)
@@ -309,6 +342,7 @@ def expert_paths(
     planner: str = EXPERT.planner,
     pairs: str = EXPERT.pairs,
     check: str = EXPERT.check,
+    run_iterations: int | None = None,
 ) -> ExpertPaths:
     """Expert paths for every (index, workspace), in fresh processes, one chunk each.
 
@@ -326,6 +360,7 @@ def expert_paths(
         "planner": planner,
         "pairs": pairs,
         "check": check,
+        "run_iterations": run_iterations,
     }
     tasks = {k: (spec, [workspaces[i] for i in c], count, seed, k, options) for k, c in chunks.items()}
     results: dict[int, ExpertPaths | None] = {}

@@ -40,6 +40,7 @@ class DaggerParams:
     iterations: int
     max_seconds: float
     check: str = "judge"  # mpnet.data.expert.CHECKS, as the dataset's
+    run_iterations: int | None = None  # rrt_connect: iterations a run, as the dataset's
 
 
 def visited(planner, problem: Problem, states: int, budget_s: float, rng: np.random.Generator) -> list:
@@ -62,7 +63,7 @@ def label(spec: EnvSpec, ws: Workspace, checker, pairs: list, p: DaggerParams) -
     """The expert's verified path from each state to its end (None where it finds none)."""
     out = []
     for x, end in pairs:
-        path = EXPERTS[p.expert](spec, checker, x, end, p.iterations, p.max_seconds)
+        path = EXPERTS[p.expert](spec, checker, x, end, p.iterations, p.max_seconds, run_iterations=p.run_iterations)
         if path is None:
             continue
         path = dedupe(path)
