@@ -808,6 +808,40 @@ def test_planner_names():
     assert Facts().ablation("mpnet_nr_zeros") is None and Facts().equal_quality("bit_star_to_nr") is None
 
 
+def test_a_recipe_labelled_planner_is_compared_with_its_own_planner_on_the_envs_recipe():
+    """`mpnet_nr [dagger2]` (a label its networks' recipe gave, load.recipe_label) compares with
+    mpnet_nr, not with itself (its significance was p = 1 against itself); an HR variant with
+    the paper's recipe with the same HR variant on the env's; a --label keeps its own label's base."""
+    from harness.report.facts import PlannerFacts
+
+    nr, hrc = PlannerFacts("mpnet_nr"), PlannerFacts("mpnet_hr", "rrtc")
+    by = {
+        "mpnet_nr": nr,
+        "mpnet_nr [dagger2]": PlannerFacts("mpnet_nr", "dagger2"),
+        "mpnet_nr_paper [paper_recipe]": PlannerFacts("mpnet_nr", "paper_recipe"),
+        "mpnet_nr [pairs_uniform]": nr,
+        "mpnet_hr_rrtc": hrc,
+        "mpnet_hr_rrtc [paper_recipe]": PlannerFacts("mpnet_hr", "paper_recipe+rrtc"),
+        "mpnet_nr_random [first10]": PlannerFacts("mpnet_nr", "random"),
+        "mpnet_nr [first10]": nr,
+    }
+    tags = {n: (n.split(" [")[0], n.split(" [")[1][:-1] if " [" in n else None) for n in by}
+    recipes = [n for n in by if " [" in n and "first10" not in n]
+    facts = Facts(by, tags, recipes=recipes)
+    assert facts.comparator("mpnet_nr [dagger2]") == "mpnet_nr"
+    assert facts.comparator("mpnet_nr_paper [paper_recipe]") == "mpnet_nr"
+    assert facts.comparator("mpnet_nr [pairs_uniform]") == "mpnet_nr"
+    assert facts.comparator("mpnet_hr_rrtc [paper_recipe]") == "mpnet_hr_rrtc"
+    assert facts.comparator("mpnet_nr_random [first10]") == "mpnet_nr [first10]"
+    assert facts.comparator("mpnet_nr [first10]") is None
+    assert (
+        Facts({"mpnet_nr [dagger2]": by["mpnet_nr [dagger2]"]}, recipes=["mpnet_nr [dagger2]"]).comparator(
+            "mpnet_nr [dagger2]"
+        )
+        is None
+    )  # no run of the env's recipe: nothing to compare with
+
+
 @pytest.mark.slow  # the whole report, end to end
 def test_facts_come_from_the_run_config(tmp_path, capsys):
     """What a planner is comes from its /run config, whatever its name: keys of old configs and of

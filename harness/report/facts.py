@@ -77,10 +77,12 @@ class Facts:
         by_planner: Mapping[str, PlannerFacts] | None = None,
         tags: Mapping[str, tuple[str, str | None]] | None = None,
         dirty: Mapping[str, list[str]] | None = None,
+        recipes: Iterable[str] = (),
     ):
         self.by_planner = dict(by_planner or {})
         self.tags = dict(tags or {})
         self.dirty = dict(dirty or {})  # planner -> the dirty revisions some of its runs came from
+        self.recipes = set(recipes)  # names whose label is their networks' recipe (load.recipe_label)
 
     def mark(self, planner: str) -> str:
         """DIRTY_MARK after a planner any of whose runs came from a dirty tree, else ""."""
@@ -120,12 +122,26 @@ class Facts:
     def comparator(self, planner: str) -> str | None:
         """The planner a row's significance marks compare with: an ablation's own base (mpnet_nr or
         mpnet_hr), none for mpnet_nr itself, mpnet_nr for every other planner (MPNet (HR) included);
-        of the same label."""
+        of the same label; for a recipe-labelled planner, its own_recipe."""
+        if planner in self.recipes:
+            return self.own_recipe(planner)
         ab = self.ablation(planner)
         if ab is not None:
             return ab[0]
         plain, label = self.tag(planner)
         return None if plain == "mpnet_nr" else labelled("mpnet_nr", label)
+
+    def own_recipe(self, planner: str) -> str | None:
+        """A recipe-labelled planner's counterpart on the env's own recipe: the unlabelled planner
+        of the same base and variant but the recipe's tags (`mpnet_nr [dagger2]`: mpnet_nr;
+        `mpnet_hr_rrtc [paper_recipe]`: mpnet_hr_rrtc); None where the logs have none."""
+        pf, label = self.of(planner), self.tag(planner)[1] or ""
+        recipe = set(label.split("+"))
+        rest = "+".join(v for v in (pf.variant or "").split("+") if v and v not in recipe) or None
+        for name, f in self.by_planner.items():
+            if self.tag(name)[1] is None and (f.base, f.variant) == (pf.base, rest) and f.target is None:
+                return name
+        return None
 
     def rank(self, planner: str) -> tuple:
         """The paper's planners, the known extras, any other planner by name, then the ablations
@@ -179,10 +195,12 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     `planner` section; plus one warning line per file whose config has none, or makes the planner
     another ablation or time-to-equal-quality run than that first file does."""
     by: dict[str, PlannerFacts] = {}
-    first, no_config, warns, tags, dirty = {}, [], [], {}, {}
+    first, no_config, warns, tags, dirty, recipes = {}, [], [], {}, {}, set()
     for tf in files:
         name = tf.planner
         tags[name] = (str(tf.run["planner"]), tf.label)
+        if tf.recipe:
+            recipes.add(name)
         for seg in run_segments(tf.run):
             rev = str(seg["git_rev"] or "")
             if rev.endswith("-dirty") and rev not in dirty.setdefault(name, []):
@@ -200,4 +218,4 @@ def planner_facts(files: Iterable) -> tuple[Facts, list[str]]:
     for path, name in no_config:
         how = f"taken as {first[name]} says ({by[name].describe()})" if name in by else "counted as a plain planner"
         warns.append(f"warning: {path}: its /run has no readable config with a planner section: {name} {how}")
-    return Facts(by, tags, {k: v for k, v in dirty.items() if v}), warns
+    return Facts(by, tags, {k: v for k, v in dirty.items() if v}, recipes), warns

@@ -44,6 +44,7 @@ class TrialFile:
     queries: list[dict] = field(default_factory=list)
     finalised: bool = True
     label: str | None = None  # the --label of its directory: its planner is shown as `planner [label]`
+    recipe: bool = False  # the label is its networks' recipe (recipe_label), not a --label
 
     @property
     def planner(self) -> str:
@@ -224,6 +225,7 @@ def load(
             skipped += 1
             continue
         tf.label = label if label is not None else recipe_label(tf.run)
+        tf.recipe = label is None and tf.label is not None
         files.append(tf)
         if tf.queries and run_seed(tf.run) is None:
             warns.append(
