@@ -1,7 +1,8 @@
 """Issue 42, item 3: CPU seconds per panda_mbm expert path, at the revision of the code it
 imports (run it with PYTHONPATH=<a checkout> to measure another revision). Builds training
 scenes 0..N-1 and their expert paths in this one process, as one expert chunk does (15 MBM
-queries per scene, the best of 3 RRT-Connect runs, contracted, kept by env.expert.check),
+queries per scene, the best of 3 RRT-Connect runs of --run-iterations iterations, contracted,
+kept by env.expert.check),
 after a warm-up that compiles the kernels; appends a row to reports/panda_mbm_expert_rate/
 README.md. Run it alone on an idle machine.
 
@@ -25,7 +26,8 @@ HEADER = [
     "",
     "Rows appended by `docs/research/panda_mbm_expert_rate.py`, one process, one job at a time on an otherwise "
     "idle machine: training scenes 0..N-1 drawn (scene CPU-s), then 15 MBM-style queries each, the shortest of "
-    "3 RRT-Connect runs (2 s each), contracted, kept when they pass `check` (judge: pybullet's re-check at "
+    "3 RRT-Connect runs (each stopped at 2 s; from revision 76b37c1 on, at --run-iterations iterations), "
+    "contracted, kept when they pass `check` (judge: pybullet's re-check at "
     "0.002 rad; planner: the sphere checker's certified motions). Item 3's bar: 0.29 CPU-s a path "
     "(50,000 paths in 2 h on two cores).",
     "",
@@ -39,11 +41,22 @@ def main() -> None:
     ap.add_argument("--scenes", type=int, default=14)
     ap.add_argument("--check", default="planner", choices=["planner", "judge"])
     ap.add_argument("--out", type=Path, default=Path("reports/panda_mbm_expert_rate"))
+    ap.add_argument(
+        "--run-iterations", type=int, default=20000, help="an RRT-Connect run's budget (env.expert.run_iterations)"
+    )
     args = ap.parse_args()
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(1)
     spec = get_spec("panda_mbm")
-    kw = dict(iterations=3, max_seconds=2.0, blocked_only=False, contract=True, planner="rrt_connect", check=args.check)
+    kw = dict(
+        iterations=3,
+        max_seconds=2.0,
+        blocked_only=False,
+        contract=True,
+        planner="rrt_connect",
+        check=args.check,
+        run_iterations=args.run_iterations,
+    )
     spec.generator.make(0, "train", 0)  # warm-up: IK kernels
     t0 = time.process_time()
     scenes = [spec.generator.make(i, "train", 0) for i in range(args.scenes)]
