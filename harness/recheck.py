@@ -1,5 +1,5 @@
-"""`python -m harness.recheck PATH... [--step S]`: every success a run logged, re-checked from
-its trials.mcap alone, in a fresh process with a fresh collision world.
+"""`python -m harness.recheck PATH... [--step S] [--jobs N]`: every success a run logged, re-checked
+from its trials.mcap alone, in a fresh process with a fresh collision world.
 
 The workspace of each query is rebuilt from the logged `/workspace` obstacles (posed
 primitives included), and the logged joint path is sampled at `--step` (default: half the
@@ -7,13 +7,16 @@ env's validation step, so finer than the bench's own judge) against a checker of
 with no margin, the robot model the log names. This is the arm's re-check (pybullet, a new
 DIRECT client, the arm model of the log: logs from before arm models were data re-check with
 pybullet_data's Panda as it was then), and the env's own checkers for the 2D/3D and rigid
-envs. Exit 1 on any false success or unreadable file.
+envs. Exit 1 on any false success or unreadable file. `--jobs N` re-checks N files at once, each
+in its own process (a sweep's files are independent); what it prints and writes is the same.
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from harness.log.mcap_io import read_log
@@ -61,9 +64,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("paths", nargs="+", metavar="PATH", help="trials.mcap files or folders searched for them")
     ap.add_argument("--step", type=float, default=None, help="sampling step (default: half the env's validation step)")
     ap.add_argument("--out", type=Path, help="also write OUT/recheck.md (a report folder: its successes, verified)")
+    ap.add_argument("--jobs", type=int, default=1, help="files re-checked at once, one process each (default 1)")
     args = ap.parse_args(argv)
     if args.step is not None and not args.step > 0:
         print(f"error: --step must be a positive number, got {args.step}", file=sys.stderr)
+        return 2
+    if args.jobs < 1:
+        print(f"error: --jobs must be at least 1, got {args.jobs}", file=sys.stderr)
         return 2
     files = []
     for p in map(Path, args.paths):
@@ -78,14 +85,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: no trials.mcap under {', '.join(args.paths)}", file=sys.stderr)
         return 2
     total, bad, unreadable, lines = 0, 0, 0, []
-    for f in files:
-        try:
-            n, false, step = recheck_file(f, args.step)
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            lines.append(f"{f}: unreadable ({type(e).__name__}: {e})")
+    for f, result in _rechecked(files, args.step, args.jobs):
+        if isinstance(result, Exception):
+            lines.append(f"{f}: unreadable ({type(result).__name__}: {result})")
             print(lines[-1])
             unreadable += 1
             continue
+        n, false, step = result
         total, bad = total + n, bad + len(false)
         lines.append(f"{f}: {n} successes re-checked at step {step:g}, {len(false)} false")
         lines += [f"  {qid}: {why}" for qid, why in false]
@@ -95,6 +101,26 @@ def main(argv: list[str] | None = None) -> int:
     if args.out is not None:
         print(f"written: {write_report(args.out, total, bad, unreadable, summary, lines, argv)}")
     return 1 if bad or unreadable else 0
+
+
+def _recheck_or_error(path: Path, step: float | None):
+    """recheck_file's result, or the error that makes the file unreadable (returned, so that a
+    worker process hands it back like a result)."""
+    try:
+        return recheck_file(path, step)
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        return e
+
+
+def _rechecked(files: list[Path], step: float | None, jobs: int):
+    """(file, result or error) in the files' order; `jobs` > 1: that many processes, started
+    fresh (spawn), so each builds its own collision world."""
+    if jobs == 1 or len(files) == 1:
+        yield from ((f, _recheck_or_error(f, step)) for f in files)
+        return
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=min(jobs, len(files)), mp_context=ctx) as pool:
+        yield from zip(files, pool.map(_recheck_or_error, files, [step] * len(files)))
 
 
 def write_report(out: Path, total: int, bad: int, unreadable: int, summary: str, lines: list[str], argv) -> Path:

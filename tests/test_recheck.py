@@ -96,3 +96,21 @@ def test_a_report_links_its_folders_recheck_or_says_how_to_make_one(tmp_path):
     assert main([str(tmp_path / "logs"), "--out", str(out)]) == 0
     assert report_main([str(tmp_path / "logs"), "--out", str(out)]) == 0
     assert "Re-check: [recheck.md](recheck.md): 1 successes, 1 verified" in (out / "README.md").read_text()
+
+
+@pytest.mark.slow  # spawns two processes (each imports the harness): seconds
+def test_files_rechecked_in_parallel_report_as_one_by_one(tmp_path, capsys):
+    """--jobs 2: the same lines, in the files' order, and the same exit code, as --jobs 1."""
+    around = [[-15.0, -15.0], [-15.0, 15.0], [15.0, 15.0]]
+    write(tmp_path / "a", {"w/0": around, "w/1": [[-15.0, -15.0], [15.0, 15.0]]})
+    write(tmp_path / "b", {"w/2": around})
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "trials.mcap").write_bytes(b"not an mcap")
+    assert main([str(tmp_path), "--jobs", "1"]) == 1
+    one = capsys.readouterr().out
+    assert main([str(tmp_path), "--jobs", "2"]) == 1
+    two = capsys.readouterr().out
+    assert one == two and "w/1: collision" in two and "unreadable" in two
+    assert "3 files, 3 successes re-checked, false successes 1, unreadable 1" in two
+    assert main([str(tmp_path), "--jobs", "0"]) == 2
+    assert "--jobs must be at least 1" in capsys.readouterr().err
