@@ -129,8 +129,8 @@ TESTED = {
     # docs/reports.md
     "python -m harness +env=s2d +planner=bit_star scale=tiny hydra.run.dir=outputs/tiny": NOTEBOOK,
     "MPNET_FIGURE=outputs/tiny/query.png jupyter execute examples/explore_a_run.ipynb": NOTEBOOK,
-    "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001] [--out DIR]": (
-        "tests/test_recheck.py::test_the_recheck_report_says_how_many_successes_were_verified"
+    "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001] [--out DIR] [--jobs 2]": (
+        "tests/test_recheck.py::test_files_rechecked_in_parallel_report_as_one_by_one"
     ),
 }
 

@@ -100,7 +100,8 @@ def test_a_report_links_its_folders_recheck_or_says_how_to_make_one(tmp_path):
 
 @pytest.mark.slow  # spawns two processes (each imports the harness): seconds
 def test_files_rechecked_in_parallel_report_as_one_by_one(tmp_path, capsys):
-    """--jobs 2: the same lines, in the files' order, and the same exit code, as --jobs 1."""
+    """`python -m harness.recheck --jobs 2`: the same lines, in the files' order, and the same exit
+    code, as --jobs 1."""
     around = [[-15.0, -15.0], [-15.0, 15.0], [15.0, 15.0]]
     write(tmp_path / "a", {"w/0": around, "w/1": [[-15.0, -15.0], [15.0, 15.0]]})
     write(tmp_path / "b", {"w/2": around})
