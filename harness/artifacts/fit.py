@@ -23,6 +23,7 @@ import numpy as np
 
 from harness.core.threads import training_threads
 from mpnet.data.dataset import Dataset
+from mpnet.envs.scenes.generators import make_workspaces
 from mpnet.envs.spec import EnvSpec
 
 ENET_FILE, PNET_FILE, RNG_FILE = "enet.ckpt", "pnet.ckpt", "rng.npz"
@@ -342,6 +343,18 @@ def fit_models(
     }
 
 
+def _clearance(spec: EnvSpec, data: Dataset):
+    """The training scenes as a collision loss measures them (their workspaces rebuilt from
+    their ids and the data's seed, in the data's order)."""
+    from mpnet.models.clearance import Clearance
+
+    seed = int(data.manifest["config"]["data_seed"])
+    arrays = spec.robot.clearance_arrays(make_workspaces(spec, [int(i) for i in data.train_ids], "train", seed))
+    if arrays is None:
+        raise ValueError(f"env {spec.name}: its robot offers no collision loss (networks.collision_loss)")
+    return Clearance(arrays, spec.planning_margin)
+
+
 def _link_or_copy(src: Path, dst: Path) -> None:
     """A hard link where the file system allows one (the checkpoint is not written again)."""
     try:
@@ -417,8 +430,11 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         # the centre, zeros included (symmetric bounds: the normaliser keeps no offset, the module must know)
         state_offset=(norm.offset_list() or [0.0] * spec.state_dim) if bounded else None,
         input_noise=params.get("input_noise", 0.0),
+        collision_loss=params.get("collision_loss", 0.0),
         cloud_scale=spec.workspace_scale(),
     )
+    if params.get("collision_loss"):
+        module.attach_clearance(_clearance(spec, data))
     features = np.ascontiguousarray(flat_train, np.float32)
     kind = "codes" if frozen else "clouds"
     if frozen:

@@ -339,6 +339,12 @@ def model_params(cfg: DictConfig) -> dict:
             "config key networks.voxels (env.networks or planner.networks): a voxel Enet trains end to end "
             "with Pnet (scale.fit.end_to_end: true, the arm's); this scale pretrains Enet as an autoencoder"
         )
+    robot = get_spec(cfg.env.name).robot
+    if params.get("collision_loss") and not robot.offers_clearance:
+        raise UsageError(
+            f"config key networks.collision_loss (env.networks or planner.networks): env {cfg.env.name}'s robot "
+            f"({robot.kind}) offers no collision loss (the arm's envs do)"
+        )
     return params
 
 

@@ -142,6 +142,11 @@ class Recipe:
     input_noise: float | None = _option(
         float, "each training state moved by Gaussian noise of this standard deviation (state units; DART-style)"
     )
+    collision_loss: float | None = _option(
+        float,
+        "Pnet's loss plus this weight times its proposals' depth in the scene's obstacles (metres; MpiNets'; the arm)",
+        minimum=0,
+    )
     pnet_hidden: list | None = _option(list, "Pnet's layer widths (the scale's otherwise)")
     enet_hidden: list | None = _option(list, "Enet's layer widths (the scale's otherwise)")
     latent: int | None = _option(int, "the scene code's size (the scale's otherwise)", minimum=1)

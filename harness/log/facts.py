@@ -79,7 +79,8 @@ def planner_facts(p) -> dict | None:
 
 def network_variant(networks) -> list[str]:
     """The tags of a planner's own networks (its `networks:` recipe options): dense (resampled
-    expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>, sized
+    expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>,
+    collision<weight> (a collision loss), sized
     (other network sizes), paper_recipe (the scale's recipe, not the env's), voxels<cells>
     (Enet reads a voxel grid of the cloud)."""
     if not isinstance(networks, dict):
@@ -95,6 +96,8 @@ def network_variant(networks) -> list[str]:
         out.append(f"dropout{float(networks['dropout']):g}")
     if networks.get("input_noise"):
         out.append(f"noise{float(networks['input_noise']):g}")
+    if networks.get("collision_loss"):
+        out.append(f"collision{float(networks['collision_loss']):g}")
     if any(networks.get(k) is not None for k in ("pnet_hidden", "enet_hidden", "latent")):
         out.append("sized")
     if networks.get("dagger_rounds"):

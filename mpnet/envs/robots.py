@@ -9,7 +9,7 @@ from mpnet.envs.arm.model import ArmModel, load_arm_model
 from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
 from mpnet.envs.checkers.pybullet_arm import PybulletArmChecker
 from mpnet.envs.checkers.rigid import FclRigidChecker, RigidChecker
-from mpnet.envs.checkers.spheres import SphereChecker
+from mpnet.envs.checkers.spheres import SphereChecker, obstacle_arrays, sphere_model
 from mpnet.envs.spaces import EuclideanSpace
 from mpnet.envs.workspace import Workspace
 
@@ -24,6 +24,7 @@ class Robot:
     posed_obstacles: bool = False  # whether its checkers handle posed primitives (problems@2)
     judge_text: str = "the env's judge checker, no margin"  # what the fine re-check tests (reports)
     step_unit: str = ""  # the unit of the re-check's step along a path ("": workspace units)
+    offers_clearance: bool = False  # whether clearance_arrays gives a collision loss its arrays
 
     def to_json(self) -> dict:
         return {"kind": self.kind}
@@ -41,6 +42,12 @@ class Robot:
         """What of the robot decides generated data beyond the env's name (cache keys):
         nothing for the fixed planar and point robots."""
         return {}
+
+    def clearance_arrays(self, workspaces: list[Workspace]) -> dict | None:
+        """What a differentiable collision loss needs (mpnet.models.clearance): the robot's
+        moving body as spheres on its chain ("body") and each workspace's primitives
+        ("obstacles", one dict a workspace); None: this robot offers none."""
+        return None
 
     def make_checker(
         self, spec, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str | None = None
@@ -94,6 +101,7 @@ class ArmRobot(Robot):
     posed_obstacles = True
     judge_text = "pybullet on the arm model's collision meshes, no margin"
     step_unit = " rad"
+    offers_clearance = True
 
     def __init__(self, model: str):
         self.model_name = model
@@ -131,6 +139,13 @@ class ArmRobot(Robot):
 
     def joint_space(self):
         return EuclideanSpace(self.model.limits)
+
+    def clearance_arrays(self, workspaces: list[Workspace]) -> dict:
+        """The sphere model's moving spheres (the sphere checker's) and each workspace's primitives."""
+        return {
+            "body": sphere_model(self.model.name).moving_body(),
+            "obstacles": [obstacle_arrays(ws) for ws in workspaces],
+        }
 
 
 def logged_model_name(robot: dict) -> str:

@@ -79,6 +79,7 @@ class PairDataset(Dataset):
         return {
             self.key: self.clouds[uniq],
             "ws": inverse,
+            "wsid": uniq,  # the batch's workspaces as rows of the data (a collision loss finds their scenes)
             "x_t": self.x_t[r],
             "x_goal": self.x_goal[r],
             "x_next": self.x_next[r],

@@ -25,6 +25,7 @@ from mpnet.models.networks import ContractiveAE, Enet, Normalizer, Pnet
 from mpnet.models.voxels import occupancy
 
 OPTIMIZERS = ("adagrad", "adam")
+COLLISION_SHARE = 0.25  # of a batch's samples measured by the collision loss (batch_loss)
 
 
 def _make_optimizer(name: str, params, lr: float) -> torch.optim.Optimizer:
@@ -130,6 +131,7 @@ class PnetModule(L.LightningModule):
         val_stochastic: bool = False,
         state_offset: Sequence[float] | None = None,
         input_noise: float = 0.0,
+        collision_loss: float = 0.0,
     ):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
@@ -163,10 +165,20 @@ class PnetModule(L.LightningModule):
             }
             | ({"state_offset": [float(v) for v in state_offset]} if state_offset is not None else {})
             | ({"input_noise": float(input_noise)} if input_noise else {})
+            | ({"collision_loss": float(collision_loss)} if collision_loss else {})
         )
         if not 0.0 <= float(input_noise) < float("inf"):
             raise ValueError(f"input_noise must be a finite number >= 0, got {input_noise}")
         self.input_noise = float(input_noise)
+        if not 0.0 <= float(collision_loss) < float("inf"):
+            raise ValueError(f"collision_loss must be a finite number >= 0, got {collision_loss}")
+        self.collision_loss = float(collision_loss)
+        self.clearance = None  # attach_clearance: the scenes a collision loss measures against
+
+    def attach_clearance(self, clearance) -> None:
+        """The training scenes' mpnet.models.clearance.Clearance (its workspaces in the
+        data's order): needed when collision_loss > 0; never saved with the networks."""
+        self.clearance = clearance
 
     # -- inference in raw coordinates ---------------------------------------------------
     def encode(self, cloud: torch.Tensor) -> torch.Tensor:
@@ -201,7 +213,11 @@ class PnetModule(L.LightningModule):
     def batch_loss(self, batch, stochastic: bool, noise: float = 0.0) -> tuple[torch.Tensor, int]:
         """MSE in normalised coordinates; ``noise`` (raw units, a recipe option): each x_t moved
         by N(0, noise^2) per coordinate, the target kept (DART-style: the expert's next waypoint
-        from near the state, as the closed loop reaches states near the expert's)."""
+        from near the state, as the closed loop reaches states near the expert's). With
+        ``collision_loss`` (a recipe option, MπNets'), plus that weight times the mean depth
+        (metres) of the proposals' spheres in their scene's obstacles (mpnet.models.clearance),
+        measured on the batch's first COLLISION_SHARE (batches are shuffled: an unbiased
+        estimate at a quarter of the cost; the depth costs ~5x the rest of a step)."""
         clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
         if noise:
             x_t = x_t + noise * torch.randn_like(x_t)
@@ -221,7 +237,21 @@ class PnetModule(L.LightningModule):
             z = z[ws]
         s = self.state_norm
         pred = self.pnet.step(z, s.normalize(x_t), s.normalize(x_goal), stochastic)
-        return F.mse_loss(pred, s.normalize(x_next)), x_t.shape[0]
+        loss = F.mse_loss(pred, s.normalize(x_next))
+        if self.collision_loss:
+            if self.clearance is None or not isinstance(batch, dict) or "wsid" not in batch:
+                raise ValueError("collision_loss needs attach_clearance and batches that name their workspaces")
+            k = max(1, int(round(pred.shape[0] * COLLISION_SHARE)))
+            depth = self.clearance.penetration(s.denormalize(pred[:k]), batch["wsid"][ws[:k]]).mean()
+            self.log(
+                "train_collision_depth" if self.training else "val_collision_depth",
+                depth,
+                on_step=False,
+                on_epoch=True,
+                batch_size=k,
+            )
+            loss = loss + self.collision_loss * depth
+        return loss, x_t.shape[0]
 
     def training_step(self, batch, batch_idx: int) -> torch.Tensor:
         loss, n = self.batch_loss(batch, stochastic=True, noise=self.input_noise)

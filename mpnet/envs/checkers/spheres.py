@@ -203,6 +203,31 @@ class SphereModel:
         centres = np.einsum("nij,nj->ni", pose[frame, :, :3], self.local) + pose[frame, :, 3]
         return np.column_stack([centres, self.radius])
 
+    def moving_body(self) -> dict[str, np.ndarray]:
+        """The kinematic chain and the spheres of every link that moves (the root link's,
+        which no joint moves, left out): what a differentiable collision loss
+        (mpnet.models.clearance) poses in torch. Frames: parent index (-1: the base), origin
+        (F, 3, 4), joint kind, axis and coordinate (-1: fixed); spheres: frame, centre in it, radius."""
+        keep = self.sphere_link >= self.first
+        return {
+            "parent": self.parent,
+            "origin": self.origin,
+            "kind": self.kind,
+            "axis": self.axis,
+            "coord": self.coord,
+            "frame": self.sphere_frame[keep],
+            "local": self.local[keep],
+            "radius": self.radius[keep],
+        }
+
+
+def obstacle_arrays(ws: Workspace) -> dict[str, np.ndarray]:
+    """The workspace's primitives as arrays (the packed layout's, sphere_kernels.unpack_obstacles):
+    boxes (B, 15: centre, rotation's columns, half sizes), cylinders (C, 8: centre, axis,
+    radius, half height), balls (K, 4: centre, radius)."""
+    boxes, cyls, balls, _, _ = K.unpack_obstacles(pack_obstacles(ws, 0.0))
+    return {"boxes": boxes.copy(), "cylinders": cyls.copy(), "balls": balls.copy()}
+
 
 TABLE_CELLS = 256  # a pair table's cells along each of its joints
 GROUP = 8  # spheres per group of the tree (about): a link's groups are tested before its spheres
