@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 42: a collision loss (`networks.collision_loss`, MpiNets'), screened at 70 scenes as the other
+# Issue 42: a collision loss (`networks.collision_loss`, MπNets'), screened at 70 scenes as the other
 # recipe options were (docs/research/panda_mbm_recipe_screen70.sh): the env's recipe as shipped and
 # the same with Pnet's loss plus a weight times its proposals' depth in the scene's obstacles
 # (the sphere model posed in torch, mpnet.models.clearance), trained on the first 70 generated scenes

@@ -144,7 +144,7 @@ class Recipe:
     )
     collision_loss: float | None = _option(
         float,
-        "Pnet's loss plus this weight times its proposals' depth in the scene's obstacles (metres; MpiNets'; the arm)",
+        "Pnet's loss plus this weight times its proposals' depth in the scene's obstacles (metres; MπNets'; the arm)",
         minimum=0,
     )
     pnet_hidden: list | None = _option(list, "Pnet's layer widths (the scale's otherwise)")

@@ -174,6 +174,7 @@ class PnetModule(L.LightningModule):
             raise ValueError(f"collision_loss must be a finite number >= 0, got {collision_loss}")
         self.collision_loss = float(collision_loss)
         self.clearance = None  # attach_clearance: the scenes a collision loss measures against
+        self.depth = None  # the last batch's mean depth and its sample count (collision_loss)
 
     def attach_clearance(self, clearance) -> None:
         """The training scenes' mpnet.models.clearance.Clearance (its workspaces in the
@@ -243,24 +244,25 @@ class PnetModule(L.LightningModule):
                 raise ValueError("collision_loss needs attach_clearance and batches that name their workspaces")
             k = max(1, int(round(pred.shape[0] * COLLISION_SHARE)))
             depth = self.clearance.penetration(s.denormalize(pred[:k]), batch["wsid"][ws[:k]]).mean()
-            self.log(
-                "train_collision_depth" if self.training else "val_collision_depth",
-                depth,
-                on_step=False,
-                on_epoch=True,
-                batch_size=k,
-            )
+            self.depth = (depth.detach(), k)  # the steps log it
             loss = loss + self.collision_loss * depth
         return loss, x_t.shape[0]
 
     def training_step(self, batch, batch_idx: int) -> torch.Tensor:
         loss, n = self.batch_loss(batch, stochastic=True, noise=self.input_noise)
         self.log("train_loss", loss, on_step=True, on_epoch=True, prog_bar=True, batch_size=n)
+        self._log_depth("train")
         return loss
+
+    def _log_depth(self, stage: str) -> None:
+        if self.collision_loss:
+            depth, k = self.depth
+            self.log(f"{stage}_collision_depth", depth, on_step=False, on_epoch=True, batch_size=k)
 
     def validation_step(self, batch, batch_idx: int) -> None:
         loss, n = self.batch_loss(batch, stochastic=self.hparams["val_stochastic"])
         self.log("val_loss", loss, on_epoch=True, prog_bar=True, batch_size=n)
+        self._log_depth("val")
 
     def configure_optimizers(self):
         params = [p for p in self.parameters() if p.requires_grad]
