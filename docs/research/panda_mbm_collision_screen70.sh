@@ -22,9 +22,10 @@ declare -A VARIANT=(
   [env]="+planner=mpnet_nr"                                                # the env's recipe
   [random]="+planner=mpnet_nr_random"                                      # random valid proposals (no network)
   [collision1]="+planner=mpnet_nr +planner.networks.collision_loss=1"      # + collision loss, weight 1
-  [collision10]="+planner=mpnet_nr +planner.networks.collision_loss=10"    # + collision loss, weight 10
+  [collision0.1]="+planner=mpnet_nr +planner.networks.collision_loss=0.1"  # + collision loss, weight 0.1
+  [collision0.01]="+planner=mpnet_nr +planner.networks.collision_loss=0.01"  # + collision loss, weight 0.01
 )
-ORDER=(env collision1 collision10 random)
+ORDER=(env collision1 collision0.1 collision0.01 random)
 for name in "${ORDER[@]}"; do VARIANT[mbm_$name]="${VARIANT[$name]} problems=$MBM"; done
 
 run() {  # run NAME: one logged run into $RUNS/NAME (its networks trained first), skipped once DONE
