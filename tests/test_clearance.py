@@ -52,6 +52,32 @@ def test_each_primitives_signed_distance_at_known_points():
 
 
 @pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
+def test_only_groups_that_touch_are_measured_and_nothing_is_missed(panda):
+    """The groups' bounding spheres select which spheres are measured: the depth equals every
+    sphere against every obstacle (the oracle below), value and gradient."""
+    _, workspaces, model, clearance = panda
+    rng = np.random.default_rng(3)
+    q = torch.tensor(rng.uniform(model.lower, model.upper, (300, model.model.dof)), dtype=torch.float32)
+    ws = torch.as_tensor(rng.integers(0, len(workspaces), len(q)))
+    a, b = q.clone().requires_grad_(True), q.clone().requires_grad_(True)
+    fast, every = clearance.penetration(a, ws), _every_sphere(clearance, b, ws)
+    assert (every > 0).sum() > 15 and torch.allclose(fast, every, atol=1e-5)
+    fast.sum().backward()
+    every.sum().backward()
+    assert torch.allclose(a.grad, b.grad, atol=1e-4)
+
+
+def _every_sphere(clearance: Clearance, q: torch.Tensor, ws: torch.Tensor) -> torch.Tensor:
+    c, r = clearance.spheres(q).unsqueeze(2), clearance.radius[None, :, None]
+    kinds = (
+        (clearance.boxes, _box_distance),
+        (clearance.cylinders, _cylinder_distance),
+        (clearance.balls, _ball_distance),
+    )
+    return sum(torch.relu(r - f(c, obstacles[ws].unsqueeze(1))).sum((1, 2)) for obstacles, f in kinds)
+
+
+@pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
 def test_the_depth_is_zero_where_the_checker_sees_no_contact_and_pushes_out(panda):
     """Every configuration the sphere checker calls free has depth 0 (the same spheres, the same
     primitives); many it blocks have a positive depth (the rest collide with the arm itself);

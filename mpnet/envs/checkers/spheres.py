@@ -207,17 +207,24 @@ class SphereModel:
         """The kinematic chain and the spheres of every link that moves (the root link's,
         which no joint moves, left out): what a differentiable collision loss
         (mpnet.models.clearance) poses in torch. Frames: parent index (-1: the base), origin
-        (F, 3, 4), joint kind, axis and coordinate (-1: fixed); spheres: frame, centre in it, radius."""
-        keep = self.sphere_link >= self.first
+        (F, 3, 4), joint kind, axis and coordinate (-1: fixed); spheres: frame, centre in it, radius;
+        their groups (the checker's tree): frame, bounding sphere, and first and last + 1 sphere."""
+        g0 = int(self.link_g1[0]) if self.first else 0  # the first group, and its first sphere, that move
+        s0 = int(self.group_s0[g0]) if g0 < len(self.group_s0) else len(self.radius)
         return {
             "parent": self.parent,
             "origin": self.origin,
             "kind": self.kind,
             "axis": self.axis,
             "coord": self.coord,
-            "frame": self.sphere_frame[keep],
-            "local": self.local[keep],
-            "radius": self.radius[keep],
+            "frame": self.sphere_frame[s0:],
+            "local": self.local[s0:],
+            "radius": self.radius[s0:],
+            "group_frame": self.group_frame[g0:],
+            "group_local": self.glocal[g0:],
+            "group_radius": self.gradius[g0:],
+            "group_start": self.group_s0[g0:] - s0,
+            "group_stop": self.group_s1[g0:] - s0,
         }
 
 
