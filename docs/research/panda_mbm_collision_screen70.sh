@@ -11,12 +11,9 @@
 #
 # NAME: a variant below, or mbm_NAME, or report (default: all, in order).
 set -euo pipefail
-RUNS=${RUNS:?RUNS=folder for the logs}
 OUT=${OUT:-reports/panda_mbm_collision70}
-CACHE=${CACHE:-$RUNS/cache}
-MBM=${MBM:-data/mbm/problems}   # python -m harness.fetch_mbm data/mbm
-mkdir -p "$RUNS"
-COMMON=(+env=panda_mbm scale=quick scale.train.workspaces=70 progress=false "cache_dir=$CACHE")
+# shellcheck source=docs/research/screen_runs.sh
+source "$(dirname "$0")/screen_runs.sh"
 
 declare -A VARIANT=(
   [env]="+planner=mpnet_nr"                                                # the env's recipe
@@ -27,15 +24,6 @@ declare -A VARIANT=(
 )
 ORDER=(env collision1 collision0.1 collision0.01 random)
 for name in "${ORDER[@]}"; do VARIANT[mbm_$name]="${VARIANT[$name]} problems=$MBM"; done
-
-run() {  # run NAME: one logged run into $RUNS/NAME (its networks trained first), skipped once DONE
-  local name=$1 dir="$RUNS/$1"
-  [[ -e "$dir/DONE" ]] && return 0
-  echo "$(date -u +%FT%TZ) $name" >&2
-  # shellcheck disable=SC2086  # the variant's overrides are words
-  python -m harness "${COMMON[@]}" ${VARIANT[$name]} seed=0 hydra.run.dir="$dir" resume=true
-  touch "$dir/DONE"
-}
 
 report() {
   local dirs=()
@@ -49,6 +37,4 @@ if [[ $# -eq 0 ]]; then
   for name in "${ORDER[@]}"; do set -- "$@" "mbm_$name"; done
   set -- "$@" report
 fi
-for stage in "$@"; do
-  if [[ $stage == report ]]; then report; else run "$stage"; fi
-done
+stages "$@"
