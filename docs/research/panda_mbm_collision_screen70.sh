@@ -21,8 +21,9 @@ declare -A VARIANT=(
   [collision1]="+planner=mpnet_nr +planner.networks.collision_loss=1"      # + collision loss, weight 1
   [collision0.1]="+planner=mpnet_nr +planner.networks.collision_loss=0.1"  # + collision loss, weight 0.1
   [collision0.01]="+planner=mpnet_nr +planner.networks.collision_loss=0.01"  # + collision loss, weight 0.01
+  [collision0.001]="+planner=mpnet_nr +planner.networks.collision_loss=0.001"  # + collision loss, weight 0.001
 )
-ORDER=(env collision1 collision0.1 collision0.01 random)
+ORDER=(env collision1 collision0.1 collision0.01 collision0.001 random)
 for name in "${ORDER[@]}"; do VARIANT[mbm_$name]="${VARIANT[$name]} problems=$MBM"; done
 
 report() {
