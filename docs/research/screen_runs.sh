@@ -2,13 +2,14 @@
 # `run NAME` makes one logged run of the caller's VARIANT[NAME] (with its COMMON overrides) into
 # $RUNS/NAME, its networks trained first; a finished run leaves DONE in its folder and is skipped.
 # `stages NAME...` runs each NAME, or the caller's report() for `report`. RUNS: the logs' folder;
-# CACHE (default $RUNS/cache), MBM (MotionBenchMaker's problems: python -m harness.fetch_mbm data/mbm).
+# SCENES: training scenes (default 70; the quick set's 735 for a screen's winner); CACHE (default
+# $RUNS/cache); MBM: MotionBenchMaker's problems (python -m harness.fetch_mbm data/mbm).
 
 RUNS=${RUNS:?RUNS=folder for the logs}
 CACHE=${CACHE:-$RUNS/cache}
 MBM=${MBM:-data/mbm/problems}
 mkdir -p "$RUNS"
-COMMON=(+env=panda_mbm scale=quick scale.train.workspaces=70 progress=false "cache_dir=$CACHE")
+COMMON=(+env=panda_mbm scale=quick "scale.train.workspaces=${SCENES:-70}" progress=false "cache_dir=$CACHE")
 
 run() {  # run NAME: one logged run into $RUNS/NAME (its networks trained first), skipped once DONE
   local name=$1 dir="$RUNS/$1"
