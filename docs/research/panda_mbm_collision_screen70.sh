@@ -8,6 +8,7 @@
 # by the mbm_* runs). One run at a time; a finished run leaves DONE in its folder and is skipped.
 #
 #   RUNS=/work/runs/coll70 bash docs/research/panda_mbm_collision_screen70.sh [NAME ...]
+#   SCENES=735 CACHE=... RUNS=... OUT=reports/panda_mbm_collision bash ... collision0.01 env ...  (the chosen weight, all 735)
 #
 # NAME: a variant below, or mbm_NAME, or report (default: all, in order).
 set -euo pipefail
@@ -25,10 +26,16 @@ declare -A VARIANT=(
 )
 ORDER=(env collision1 collision0.1 collision0.01 collision0.001 random)
 for name in "${ORDER[@]}"; do VARIANT[mbm_$name]="${VARIANT[$name]} problems=$MBM"; done
+# How often the first NeuralPlanner run connects on MBM (MPNet-HR's premise): HR with RRT-Connect
+# replanning, which closes every gap a first run leaves
+VARIANT[mbm_hrc_env]="+planner=mpnet_hr_rrtc problems=$MBM"
+VARIANT[mbm_hrc_collision0.01]="+planner=mpnet_hr_rrtc +planner.networks.collision_loss=0.01 problems=$MBM"
 
-report() {
+report() {  # the runs that exist (the 735-scene fit runs the chosen weight only)
   local dirs=()
-  for name in "${ORDER[@]}"; do dirs+=("$RUNS/$name" "$RUNS/mbm_$name"); done
+  for name in "${ORDER[@]}" hrc_env hrc_collision0.01; do
+    for dir in "$RUNS/$name" "$RUNS/mbm_$name"; do [[ -e "$dir/DONE" ]] && dirs+=("$dir"); done
+  done
   python -m harness.report "${dirs[@]}" --out "$OUT" --force
   python -m harness.recheck "${dirs[@]}" --jobs 2 --out "$OUT"
 }
