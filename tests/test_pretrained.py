@@ -18,6 +18,20 @@ def test_every_env_ships_a_quick_set():
     assert {p.name for p in SETS} == {f"{e}-quick" for e in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")}
 
 
+def test_the_docs_name_each_shipped_sets_models_and_paths(repo):
+    """docs/mpnet.md's table of shipped sets says which models each was exported from and how
+    many expert paths trained it: the sets' own meta.json (a regenerated set fails here until
+    the table says so)."""
+    import re
+
+    rows = dict(re.findall(r"^\| (\S+-quick) \| (.+) \|$", (repo / "docs" / "mpnet.md").read_text(), re.M))
+    assert set(rows) == {p.name for p in SETS}
+    for folder in SETS:
+        meta = read_meta(folder)
+        assert f"`models/{meta['key']}`" in rows[folder.name]
+        assert f"{meta['training_paths']:,} expert paths" in rows[folder.name]
+
+
 @pytest.mark.parametrize("folder", SETS, ids=[p.name for p in SETS])
 def test_shipped_set_loads_and_matches_its_key(folder, tmp_path, settings):
     from harness.artifacts.ensure import models_key_config
