@@ -30,10 +30,12 @@ for name in "${ORDER[@]}"; do VARIANT[mbm_$name]="${VARIANT[$name]} problems=$MB
 # replanning, which closes every gap a first run leaves
 VARIANT[mbm_hrc_env]="+planner=mpnet_hr_rrtc problems=$MBM"
 VARIANT[mbm_hrc_collision0.01]="+planner=mpnet_hr_rrtc +planner.networks.collision_loss=0.01 problems=$MBM"
+# MPNet-HR as the paper runs it (RRT* replanning) with the chosen weight's networks
+VARIANT[mbm_hr_collision0.01]="+planner=mpnet_hr +planner.networks.collision_loss=0.01 problems=$MBM"
 
 report() {  # the runs that exist (the 735-scene fit runs the chosen weight only)
   local dirs=()
-  for name in "${ORDER[@]}" hrc_env hrc_collision0.01; do
+  for name in "${ORDER[@]}" hrc_env hrc_collision0.01 hr_collision0.01; do
     for dir in "$RUNS/$name" "$RUNS/mbm_$name"; do [[ -e "$dir/DONE" ]] && dirs+=("$dir"); done
   done
   python -m harness.report "${dirs[@]}" --out "$OUT" --force
