@@ -218,7 +218,7 @@ class PnetModule(L.LightningModule):
         ``collision_loss`` (a recipe option, MπNets'), plus that weight times the mean depth
         (metres) of the proposals' spheres in their scene's obstacles (mpnet.models.clearance),
         measured on the batch's first COLLISION_SHARE (batches are shuffled: an unbiased
-        estimate at a quarter of the cost; the depth costs ~5x the rest of a step)."""
+        estimate at a quarter of the cost: the depth costs about as much as the rest of a step)."""
         clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
         if noise:
             x_t = x_t + noise * torch.randn_like(x_t)
