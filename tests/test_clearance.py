@@ -151,7 +151,9 @@ def test_the_option_is_a_models_key_a_variant_and_the_arms_only(settings):
     assert plain.data.key_config() == weighted.data.key_config()
     assert models_key_config(weighted) == {**models_key_config(plain), "collision_loss": 5.0}
     assert network_variant({"collision_loss": 5.0}) == ["collision5"]
-    with pytest.raises(UsageError, match="^config key networks.collision_loss .*env s2d's robot \\(point\\)"):
+    with pytest.raises(
+        UsageError, match="^config key networks.collision_loss .*env s2d's robot offers no collision loss"
+    ):
         settings(["+env=s2d", "+planner=mpnet_nr", "+planner.networks.collision_loss=1"])
     with pytest.raises(UsageError, match="planner.networks.collision_loss"):
         settings(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.collision_loss=-1"])

@@ -343,7 +343,7 @@ def model_params(cfg: DictConfig) -> dict:
     if params.get("collision_loss") and not robot.offers_clearance:
         raise UsageError(
             f"config key networks.collision_loss (env.networks or planner.networks): env {cfg.env.name}'s robot "
-            f"({robot.kind}) offers no collision loss (the arm's envs do)"
+            "offers no collision loss (the arms' envs do: a sphere model)"
         )
     return params
 
