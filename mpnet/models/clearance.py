@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-REVOLUTE, PRISMATIC = 1, 2  # mpnet.envs.arm.model's joint kinds
+from mpnet.envs.arm.model import PRISMATIC, REVOLUTE
+
 FAR = 1.0e3  # where padding obstacles sit (metres): no sphere reaches them
 
 
@@ -117,7 +118,8 @@ def _posed(rot: torch.Tensor, pos: torch.Tensor, frame: torch.Tensor, local: tor
 
 
 def _rotation(axis: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
-    """(N, 3, 3): rotations by `angle` (N,) about the unit `axis` (3,) (Rodrigues)."""
+    """(N, 3, 3): rotations by `angle` (N,) about the unit `axis` (3,) (Rodrigues): torch's twin of
+    mpnet.envs.arm.model.joint_motion, batched and differentiable (the loss needs its gradient)."""
     x, y, z = axis
     c, s = torch.cos(angle), torch.sin(angle)
     k = 1 - c
