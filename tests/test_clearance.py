@@ -140,6 +140,52 @@ def test_the_loss_needs_its_scenes_and_is_saved_with_the_module(panda):
         PnetModule(Pnet(4 + 2 * dof, dof, (16, 8)), Enet(30, (16,), 4), collision_loss=-1.0, **kw)
 
 
+def test_collision_motion_measures_states_along_the_step(panda):
+    """collision_motion m: the depth is the mean over the states at 1/m ... m/m of the straight
+    step from x_t to the proposal (m = 1: the proposal alone, today's loss, and no hyper-parameter
+    saved); a count below 1 or a bool is refused."""
+    spec, workspaces, model, clearance = panda
+    dof = model.model.dof
+    torch.manual_seed(0)
+    kw = {
+        "state_scale": [float(v) for v in (model.upper - model.lower) / 2],
+        "state_offset": [float(v) for v in (model.upper + model.lower) / 2],
+        "cloud_scale": 1.0,
+        "collision_loss": 10.0,
+    }
+
+    def module(**more):
+        torch.manual_seed(0)
+        net = PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), **kw, **more)
+        net.attach_clearance(clearance)
+        return net
+
+    one, three = module(), module(collision_motion=3)
+    plain = PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4),
+                       **{k: v for k, v in kw.items() if k != "collision_loss"})  # fmt: skip
+    plain.load_state_dict(one.state_dict())
+    q = torch.tensor(np.random.default_rng(5).uniform(model.lower, model.upper, (8, dof)), dtype=torch.float32)
+    batch = {"clouds": torch.randn(2, 30), "ws": torch.tensor([0, 1] * 4), "wsid": torch.tensor([3, 4])}
+    batch |= {"x_t": q, "x_goal": q.flip(0), "x_next": q}
+    with torch.no_grad():
+        mse = plain.batch_loss(batch, stochastic=False)[0]
+        pred = one.state_norm.denormalize(
+            one.pnet.step(
+                one.encode(batch["clouds"])[batch["ws"]],
+                *(one.state_norm.normalize(batch[k]) for k in ("x_t", "x_goal")),
+                False,
+            )
+        )[:2]
+        ws = torch.tensor([3, 4])
+        along = [clearance.penetration(q[:2] + t * (pred - q[:2]), ws) for t in (1 / 3, 2 / 3, 1.0)]
+        assert torch.isclose(one.batch_loss(batch, stochastic=False)[0], mse + 10.0 * along[-1].mean())
+        assert torch.isclose(three.batch_loss(batch, stochastic=False)[0], mse + 10.0 * torch.stack(along).mean())
+    assert "collision_motion" not in one.hparams and three.hparams["collision_motion"] == 3
+    for bad in (0, True, 1.5):
+        with pytest.raises(ValueError, match="collision_motion"):
+            module(collision_motion=bad)
+
+
 @pytest.mark.slow  # composes panda_mbm (its URDF read): seconds
 def test_the_option_is_a_models_key_a_variant_and_the_arms_only(settings):
     """It changes the networks (models key), not the data; logs name it; a robot with no sphere
@@ -157,3 +203,12 @@ def test_the_option_is_a_models_key_a_variant_and_the_arms_only(settings):
         settings(["+env=s2d", "+planner=mpnet_nr", "+planner.networks.collision_loss=1"])
     with pytest.raises(UsageError, match="planner.networks.collision_loss"):
         settings(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.collision_loss=-1"])
+    moving = settings(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.collision_motion=4"])
+    assert models_key_config(moving) == {**models_key_config(plain), "collision_motion": 4}
+    assert network_variant({"collision_loss": 0.01, "collision_motion": 4}) == ["collision0.01", "motion4"]
+    assert network_variant({"collision_loss": 0.01, "collision_motion": 1}) == ["collision0.01"]
+    with pytest.raises(UsageError, match="^config key networks.collision_motion .*collision_loss is not set"):
+        settings(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.collision_loss=0",
+                  "+planner.networks.collision_motion=4"])  # fmt: skip
+    with pytest.raises(UsageError, match="planner.networks.collision_motion"):
+        settings(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.collision_motion=0"])

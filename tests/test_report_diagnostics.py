@@ -75,6 +75,33 @@ def test_diagnostics_table_known_answers(tmp_path):
     assert "| s2d | seen | mpnet_nr | 2 | 50.0% | 20.0 (17.0 + 3.0) | 37.5% | 2.5% | 12.5% | 50.0% |" in md
 
 
+def test_failures_by_where_they_end(tmp_path):
+    """Each failed valid query is counted once, at the step of Algorithm 1 it stopped at; a
+    success or an invalid query is no failure; the run's replan_rounds says when the rounds ran out."""
+
+    def fail(replans, failure="no_solution", fallback=False):
+        return {**diag(5), "replans": replans, "fallback_used": fallback, "failure": failure}
+
+    queries = [
+        Q("seen", "0", 0, True, 0.01, stats={**diag(4), "replans": 2}),
+        Q("seen", "0", 1, False, 0.01, stats=fail(0)),  # first run did not connect
+        Q("seen", "0", 2, False, 0.01, stats=fail(3)),  # stuck in round 3
+        Q("seen", "0", 3, False, 0.01, stats=fail(10)),  # every round ran
+        Q("seen", "0", 4, False, 0.01, stats=fail(10)),
+        Q("seen", "0", 5, False, 10.0, stats=fail(4, failure="timeout")),
+        Q("seen", "0", 6, False, 0.01, stats=fail(1, fallback=True)),  # HR's planner did not complete it
+        Q("seen", "0", 7, False, 0.0, stats={**diag(0), "failure": "invalid_query"}),
+    ]
+    write_log(tmp_path / "a", "s2d", "mpnet_nr", 0, queries, settings={"planner.replan_rounds": 10})
+    files, _, _ = load([tmp_path])
+    r = diagnostics_table(files).iloc[0]
+    assert r["queries"] == 8 and r["failed"] == 6
+    got = {k: r[k] for k in ("fail_first_run", "fail_stuck", "fail_rounds", "fail_fallback", "fail_timeout")}
+    assert got == {"fail_first_run": 1, "fail_stuck": 1, "fail_rounds": 2, "fail_fallback": 1, "fail_timeout": 1}
+    md = render_diagnostics(diagnostics_table(files))
+    assert "| s2d | seen | mpnet_nr | 6 | 1 (17%) | 1 (17%) | 2 (33%) | 1 (17%) | 1 (17%) |" in md
+
+
 @pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_learning_curve_by_training_size(tmp_path, capsys):
     sizes = {(100, 10): [True] * 3 + [False], (100, 40): [True] * 4, (25, 160): [False, True]}

@@ -431,6 +431,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         state_offset=(norm.offset_list() or [0.0] * spec.state_dim) if bounded else None,
         input_noise=params.get("input_noise", 0.0),
         collision_loss=params.get("collision_loss", 0.0),
+        collision_motion=params.get("collision_motion", 1),
         cloud_scale=spec.workspace_scale(),
     )
     if params.get("collision_loss"):

@@ -339,6 +339,11 @@ def model_params(cfg: DictConfig) -> dict:
             "config key networks.voxels (env.networks or planner.networks): a voxel Enet trains end to end "
             "with Pnet (scale.fit.end_to_end: true, the arm's); this scale pretrains Enet as an autoencoder"
         )
+    if params.get("collision_motion") not in (None, 1) and not params.get("collision_loss"):
+        raise UsageError(
+            "config key networks.collision_motion (env.networks or planner.networks): it shapes the collision "
+            "loss, and networks.collision_loss is not set"
+        )
     robot = get_spec(cfg.env.name).robot
     if params.get("collision_loss") and not robot.offers_clearance:
         raise UsageError(

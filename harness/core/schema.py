@@ -147,6 +147,11 @@ class Recipe:
         "Pnet's loss plus this weight times its proposals' depth in the scene's obstacles (metres; MπNets'; the arm)",
         minimum=0,
     )
+    collision_motion: int | None = _option(
+        int,
+        "the collision loss measures this many states along the step to each proposal, ending at it (1: the proposal)",
+        minimum=1,
+    )
     pnet_hidden: list | None = _option(list, "Pnet's layer widths (the scale's otherwise)")
     enet_hidden: list | None = _option(list, "Enet's layer widths (the scale's otherwise)")
     latent: int | None = _option(int, "the scene code's size (the scale's otherwise)", minimum=1)

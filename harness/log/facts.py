@@ -98,6 +98,8 @@ def network_variant(networks) -> list[str]:
         out.append(f"noise{float(networks['input_noise']):g}")
     if networks.get("collision_loss"):
         out.append(f"collision{float(networks['collision_loss']):g}")
+    if networks.get("collision_motion") not in (None, 1):
+        out.append(f"motion{int(networks['collision_motion'])}")
     if any(networks.get(k) is not None for k in ("pnet_hidden", "enet_hidden", "latent")):
         out.append("sized")
     if networks.get("dagger_rounds"):

@@ -3,7 +3,9 @@
 collision, out of bounds, reachable from their tree end) or over the queries with a
 first proposal (its validity and visibility); code sensitivity is the median shift of
 Pnet's deterministic output when the workspace code is swapped for another workspace's,
-beside the median spread of its dropout samples."""
+beside the median spread of its dropout samples. Where the failures end: each failed query
+(a valid one) by the step of Algorithm 1 it stopped at (`/query` `replans`, `fallback_used`,
+`failure`, and the run's `planner.replan_rounds`)."""
 
 from __future__ import annotations
 
@@ -15,6 +17,8 @@ import pandas as pd
 from harness.report.load import TrialFile
 from harness.report.names import KEYS, env_rank, split_rank
 
+# failed valid queries, and where they stopped (failure_stage)
+FAILS = ("failed", "fail_first_run", "fail_stuck", "fail_rounds", "fail_fallback", "fail_timeout")
 COLUMNS = [
     *KEYS,
     "queries",
@@ -30,7 +34,28 @@ COLUMNS = [
     "first_visible_to_goal",
     "code_shift",
     "dropout_spread",
+    *FAILS,
 ]
+
+
+def failure_stage(query: dict, replan_rounds) -> str | None:
+    """Where a failed MPNet query stopped (a FAILS name), None for a success or an invalid
+    query: its clock ran out (`fail_timeout`); HR's classical planner did not complete the path
+    (`fail_fallback`); the first NeuralPlanner run did not connect (`fail_first_run`); every
+    replanning round ran and the path stayed infeasible (`fail_rounds`); or a replanned segment
+    stayed unconnected in a round before (`fail_stuck`, the original replanning's end)."""
+    if query.get("success") is not False or query.get("failure") == "invalid_query":
+        return None
+    replans = query.get("replans")
+    if query.get("failure") == "timeout":
+        return "fail_timeout"
+    if query.get("fallback_used") is True:
+        return "fail_fallback"
+    if not replans:
+        return "fail_first_run"
+    if isinstance(replan_rounds, int) and replans >= replan_rounds:
+        return "fail_rounds"
+    return "fail_stuck"
 
 
 def _num(v) -> float:
@@ -42,12 +67,17 @@ def diagnostics_table(files: list[TrialFile]) -> pd.DataFrame:
     acc: dict[tuple, dict] = {}
     for tf in files:
         env, planner = str(tf.run["env"]), tf.planner  # with its label: labelled runs are never pooled
+        rounds = (tf.run.get("settings") or {}).get("planner.replan_rounds")
         for m in tf.queries:
             d = m.get("diagnostics")
             if not isinstance(d, dict):
                 continue
             a = acc.setdefault((env, str(m.get("split")), planner), {k: [] for k in COLUMNS[3:]})
             a["success"].append(m.get("success") is True)
+            stage = failure_stage(m, rounds)
+            if stage is not None:
+                a["failed"].append(1)
+                a[stage].append(1)
             for k in ("proposals", "proposals_first", "proposals_replan"):
                 a.setdefault(k, []).append(_num(d.get(k)))
             for k in ("proposals_in_collision", "proposals_out_of_bounds", "proposals_reachable"):
@@ -89,6 +119,7 @@ def diagnostics_table(files: list[TrialFile]) -> pd.DataFrame:
                 "first_visible_to_goal": mean(a["first_visible_to_goal"]),
                 "code_shift": median(a["code_shift"]),
                 "dropout_spread": median(a["dropout_spread"]),
+                **{k: len(a[k]) for k in FAILS},
             }
         )
     if not rows:
@@ -158,4 +189,44 @@ def render_diagnostics(df: pd.DataFrame, facts=None) -> str:
             _g(r.dropout_spread),
         ]
         lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + render_failures(df, facts)) + "\n"
+
+
+def render_failures(df: pd.DataFrame, facts=None) -> list[str]:
+    """The failures' table (diagnostics_table's FAILS columns) as Markdown lines."""
+    head = [
+        "env",
+        "split",
+        "planner",
+        "failed",
+        "first run did not connect",
+        "a replanned segment stayed unconnected",
+        "every replanning round ran, path still infeasible",
+        "HR's classical planner did not complete it",
+        "timed out",
+    ]
+    lines = [
+        "",
+        "## Where the failures end",
+        "",
+        "Each failed valid query by the step of Algorithm 1 it stopped at (`/query` `replans`, `fallback_used`,"
+        " `failure`; the run's `planner.replan_rounds`). NeuralPlanner appends Pnet's proposals without checking"
+        " the steps between them (only the step that joins the two trees is checked), so a first run that"
+        " connects can still be infeasible: neural replanning then drops the colliding states and reconnects"
+        " each gap with a short NeuralPlanner run, round after round. The original replanning (the public"
+        " code's) fails a query whose gap stays unconnected; HR hands such a path to its classical planner.",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
+    for r in df.itertuples(index=False):
+        n = r.failed
+
+        def cell(k, n=n, r=r):
+            v = getattr(r, k)
+            return f"{v} ({100 * v / n:.0f}%)" if n else str(v)
+
+        name = r.planner + (facts.mark(r.planner) if facts is not None else "")
+        fails = [cell(k) for k in FAILS[1:]]
+        lines.append("| " + " | ".join([r.env, r.split, name, str(n), *fails]) + " |")
+    return lines

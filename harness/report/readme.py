@@ -241,7 +241,8 @@ def readme_text(
             else "- `ablations.*`: not written: no ablation runs in the logs.",
             "- `diagnostics.md`, `diagnostics.csv`: what Pnet proposed, per env × split × MPNet planner: shares "
             "of proposals in collision and reachable from their tree end, the first proposal's validity and "
-            "visibility, Pnet calls by stage, and the workspace-code sensitivity (from `/query` `diagnostics`)."
+            "visibility, Pnet calls by stage, the workspace-code sensitivity (from `/query` `diagnostics`), and "
+            "where the failed queries stopped (first run, replanning, HR's planner, the clock)."
             if extra.get("diagnostics")
             else "- `diagnostics.*`: not written: no MPNet query in the logs carries diagnostics.",
             "- `equal_quality.md`, `equal_quality.csv`: time to equal quality: BIT* / Informed-RRT* run until their "

@@ -132,6 +132,7 @@ class PnetModule(L.LightningModule):
         state_offset: Sequence[float] | None = None,
         input_noise: float = 0.0,
         collision_loss: float = 0.0,
+        collision_motion: int = 1,
     ):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
@@ -166,6 +167,7 @@ class PnetModule(L.LightningModule):
             | ({"state_offset": [float(v) for v in state_offset]} if state_offset is not None else {})
             | ({"input_noise": float(input_noise)} if input_noise else {})
             | ({"collision_loss": float(collision_loss)} if collision_loss else {})
+            | ({"collision_motion": int(collision_motion)} if collision_motion != 1 else {})
         )
         if not 0.0 <= float(input_noise) < float("inf"):
             raise ValueError(f"input_noise must be a finite number >= 0, got {input_noise}")
@@ -173,6 +175,9 @@ class PnetModule(L.LightningModule):
         if not 0.0 <= float(collision_loss) < float("inf"):
             raise ValueError(f"collision_loss must be a finite number >= 0, got {collision_loss}")
         self.collision_loss = float(collision_loss)
+        if isinstance(collision_motion, bool) or not isinstance(collision_motion, int) or collision_motion < 1:
+            raise ValueError(f"collision_motion must be an integer >= 1, got {collision_motion!r}")
+        self.collision_motion = int(collision_motion)
         self.clearance = None  # attach_clearance: the scenes a collision loss measures against
         self.depth = None  # the last batch's mean depth and its sample count (collision_loss)
 
@@ -216,7 +221,8 @@ class PnetModule(L.LightningModule):
         by N(0, noise^2) per coordinate, the target kept (DART-style: the expert's next waypoint
         from near the state, as the closed loop reaches states near the expert's). With
         ``collision_loss`` (a recipe option, MπNets'), plus that weight times the mean depth
-        (metres) of the proposals' spheres in their scene's obstacles (mpnet.models.clearance),
+        (metres) of the proposals' spheres in their scene's obstacles (mpnet.models.clearance;
+        with ``collision_motion`` m > 1, of m states along the step to each proposal),
         measured on the batch's first COLLISION_SHARE (batches are shuffled: an unbiased
         estimate at a quarter of the cost: the depth costs about as much as the rest of a step)."""
         clouds, ws, x_t, x_goal, x_next = self._unpack(batch)
@@ -243,10 +249,22 @@ class PnetModule(L.LightningModule):
             if self.clearance is None or not isinstance(batch, dict) or "wsid" not in batch:
                 raise ValueError("collision_loss needs attach_clearance and batches that name their workspaces")
             k = max(1, int(round(pred.shape[0] * COLLISION_SHARE)))
-            depth = self.clearance.penetration(s.denormalize(pred[:k]), batch["wsid"][ws[:k]]).mean()
+            depth = self._motion_depth(x_t[:k], s.denormalize(pred[:k]), batch["wsid"][ws[:k]])
             self.depth = (depth.detach(), k)  # the steps log it
             loss = loss + self.collision_loss * depth
         return loss, x_t.shape[0]
+
+    def _motion_depth(self, x_t: torch.Tensor, x_new: torch.Tensor, wsid: torch.Tensor) -> torch.Tensor:
+        """The mean depth of the states at 1/m, 2/m, ..., m/m of the straight motion from each
+        x_t to its proposal x_new (m = collision_motion; 1: the proposal alone). NeuralPlanner
+        appends a proposal without checking the step to it: steps that cross an obstacle leave
+        the path infeasible, which replanning must then mend."""
+        m = self.collision_motion
+        if m == 1:
+            return self.clearance.penetration(x_new, wsid).mean()
+        t = torch.arange(1, m + 1, dtype=x_new.dtype, device=x_new.device).div(m).view(m, 1, 1)
+        states = (x_t.unsqueeze(0) + t * (x_new - x_t).unsqueeze(0)).reshape(-1, x_new.shape[-1])
+        return self.clearance.penetration(states, wsid.repeat(m)).mean()
 
     def training_step(self, batch, batch_idx: int) -> torch.Tensor:
         loss, n = self.batch_loss(batch, stochastic=True, noise=self.input_noise)
