@@ -100,6 +100,15 @@ def test_the_depth_is_zero_where_the_checker_sees_no_contact_and_pushes_out(pand
     assert torch.all(after <= before.detach() + 1e-6) and torch.any(after < before.detach())
 
 
+def _scales(model) -> dict:
+    """A bounded PnetModule's normalisers for the arm's joint bounds."""
+    return {
+        "state_scale": [float(v) for v in (model.upper - model.lower) / 2],
+        "state_offset": [float(v) for v in (model.upper + model.lower) / 2],
+        "cloud_scale": 1.0,
+    }
+
+
 @pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
 def test_the_loss_needs_its_scenes_and_is_saved_with_the_module(panda):
     """A module with a collision loss refuses a batch it cannot place in a scene, adds the
@@ -107,11 +116,7 @@ def test_the_loss_needs_its_scenes_and_is_saved_with_the_module(panda):
     spec, workspaces, model, clearance = panda
     dof = model.model.dof
     torch.manual_seed(0)
-    kw = {
-        "state_scale": [float(v) for v in (model.upper - model.lower) / 2],
-        "state_offset": [float(v) for v in (model.upper + model.lower) / 2],
-        "cloud_scale": 1.0,
-    }
+    kw = _scales(model)
     net = PnetModule(
         Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), collision_loss=10.0, **kw
     )
@@ -140,6 +145,7 @@ def test_the_loss_needs_its_scenes_and_is_saved_with_the_module(panda):
         PnetModule(Pnet(4 + 2 * dof, dof, (16, 8)), Enet(30, (16,), 4), collision_loss=-1.0, **kw)
 
 
+@pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
 def test_collision_motion_measures_states_along_the_step(panda):
     """collision_motion m: the depth is the mean over the states at 1/m ... m/m of the straight
     step from x_t to the proposal (m = 1: the proposal alone, today's loss, and no hyper-parameter
@@ -147,12 +153,7 @@ def test_collision_motion_measures_states_along_the_step(panda):
     spec, workspaces, model, clearance = panda
     dof = model.model.dof
     torch.manual_seed(0)
-    kw = {
-        "state_scale": [float(v) for v in (model.upper - model.lower) / 2],
-        "state_offset": [float(v) for v in (model.upper + model.lower) / 2],
-        "cloud_scale": 1.0,
-        "collision_loss": 10.0,
-    }
+    kw = {**_scales(model), "collision_loss": 10.0}
 
     def module(**more):
         torch.manual_seed(0)

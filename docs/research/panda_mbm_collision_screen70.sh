@@ -42,9 +42,4 @@ report() {  # the runs that exist (the 735-scene fit runs the chosen weight only
   python -m harness.recheck "${dirs[@]}" --jobs 2 --out "$OUT"
 }
 
-if [[ $# -eq 0 ]]; then
-  set -- "${ORDER[@]}"
-  for name in "${ORDER[@]}"; do set -- "$@" "mbm_$name"; done
-  set -- "$@" report
-fi
-stages "$@"
+main "$@"

@@ -34,9 +34,4 @@ report() {
   python -m harness.recheck "${dirs[@]}" --jobs 2 --out "$OUT"
 }
 
-if [[ $# -eq 0 ]]; then
-  set -- "${ORDER[@]}"
-  for name in "${ORDER[@]}"; do set -- "$@" "mbm_$name"; done
-  set -- "$@" report
-fi
-stages "$@"
+main "$@"

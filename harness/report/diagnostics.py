@@ -129,6 +129,11 @@ def diagnostics_table(files: list[TrialFile]) -> pd.DataFrame:
     return df.iloc[order].reset_index(drop=True)
 
 
+def _header(head: list[str]) -> list[str]:
+    """A Markdown table's header and rule."""
+    return ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+
 def _pct(x) -> str:
     return "–" if x != x else f"{100 * x:.1f}%"
 
@@ -167,8 +172,7 @@ def render_diagnostics(df: pd.DataFrame, facts=None) -> str:
         " for another workspace's; dropout spread: the median distance of its dropout samples from that output (a"
         " code shift below the spread means Pnet barely uses the workspace). Distances in the env's metric.",
         "",
-        "| " + " | ".join(head) + " |",
-        "|" + "---|" * len(head),
+        *_header(head),
     ]
     for r in df.itertuples(index=False):
         calls = f"{r.proposals_per_query:.1f} ({r.first_run_calls:.1f} + {r.replan_calls:.1f})"
@@ -216,8 +220,7 @@ def render_failures(df: pd.DataFrame, facts=None) -> list[str]:
         " each gap with a short NeuralPlanner run, round after round. The original replanning (the public"
         " code's) fails a query whose gap stays unconnected; HR hands such a path to its classical planner.",
         "",
-        "| " + " | ".join(head) + " |",
-        "|" + "---|" * len(head),
+        *_header(head),
     ]
     for r in df.itertuples(index=False):
         n = r.failed
