@@ -46,11 +46,11 @@ def failure_stage(query: dict, replan_rounds) -> str | None:
     stayed unconnected in a round before (`fail_stuck`, the original replanning's end)."""
     if query.get("success") is not False or query.get("failure") == "invalid_query":
         return None
-    replans = query.get("replans")
     if query.get("failure") == "timeout":
         return "fail_timeout"
     if query.get("fallback_used") is True:
         return "fail_fallback"
+    replans = query.get("replans")
     if not replans:
         return "fail_first_run"
     if isinstance(replan_rounds, int) and replans >= replan_rounds:
@@ -223,13 +223,12 @@ def render_failures(df: pd.DataFrame, facts=None) -> list[str]:
         *_header(head),
     ]
     for r in df.itertuples(index=False):
-        n = r.failed
-
-        def cell(k, n=n, r=r):
-            v = getattr(r, k)
-            return f"{v} ({100 * v / n:.0f}%)" if n else str(v)
-
         name = r.planner + (facts.mark(r.planner) if facts is not None else "")
-        fails = [cell(k) for k in FAILS[1:]]
-        lines.append("| " + " | ".join([r.env, r.split, name, str(n), *fails]) + " |")
+        fails = [_of(getattr(r, k), r.failed) for k in FAILS[1:]]
+        lines.append("| " + " | ".join([r.env, r.split, name, str(r.failed), *fails]) + " |")
     return lines
+
+
+def _of(v: int, n: int) -> str:
+    """A count and its share of n (the count alone when n is 0)."""
+    return f"{v} ({100 * v / n:.0f}%)" if n else str(v)
