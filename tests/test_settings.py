@@ -4,7 +4,8 @@ scale tiny, quick and paper x {mpnet_nr, mpnet_nr_dense}, computed by revision b
 recomputed since: when a workspace's cloud became a function of its geometry alone (issue 42): every
 data key, and so every models key, moved then, and no test set's; when panda_mbm's expert began to stop
 on an iteration count (env.expert.run_iterations, issue 42): panda_mbm's data and models keys only; and
-when panda_mbm's recipe took a collision loss (networks.collision_loss, issue 42): its models keys only)."""
+when panda_mbm's recipe took a collision loss (networks.collision_loss, issue 42), and when that loss
+was measured along each step (networks.collision_motion): its models keys only)."""
 
 from __future__ import annotations
 
