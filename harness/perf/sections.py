@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import statistics
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -123,32 +124,19 @@ def checkers(envs: list[str], workspaces: int) -> list[dict]:
 
 def data_generation(env, workspaces: int, paths: int, jobs: tuple[int, ...]) -> list[dict]:
     """Expert paths per second of the data stage (the expert as the env's settings say, spawned
-    worker processes, one workspace per task) with each number of workers; env is an
-    harness.core.settings.EnvSettings."""
-    from mpnet.data.expert import expert_paths
+    worker processes, chunked as the data stage chunks them) with each number of workers; env
+    is an harness.core.settings.EnvSettings."""
+    from harness.core.settings import data_params
+    from mpnet.data.dataset import expert_paths_of
 
-    spec, expert = env.spec, env.expert
-    wss = [(i, spec.generator.make(i, "train", env.data_seed)) for i in range(workspaces)]
+    spec = env.spec
+    p = data_params(env, SimpleNamespace(workspaces=workspaces, paths=paths, ae_workspaces=0))
+    train = [spec.generator.make(i, "train", env.data_seed) for i in range(workspaces)]
     rows = []
     for j in jobs:
         t = time.perf_counter()
-        out = expert_paths(
-            spec,
-            wss,
-            paths,
-            env.data_seed,
-            expert.iterations,
-            expert.max_seconds,
-            jobs=j,
-            blocked_only=expert.blocked_only,
-            contract=expert.contract,
-            planner=expert.planner,
-            pairs=expert.pairs,
-            check=expert.check,
-            run_iterations=expert.run_iterations,
-        )
+        n = len(expert_paths_of(spec, p, train, jobs=j))
         dt = time.perf_counter() - t
-        n = len(out)
         rows.append({"section": "data", "env": spec.name, "jobs": j, "paths": n, "seconds": dt, "paths_per_s": n / dt})
     return rows
 

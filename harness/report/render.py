@@ -14,6 +14,8 @@ from harness.report.names import APPROX, CITATION, PAPER, RATIO_LABEL, env_label
 from harness.report.stats import BOOT_N
 from harness.report.tables import ratio_col
 
+ROW_KEY = ("Env", "Split", "Planner")  # the first columns of every table a row per planner
+
 
 def _decimals(x: float, digits: int = 3) -> int:
     """Decimals that show `digits` significant digits of x (0 for large x)."""
@@ -247,7 +249,7 @@ def _comparator_note(what: str, test: str) -> str:
 
 def render_success_cost(sc: pd.DataFrame, with_paper: bool, facts: Facts) -> tuple[str, str]:
     """The success / path cost table as (Markdown, LaTeX)."""
-    head = ["Env", "Split", "Planner", "Success [%]", "Pooled [%] [95% CI]", "Path cost", "Queries", "Seeds"]
+    head = [*ROW_KEY, "Success [%]", "Pooled [%] [95% CI]", "Path cost", "Queries", "Seeds"]
     md_rows, tex_rows, groups = [], [], []
     prev = None
     for r in sc.itertuples(index=False):
@@ -315,7 +317,7 @@ def _group_rows(df: pd.DataFrame, cells) -> list[list[str]]:
 
 def render_quality(qt: pd.DataFrame, notes: list[str], facts: Facts) -> str:
     """quality.md."""
-    head = ["Env", "Split", "Planner", "Quality median", "Quality p90", "n", "Cost / BIT* median", "Pairs"]
+    head = [*ROW_KEY, "Quality median", "Quality p90", "n", "Cost / BIT* median", "Pairs"]
     rows = _group_rows(
         qt,
         lambda r: [
@@ -339,9 +341,7 @@ def render_quality(qt: pd.DataFrame, notes: list[str], facts: Facts) -> str:
 def render_ablations(ab: pd.DataFrame, facts: Facts) -> str:
     """ablations.md."""
     head = [
-        "Env",
-        "Split",
-        "Planner",
+        *ROW_KEY,
         "Change",
         "Success [%] [95% CI]",
         "Median time [s] [95% CI]",
@@ -394,9 +394,7 @@ def _budget_text(b) -> str:
 def render_equal_quality(eq: pd.DataFrame, facts: Facts) -> str:
     """equal_quality.md."""
     head = [
-        "Env",
-        "Split",
-        "Planner",
+        *ROW_KEY,
         "Stops at",
         "No target",
         "Targeted",

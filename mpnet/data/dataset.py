@@ -79,7 +79,9 @@ class Dataset:
     manifest: dict
 
 
-def _expert_paths(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> ExpertPaths:
+def expert_paths_of(spec: EnvSpec, p: DataParams, train: list, **kwargs) -> ExpertPaths:
+    """Expert paths for the workspaces `train` (listed by index) as the dataset's params say:
+    the expert's knobs read from DataParams in one place (the data stage and its benchmark)."""
     return expert_paths(
         spec,
         list(enumerate(train)),
@@ -111,7 +113,7 @@ def build_dataset(
     chunks of expert paths are kept, so that a build cut short resumes; plan=False: every
     chunk must be there already (the merge of a sharded build; MissingChunks otherwise)."""
     train = make_workspaces(spec, split_ids("seen", p.train_workspaces, split_sizes(spec)), "train", p.data_seed)
-    paths = _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, plan=plan)
+    paths = expert_paths_of(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, plan=plan)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
     total = spec.cloud_size(p.points_per_block)
     arrays = {
@@ -147,7 +149,7 @@ def build_expert_shard(
     mine = sorted(i for c in chunks_of(len(ids), p.expert_chunk, shard).values() for i in c)
     made = dict(zip(mine, make_workspaces(spec, [ids[i] for i in mine], "train", p.data_seed)))
     train = [made.get(i) for i in range(len(ids))]  # only this shard's workspaces are made
-    return _expert_paths(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, shard=shard)
+    return expert_paths_of(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, shard=shard)
 
 
 def reusable(p: DataParams, config: dict) -> bool:
