@@ -11,6 +11,10 @@
 #
 #   RUNS=/work/runs/motion70 bash docs/research/panda_mbm_motion_screen70.sh [NAME ...]
 #
+# Its winner at the full 735 scenes (reports/panda_mbm_motion/; chosen, it became the env's recipe):
+#   SCENES=735 OUT=reports/panda_mbm_motion RUNS=... bash docs/research/panda_mbm_motion_screen70.sh \
+#     env motion4w0.04 mbm_env mbm_motion4w0.04 report
+#
 # NAME: a variant below, or mbm_NAME, or report (default: all, in order).
 set -euo pipefail
 OUT=${OUT:-reports/panda_mbm_motion70}
@@ -18,8 +22,8 @@ OUT=${OUT:-reports/panda_mbm_motion70}
 source "$(dirname "$0")/screen_runs.sh"
 
 declare -A VARIANT=(
-  [env]="+planner=mpnet_nr"                                        # the env's recipe (collision loss 0.01)
-  [motion4]="+planner=mpnet_nr +planner.networks.collision_motion=4"  # + its depth at 4 states along each step
+  [env]="+planner=mpnet_nr ~env.networks.collision_motion env.networks.collision_loss=0.01"  # the env's recipe before (loss 0.01 at the proposal)
+  [motion4]="+planner=mpnet_nr env.networks.collision_loss=0.01 +planner.networks.collision_motion=4"  # + its depth at 4 states along each step
   [motion4w0.04]="+planner=mpnet_nr +planner.networks.collision_motion=4 +planner.networks.collision_loss=0.04"  # the same, 4x the weight (the 4 states' sum)
 )
 ORDER=(env motion4 motion4w0.04)
