@@ -338,36 +338,23 @@ def render_quality(qt: pd.DataFrame, notes: list[str], facts: Facts) -> str:
     return f"# Path quality\n\n{_md_table(head, rows)}\n\n{what}\n" + "".join(f"\nNote: {n}\n" for n in notes)
 
 
+def _against_base(r, value: str, ci: str, test: str, fmt=None) -> str:
+    """An ablation's cell: its value, the 95% interval in r's `{ci}_ci_low/high`, marked the
+    same as its base's where r's `{test}_diff_significant` is false."""
+    return _with_ci(value, r[f"{ci}_ci_low"], r[f"{ci}_ci_high"], fmt, _is_false(r[f"{test}_diff_significant"]))
+
+
 def render_ablations(ab: pd.DataFrame, facts: Facts) -> str:
     """ablations.md."""
-    head = [
-        *ROW_KEY,
-        "Change",
-        "Success [%] [95% CI]",
-        "Median time [s] [95% CI]",
-        "Time / base [95% CI]",
-        "Quality median",
-        "Cost / BIT* median",
-    ]
+    head = [*ROW_KEY, "Change", "Success [%] [95% CI]", "Median time [s] [95% CI]", "Time / base [95% CI]"]
+    head += ["Quality median", "Cost / BIT* median"]
 
     def cells(r):
         return [
             facts.label(r["planner"]),
             r["change"] or "(base)",
-            _with_ci(
-                _pct(r["success_rate"]),
-                r["success_ci_low"],
-                r["success_ci_high"],
-                _pct,
-                _is_false(r["success_diff_significant"]),
-            ),
-            _with_ci(
-                fmt_g(r["time_median_s"]),
-                r["time_median_ci_low"],
-                r["time_median_ci_high"],
-                None,
-                _is_false(r["time_diff_significant"]),
-            ),
+            _against_base(r, _pct(r["success_rate"]), "success", "success", _pct),
+            _against_base(r, fmt_g(r["time_median_s"]), "time_median", "time"),
             _with_ci(fmt_g(r["time_ratio_vs"]), r["time_ratio_vs_ci_low"], r["time_ratio_vs_ci_high"]),
             fmt_g(r["quality_median"]),
             fmt_g(r["cost_over_bit_star_median"]),
@@ -393,17 +380,9 @@ def _budget_text(b) -> str:
 
 def render_equal_quality(eq: pd.DataFrame, facts: Facts) -> str:
     """equal_quality.md."""
-    head = [
-        *ROW_KEY,
-        "Stops at",
-        "No target",
-        "Targeted",
-        "Reached [%] [95% CI]",
-        "Median time to reach, all targeted [s] [95% CI]",
-        "Median time, reached only [s] [95% CI]",
-        "Target planner's median time [s] [95% CI]",
-        "Ratio [95% CI]",
-    ]
+    head = [*ROW_KEY, "Stops at", "No target", "Targeted", "Reached [%] [95% CI]"]
+    head += ["Median time to reach, all targeted [s] [95% CI]", "Median time, reached only [s] [95% CI]"]
+    head += ["Target planner's median time [s] [95% CI]", "Ratio [95% CI]"]
 
     def cells(r):
         target = ", ".join(facts.label(t) for t in str(r["target_planner"]).split(", "))
