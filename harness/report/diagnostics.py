@@ -16,6 +16,7 @@ import pandas as pd
 
 from harness.report.load import TrialFile
 from harness.report.names import KEYS, env_rank, split_rank
+from harness.report.render import _md_table
 
 # failed valid queries, and where they stopped (failure_stage)
 FAILS = ("failed", "fail_first_run", "fail_stuck", "fail_rounds", "fail_fallback", "fail_timeout")
@@ -129,11 +130,6 @@ def diagnostics_table(files: list[TrialFile]) -> pd.DataFrame:
     return df.iloc[order].reset_index(drop=True)
 
 
-def _header(head: list[str]) -> list[str]:
-    """A Markdown table's header and rule."""
-    return ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-
-
 def _pct(x) -> str:
     return "–" if x != x else f"{100 * x:.1f}%"
 
@@ -172,28 +168,29 @@ def render_diagnostics(df: pd.DataFrame, facts=None) -> str:
         " for another workspace's; dropout spread: the median distance of its dropout samples from that output (a"
         " code shift below the spread means Pnet barely uses the workspace). Distances in the env's metric.",
         "",
-        *_header(head),
     ]
+    rows = []
     for r in df.itertuples(index=False):
         calls = f"{r.proposals_per_query:.1f} ({r.first_run_calls:.1f} + {r.replan_calls:.1f})"
-        cells = [
-            r.env,
-            r.split,
-            r.planner + (facts.mark(r.planner) if facts is not None else ""),
-            str(r.queries),
-            _pct(r.success),
-            calls,
-            _pct(r.in_collision),
-            _pct(r.out_of_bounds),
-            _pct(r.reachable),
-            _pct(r.first_valid),
-            _pct(r.first_visible_from_start),
-            _pct(r.first_visible_to_goal),
-            _g(r.code_shift),
-            _g(r.dropout_spread),
-        ]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines + render_failures(df, facts)) + "\n"
+        rows.append(
+            [
+                r.env,
+                r.split,
+                r.planner + (facts.mark(r.planner) if facts is not None else ""),
+                str(r.queries),
+                _pct(r.success),
+                calls,
+                _pct(r.in_collision),
+                _pct(r.out_of_bounds),
+                _pct(r.reachable),
+                _pct(r.first_valid),
+                _pct(r.first_visible_from_start),
+                _pct(r.first_visible_to_goal),
+                _g(r.code_shift),
+                _g(r.dropout_spread),
+            ]
+        )
+    return "\n".join([*lines, _md_table(head, rows), *render_failures(df, facts)]) + "\n"
 
 
 def render_failures(df: pd.DataFrame, facts=None) -> list[str]:
@@ -220,13 +217,12 @@ def render_failures(df: pd.DataFrame, facts=None) -> list[str]:
         " each gap with a short NeuralPlanner run, round after round. The original replanning (the public"
         " code's) fails a query whose gap stays unconnected; HR hands such a path to its classical planner.",
         "",
-        *_header(head),
     ]
+    rows = []
     for r in df.itertuples(index=False):
         name = r.planner + (facts.mark(r.planner) if facts is not None else "")
-        fails = [_of(getattr(r, k), r.failed) for k in FAILS[1:]]
-        lines.append("| " + " | ".join([r.env, r.split, name, str(r.failed), *fails]) + " |")
-    return lines
+        rows.append([r.env, r.split, name, str(r.failed), *(_of(getattr(r, k), r.failed) for k in FAILS[1:])])
+    return [*lines, _md_table(head, rows)]
 
 
 def _of(v: int, n: int) -> str:
