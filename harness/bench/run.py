@@ -20,24 +20,20 @@ from harness.core.threads import extra_threads, single_threaded, thread_pools
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
 from mpnet.envs.mbm.files import is_mbm, load_mbm
 from mpnet.planners.base import sub_seed
+from mpnet.planners.classical import set_ompl_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
-
-_OMPL_SEEDED = False  # a guard only: a second seeding in one process is a bug, not a choice
 
 
 def seed_everything(seed: int) -> None:
     """Seed OMPL, numpy and torch for what a run does outside its queries (each query
     reseeds from the seed and its id: harness.bench.loop.query_seed). OMPL's seed must fit
-    32 bits and be > 0, so it gets one derived from `seed`, which may be any size."""
-    global _OMPL_SEEDED
+    32 bits and be > 0, so it gets one derived from `seed`, which may be any size. Seeding
+    again restarts OMPL's seed generator (no flag of the process remembers a first run)."""
     from ompl import util as ou
 
+    set_ompl_seed(sub_seed(seed))
     ou.setLogLevel(ou.LOG_WARN)
-    if _OMPL_SEEDED:
-        raise RuntimeError("OMPL's RNG can be seeded once per process (each sweep job runs in its own)")
-    ou.RNG.setSeed(sub_seed(seed))
-    _OMPL_SEEDED = True
     np.random.seed(int(seed) % 2**32)
     # torch only if something imported it (importing it costs a classical run ~1.5 s): planning
     # draws MPNet's dropout from numpy (each query's Generator), never from torch's RNG.

@@ -164,13 +164,18 @@ class BestCostWatch:
 
 def seed_ompl(seed: int) -> None:
     """Restart OMPL's seed generator from `seed`: every RNG made after this (the planner and
-    samplers `solve` builds fresh per query) draws the same numbers whatever ran before.
-    OMPL logs an error when seeding after its first draw, since RNGs that already exist keep
-    their streams; none that a query uses does, so the message is muted."""
+    samplers `solve` builds fresh per query) draws the same numbers whatever ran before."""
+    set_ompl_seed(sub_seed(seed, 0))
+
+
+def set_ompl_seed(value: int) -> None:
+    """OMPL's seed generator restarted at `value` (in [1, 2^31 - 1]: sub_seed's). OMPL logs an
+    error when seeding after its first draw, since RNGs that already exist keep their streams;
+    the RNGs that matter are made after it (a query's planner, a run's own), so it is muted."""
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LOG_NONE)
     try:
-        ou.RNG.setSeed(sub_seed(seed, 0))
+        ou.RNG.setSeed(int(value))
     finally:
         ou.setLogLevel(level)
 
