@@ -240,3 +240,17 @@ def test_stop_at_time_plans_most_of_the_budget_and_answers_within_it(algorithm):
     rec = plan_query(OmplPlanner(algorithm, algorithm, stop="time"), prob, 1.0)
     assert rec["failure"] is None and rec["planner_status"] == EXACT
     assert 0.9 < rec["time_s"] <= 1.0  # it plans to the budget less 50 ms, and answers within it
+
+
+def test_seeding_twice_in_one_process_restarts_ompls_draws():
+    """A second run's seeding in one process is not refused (no module flag remembers the
+    first) and restarts OMPL's seed generator: a fresh RNG draws what it drew after the first."""
+    from harness.bench.run import seed_everything
+
+    seed_everything(7)
+    first = [ou.RNG().uniform01() for _ in range(3)]
+    seed_everything(8)
+    other = ou.RNG().uniform01()
+    seed_everything(7)
+    assert [ou.RNG().uniform01() for _ in range(3)] == first
+    assert other != first[0]

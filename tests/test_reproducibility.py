@@ -32,22 +32,6 @@ def test_sub_seed_takes_any_seed_and_stays_in_ompls_range():
     assert sub_seed(0, 1) != sub_seed(0, 2) and sub_seed(0, 1) != sub_seed(1, 1)
 
 
-def test_seeding_twice_in_one_process_restarts_ompls_draws():
-    """A second run's seeding in one process is not refused (no module flag remembers the
-    first) and restarts OMPL's seed generator: a fresh RNG draws what it drew after the first."""
-    from ompl import util as ou
-
-    from harness.bench.run import seed_everything
-
-    seed_everything(7)
-    first = [ou.RNG().uniform01() for _ in range(3)]
-    seed_everything(8)
-    other = ou.RNG().uniform01()
-    seed_everything(7)
-    assert [ou.RNG().uniform01() for _ in range(3)] == first
-    assert other != first[0]
-
-
 def test_cold_and_warm_cache_plan_the_same_paths(tmp_path, run_cli):
     """Building the test set in-process draws from OMPL's RNG; each query reseeds from the run's
     seed and its id, so what ran before does not matter."""

@@ -1,9 +1,10 @@
 """Issue 42: where MPNet-HR's RRT* fails on MotionBenchMaker's problems. From an MPNet-HR run
 on MBM (problems=DIR), every failed query whose classical planner ran: the path HR handed it
 (the logged `partial.last_path`, its interior states in collision dropped as HR's repair drops
-them) and that path's first segment the continuous check finds blocked, the segment HR's RRT*
-did not complete (HR stops at the first). On each such gap, one run of each planner below with
-the same budget, from a fixed seed:
+them) and that path's first segment the continuous check finds blocked: the first its RRT* had to
+close (HR closes them in order and stops at the first it cannot; where the path had one blocked
+segment, this is the one it did not complete). On each such gap, one run of each planner below
+with the same budget, from a fixed seed:
 
 - rrt_star: as HR runs it (OMPL's defaults: k-nearest rewiring, goal bias 0.05; range 1.0 rad);
 - rrt_star, reversed: the same, planning from the gap's far end back to its near end;
@@ -42,8 +43,8 @@ VARIANTS = {  # name: (algorithm, OMPL parameters, plan from the far end)
 
 
 def hr_gaps(run_dir: Path, problems: Path, spec) -> tuple[list[dict], dict]:
-    """The first blocked segment of each failed HR query whose fallback ran, and the run's
-    own figures."""
+    """The first blocked segment of each failed HR query whose fallback ran (with the number of
+    blocked segments of the path handed over), and the run's own figures."""
     logs, _ = find_logs([run_dir])
     if len(logs) != 1:
         raise SystemExit(f"{run_dir}: expected one trials.mcap, found {len(logs)}")
@@ -116,6 +117,7 @@ def main() -> None:
     gaps, run = hr_gaps(args.run_dir, args.problems, spec)
     lengths = np.array([g["length"] for g in gaps])
     blocked = np.median([g["blocked"] for g in gaps])
+    one = sum(g["blocked"] == 1 for g in gaps)
     rows = []
     for name, (algorithm, params, reverse) in VARIANTS.items():
         r = time_variant(spec, gaps, algorithm, params, reverse, args.budget)
@@ -132,9 +134,11 @@ def main() -> None:
         f"The MPNet-HR run (git {run['git_rev']}): {run['solved']} of {run['queries']} solved; "
         f"{run['fallback_failed']} failed after its classical planner ran (RRT*, restarted after 0.5 s, 1 s, 2 s, ... "
         f"within the query's budget; {run['fallback_s']:.0f} s in it over the run). Each such query's first blocked "
-        f"segment (HR stops there): {len(gaps)} gaps, {p50:.2f} rad long (median; p10 {p10:.2f}, p90 {p90:.2f}); "
-        f"{sum(g['at_goal'] for g in gaps)} end at the query's goal, {sum(g['at_start'] for g in gaps)} begin at its "
-        f"start; the path HR handed over had {blocked:.0f} blocked segment(s) (median).",
+        f"segment (the first its RRT* had to close): {len(gaps)} gaps, {p50:.2f} rad long (median; p10 {p10:.2f}, "
+        f"p90 {p90:.2f}); {sum(g['at_goal'] for g in gaps)} end at the query's goal, "
+        f"{sum(g['at_start'] for g in gaps)} begin at its start. The path HR handed over had {blocked:.0f} blocked "
+        f"segment(s) (median); on {one} of the {len(gaps)} this gap was the only one, so the one RRT* did not "
+        "complete.",
         "",
         f"One run of each planner on each gap, {args.budget:g} s, seed = the gap's index, range {RANGE} rad, "
         "one at a time on an otherwise idle machine. Motion checks per second: the checker's motion checks over the "

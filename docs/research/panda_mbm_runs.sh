@@ -69,9 +69,11 @@ stage_gen() {  # the generated split (70 seen + 70 unseen)
   done
 }
 
-stage_lc() {  # the learning curve, on the generated split and on MBM's 700
-  sweep lc_gen +experiment=panda_mbm_learning_curve
-  sweep lc_mbm +experiment=panda_mbm_learning_curve problems="$MBM"
+stage_lc() {  # the learning curve, on the generated split and on MBM's 700 (the sizes whose networks
+  # exist: 3,570 scenes need their dataset and hours of training first)
+  local sizes='scale.train.workspaces=70,210,735'
+  sweep lc_gen +experiment=panda_mbm_learning_curve scale=quick "$sizes"
+  sweep lc_mbm +experiment=panda_mbm_learning_curve scale=quick "$sizes" problems="$MBM"
 }
 
 stage_bit_star() {
