@@ -64,23 +64,23 @@ def hr_gaps(run_dir: Path, problems: Path, spec) -> tuple[list[dict], dict]:
         ws = workspaces[q["workspace_id"]]
         checker = spec.make_checker(ws)
         states = [lp[0], *[x for x in lp[1:-1] if checker.is_valid(tuple(x))], lp[-1]]
-        for i, (a, b) in enumerate(zip(states[:-1], states[1:])):
-            if not checker.motion_valid(tuple(a), tuple(b)):
-                gaps.append(
-                    {
-                        "query": q["query_id"],
-                        "workspace": ws,
-                        "a": np.asarray(a, float),
-                        "b": np.asarray(b, float),
-                        "length": float(np.linalg.norm(np.subtract(b, a))),
-                        "at_start": i == 0,
-                        "at_goal": i == len(states) - 2,
-                        "blocked": sum(
-                            not checker.motion_valid(tuple(x), tuple(y)) for x, y in zip(states[:-1], states[1:])
-                        ),
-                    }
-                )
-                break
+        free = [checker.motion_valid(tuple(a), tuple(b)) for a, b in zip(states[:-1], states[1:])]
+        if all(free):
+            continue
+        i = free.index(False)
+        a, b = states[i], states[i + 1]
+        gaps.append(
+            {
+                "query": q["query_id"],
+                "workspace": ws,
+                "a": np.asarray(a, float),
+                "b": np.asarray(b, float),
+                "length": float(np.linalg.norm(np.subtract(b, a))),
+                "at_start": i == 0,
+                "at_goal": i == len(states) - 2,
+                "blocked": free.count(False),
+            }
+        )
     return gaps, run
 
 
