@@ -3,7 +3,7 @@ report folder's results.csv at a revision before, against the working tree's.
 
     python docs/research/retrain_moved.py BEFORE_REV FOLDER [FOLDER ...] --out reports/retrain_moved.md
 
-FOLDER is under reports/ (e.g. stats arm7 panda_mbm_mbm). Per env x split x planner that both
+FOLDER is under reports/ (e.g. stats arm7 panda_mbm_mbm; `.`: the top-level report). Per env x split x planner that both
 have: success of the valid queries before and after (MotionBenchMaker's `invalid_query` left
 out, as the summary counts), the difference with Fisher's exact p, and the median time of the
 solved before and after. Rows in only one of the two are listed apart. Each side's revision of
@@ -50,12 +50,13 @@ def _ms(t: float | None) -> str:
 
 
 def compare(before: str, folder: str) -> list[str]:
-    old = _rows(_show(before, f"reports/{folder}/results.csv"))
-    new = _rows(Path(f"reports/{folder}/results.csv").read_text())
-    old_rev = _runs_rev(_show(before, f"reports/{folder}/README.md"))
-    new_rev = _runs_rev(Path(f"reports/{folder}/README.md").read_text())
+    base = "reports" if folder in (".", "") else f"reports/{folder.strip('/')}"  # ".": the top-level report
+    old = _rows(_show(before, f"{base}/results.csv"))
+    new = _rows(Path(f"{base}/results.csv").read_text())
+    old_rev = _runs_rev(_show(before, f"{base}/README.md"))
+    new_rev = _runs_rev(Path(f"{base}/README.md").read_text())
     out = [
-        f"## {folder}/",
+        f"## {base}/",
         "",
         f"Before: runs at {old_rev} (results.csv as committed at {before}). After: runs at {new_rev}.",
         "",
