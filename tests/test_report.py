@@ -671,6 +671,25 @@ def test_benchmark_db_keeps_variants_apart(tmp_path):
     }
 
 
+def test_benchmark_db_names_a_planner_in_two_envs_plainly(tmp_path):
+    """Planner Arena groups runs by name within an experiment (an env), so one planner's runs in
+    two envs are not variants of each other: each env's runs are named `bit_star`. Before, every
+    run of a multi-env report whose log carried its settings was named `bit_star [env.name=s2d]`
+    (and the equal-quality planners by every env setting), which hid them from the committed
+    database test's check of the optimizing planners' progress."""
+    logs = tmp_path / "logs"
+    every = [Q("seen", "0", i, True, 1.0) for i in range(2)]
+    for env in ("s2d", "c2d"):
+        settings = {"seed": 0, "budget_s": 10.0, "planner.name": "bit_star", "env.name": env}
+        write_log(logs / env, env, "bit_star", 0, every, settings=settings)
+    rc, out = report(tmp_path, logs)
+    assert rc == 0
+    con = sqlite3.connect(out / "benchmark.db")
+    names = {n for (n,) in con.execute("SELECT name FROM plannerConfigs")}
+    con.close()
+    assert names == {"geometric_bit_star"}
+
+
 @pytest.mark.slow  # the whole report, end to end
 def test_files_without_queries(tmp_path, capsys):
     logs = tmp_path / "logs"

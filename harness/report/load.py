@@ -170,21 +170,30 @@ def variant_names(files: list[TrialFile], within_env: bool = False) -> list[str]
     are of other splits (seen/unseen against file), so no row or problem pools them."""
     variants = [_variant(tf.run) for tf in files]
     parsed = {v: json.loads(v) for v in variants}  # each distinct variant parsed once
+    envs = [str(tf.run.get("env")) for tf in files]
     keys = [
-        (str(tf.run.get("env")) if within_env else "", str(tf.run["planner"]), parsed[v].get("problems") is None)
-        for tf, v in zip(files, variants)
+        (e if within_env else "", str(tf.run["planner"]), parsed[v].get("problems") is None)
+        for e, tf, v in zip(envs, files, variants)
     ]
-    by_key: dict[tuple, list[dict]] = {}
-    for k, v in dict.fromkeys(zip(keys, variants)):
-        by_key.setdefault(k, []).append(parsed[v])
+    in_env: dict[tuple, list[dict]] = {}  # a key's variants in each env
+    for k, e, v in dict.fromkeys(zip(keys, envs, variants)):
+        in_env.setdefault((k, e), []).append(parsed[v])
+    # the settings that tell a key's variants apart: those that differ within one env (across
+    # envs, a planner's runs differ in the env's own settings, and are never pooled anyway: a
+    # table's row and Planner Arena's experiment are one env), so one variant keeps one name in
+    # every env (the database's planner configs)
+    differ_of: dict[tuple, set[str]] = {}
+    for (k, _), known in in_env.items():
+        names = {n for d in known for n in d}
+        differ_of.setdefault(k, set()).update(
+            n for n in names if len({json.dumps(d.get(n), sort_keys=True, default=str) for d in known}) > 1
+        )
     out = []
     for k, v in zip(keys, variants):
-        known = by_key[k]
-        if len(known) == 1:
+        differ = sorted(differ_of[k])
+        if not differ:
             out.append(k[1])
             continue
-        names = sorted({n for d in known for n in d})
-        differ = [n for n in names if len({json.dumps(d.get(n), sort_keys=True, default=str) for d in known}) > 1]
         mine = parsed[v]
         out.append(f"{k[1]} [{', '.join(f'{n}={_short(mine.get(n))}' for n in differ)}]")
     return out
