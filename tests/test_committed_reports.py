@@ -29,6 +29,7 @@ def test_a_committed_database_loads_with_named_statuses_and_progress(path):
     statuses = runs.join(db["enums"].filter(pl.col("name") == "status"), left_on="status", right_on="value")
     assert statuses.height == runs.height  # every run's status is a named one
     assert "Unknown status" not in set(statuses["description"])
+
     def algorithm(name) -> str:  # bit_star_to_nr_x1.1 and bit_star [env.collision=...]: bit_star
         return str(name).split(" [")[0].split("_to_nr")[0]
 
