@@ -14,9 +14,7 @@ in its own process (a sweep's files are independent); what it prints and writes 
 from __future__ import annotations
 
 import argparse
-import multiprocessing
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from harness.log.mcap_io import read_log
@@ -24,6 +22,7 @@ from harness.report.readme import RECHECK_FILE
 from mpnet.envs.specs import get_spec
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import verify_path
+from mpnet.workers import process_pool
 
 
 def recheck_file(path: Path, step: float | None = None) -> tuple[int, list[tuple[str, str]], float]:
@@ -118,8 +117,7 @@ def _rechecked(files: list[Path], step: float | None, jobs: int):
     if jobs == 1 or len(files) == 1:
         yield from ((f, _recheck_or_error(f, step)) for f in files)
         return
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(jobs, len(files)), mp_context=ctx) as pool:
+    with process_pool(min(jobs, len(files))) as pool:
         yield from zip(files, pool.map(_recheck_or_error, files, [step] * len(files)))
 
 

@@ -386,14 +386,13 @@ def in_fresh_processes(worker, tasks: dict, jobs: int, done) -> None:
     """worker(tasks[k]) for every k, each in a fresh spawned process (OMPL's RNG is seeded per
     task, and a process start costs less than state left behind), at most `jobs` at a time;
     done(k, result) as each finishes."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
+
+    from mpnet.workers import process_pool
 
     if not tasks:
         return
-    with ProcessPoolExecutor(
-        max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
-    ) as pool:
+    with process_pool(min(jobs, len(tasks)), max_tasks_per_child=1) as pool:
         futures = {pool.submit(worker, args): k for k, args in tasks.items()}
         for fut in as_completed(futures):
             done(futures[fut], fut.result())

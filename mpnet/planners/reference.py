@@ -171,13 +171,12 @@ def reference_costs(
             if progress is not None:
                 progress(1)
         return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
+
+    from mpnet.workers import process_pool
 
     tasks = [(spec, ws, qs, iterations, expert_s, bit_star_s, seed, k, expert) for k, (ws, qs) in enumerate(by_ws)]
-    with ProcessPoolExecutor(
-        max_workers=max(1, min(jobs, len(tasks))), mp_context=mp.get_context("spawn"), max_tasks_per_child=1
-    ) as pool:
+    with process_pool(min(jobs, len(tasks)), max_tasks_per_child=1) as pool:
         futures = {pool.submit(_worker, t): k for k, t in enumerate(tasks)}
         for fut in as_completed(futures):
             for q, c in zip(by_ws[futures[fut]][1], fut.result()):

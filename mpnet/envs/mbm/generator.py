@@ -120,10 +120,9 @@ class MBMScenes:
         of IK, and a training set has hundreds)."""
         if len(indices) < 8:
             return [self.make(i, split, seed) for i in indices]
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
+        from mpnet.workers import process_pool
 
-        with ProcessPoolExecutor(max_workers=os.cpu_count(), mp_context=mp.get_context("spawn")) as pool:
+        with process_pool(os.cpu_count() or 1) as pool:
             return list(pool.map(self.make, indices, [split] * len(indices), [seed] * len(indices), chunksize=4))
 
     def pairs(self, spec: EnvSpec, ws: Workspace, checker: CollisionChecker, rng: np.random.Generator):
