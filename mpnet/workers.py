@@ -1,4 +1,5 @@
-"""Pools of worker processes that end with the process that started them.
+"""Processes that end with the process that started them: pool workers, and a sweep's jobs
+(harness.bench.run).
 
 A pool's workers outlive a parent stopped by SIGTERM (a scheduler, `kill`): each runs its task
 on, unseen, taking a core from whatever is timed next (a killed `harness.recheck` left its two
@@ -17,12 +18,17 @@ from concurrent.futures import ProcessPoolExecutor
 PR_SET_PDEATHSIG = 1
 
 
-def end_with_parent(parent: int) -> None:
-    """A worker's initializer: SIGTERM (the default action: exit) when `parent` ends."""
+def sigterm_when_parent_ends() -> None:
+    """This process gets SIGTERM from the kernel when its parent ends (Linux; elsewhere nothing)."""
     if sys.platform.startswith("linux"):
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def end_with_parent(parent: int) -> None:
+    """A worker's initializer: SIGTERM (the default action: exit) when `parent` ends."""
+    sigterm_when_parent_ends()
     if os.getppid() != parent:  # it ended before prctl took effect
         os._exit(0)
 

@@ -27,7 +27,7 @@ def _children(pid: int) -> list[int]:
     return [int(x) for x in out.split()]
 
 
-def _alive(pid: int) -> bool:
+def alive(pid: int) -> bool:
     try:
         return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
     except (FileNotFoundError, ProcessLookupError):
@@ -60,12 +60,12 @@ def test_a_killed_sweep_stops_its_job_and_keeps_its_finished_queries(tmp_path, w
     os.kill(sweep_proc.pid, sig)
     sweep_proc.wait(timeout=30)
     deadline = time.monotonic() + BUDGET + 5  # the query in flight ends within its budget
-    while any(map(_alive, jobs)) and time.monotonic() < deadline:
+    while any(map(alive, jobs)) and time.monotonic() < deadline:
         time.sleep(0.2)
-    alive = [j for j in jobs if _alive(j)]
-    for j in alive:  # the test leaves no orphan of its own behind
+    left = [j for j in jobs if alive(j)]
+    for j in left:  # the test leaves no orphan of its own behind
         os.kill(j, signal.SIGKILL)
-    assert not alive, "the job plans on after its sweep was killed"
+    assert not left, "the job plans on after its sweep was killed"
     with open(queries.with_name("trials.mcap"), "rb") as f:
         kept = [m for _, ch, m in make_reader(f).iter_messages() if ch.topic == "/query"]
     assert len(kept) >= 1  # the finished queries are in the log, which reads to its end

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from mpnet.workers import process_pool
+from tests.test_sweep_stop import alive
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -35,13 +36,6 @@ if __name__ == "__main__":
 """
 
 
-def _alive(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
-    except (FileNotFoundError, ProcessLookupError):
-        return False
-
-
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's")
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["term", "kill"])
 def test_a_pools_workers_end_with_a_killed_parent(tmp_path, sig):
@@ -58,9 +52,9 @@ def test_a_pools_workers_end_with_a_killed_parent(tmp_path, sig):
     os.kill(parent.pid, sig)
     parent.wait(timeout=30)
     deadline = time.monotonic() + 10  # without the fix it sleeps its 120 s
-    while _alive(worker) and time.monotonic() < deadline:
+    while alive(worker) and time.monotonic() < deadline:
         time.sleep(0.05)
-    left = _alive(worker)
+    left = alive(worker)
     if left:  # the test leaves no orphan of its own behind
         os.kill(worker, signal.SIGKILL)
     assert not left, "the worker ran on after its parent was killed"

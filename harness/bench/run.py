@@ -23,6 +23,7 @@ from mpnet.planners.base import sub_seed
 from mpnet.planners.classical import set_ompl_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
+from mpnet.workers import sigterm_when_parent_ends
 
 
 def seed_everything(seed: int) -> None:
@@ -200,9 +201,6 @@ def _stop_with_parent(parent: int | None) -> None:
         raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
 
     signal.signal(signal.SIGTERM, interrupt)
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
+    sigterm_when_parent_ends()
     if parent is not None and os.getppid() != parent:  # it ended before prctl took effect
         raise KeyboardInterrupt("the sweep's process ended")
