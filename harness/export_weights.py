@@ -1,9 +1,13 @@
-"""`python -m harness.export_weights +env=ENV [scale=quick] [export_dir=DIR]`: what a fresh
-clone needs to plan ENV at this scale at once, from the cache (built first if missing):
+"""`python -m harness.export_weights +env=ENV [scale=quick] [+planner=P] [export_dir=DIR]`: what
+a fresh clone needs to plan ENV at this scale at once, from the cache (built first if missing):
 the trained networks as a pretrained set (encoder and Pnet as float32 arrays plus the
 models' content key) into DIR/pretrained/ENV-SCALE, and the test set into
 DIR/testsets/ENV-SCALE. DIR defaults to the package's mpnet/data_files, whose sets
-`python -m harness` uses when its cache lacks the artifacts of their keys."""
+`python -m harness` uses when its cache lacks the artifacts of their keys.
+
+A planner whose networks are not the env's recipe (`+planner=mpnet_nr_paper`: the paper's)
+exports its own set, named by its networks' tags (ENV-SCALE+paper_recipe), beside the env's:
+a set is found by its models' key, and a shared name would replace the env's set."""
 
 from __future__ import annotations
 
@@ -32,7 +36,7 @@ def main(cfg: DictConfig) -> None:
         raise AssertionError(f"{folder}: manifest config differs from the current config's")
     name = f"{run.env.name}-{run.scale}"
     root = Path(cfg.export_dir) if cfg.export_dir else SHIPPED.parent
-    out = root / SHIPPED.name / name
+    out = root / SHIPPED.name / "+".join([name, *_recipe_tags(cfg)])
     paths = training_paths(run)  # before the export: it may read the set being replaced
     built = {"models": _built(manifest), "data": _built(_data_manifest(run, key_config))}
     meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config, training_paths=paths, built=built)
@@ -42,6 +46,16 @@ def main(cfg: DictConfig) -> None:
     ts_meta = export_testset(ts_folder, ts_manifest, ts_out)
     size = sum(f["bytes"] for f in ts_meta["files"].values())
     print(f"exported: {ts_out} ({size / 1e6:.2f} MB, key {ts_meta['key']}, from {ts_folder})")
+
+
+def _recipe_tags(cfg: DictConfig) -> list[str]:
+    """The tags of the planner's own networks, as its logs carry them (none: the env's recipe)."""
+    from omegaconf import OmegaConf
+
+    from harness.log.facts import network_variant
+
+    networks = OmegaConf.select(cfg, "planner.networks")
+    return network_variant(OmegaConf.to_container(networks, resolve=True) if networks is not None else None)
 
 
 BUILT_FIELDS = ("build_wall_s", "created_at", "git_rev", "machine")

@@ -119,6 +119,9 @@ TESTED = {
     "python -m harness.export_weights -m +env=s2d,c2d,c3d,rigid,arm7,panda_mbm scale=quick": (
         "tests/test_pretrained.py::test_exported_set_plans_as_its_checkpoint"
     ),
+    "python -m harness.export_weights +env=panda_mbm +planner=mpnet_nr_paper scale=quick": (
+        "tests/test_pretrained.py::test_exported_set_plans_as_its_checkpoint"
+    ),
     "python -m harness -m +experiment=learning_curve": CLI + "test_learning_curve_cli",
     # docs/performance.md
     "python -m harness.perf": PERF,

@@ -12,6 +12,9 @@ from mpnet.models import load_pnet_checkpoint
 from mpnet.models.pretrained import SHIPPED, export_pretrained, read_meta, write_checkpoint
 
 SETS = sorted(p.parent for p in SHIPPED.glob("*/meta.json"))
+# a set of networks other than the env's recipe is named by their tags (ENV-SCALE+TAG): the
+# planner whose networks it holds
+RECIPE_PLANNERS = {"paper_recipe": "+planner=mpnet_nr_paper"}
 
 
 def test_every_env_ships_a_quick_set():
@@ -24,7 +27,7 @@ def test_the_docs_name_each_shipped_sets_models_and_paths(repo):
     the table says so)."""
     import re
 
-    rows = dict(re.findall(r"^\| (\S+-quick) \| (.+) \|$", (repo / "docs" / "mpnet.md").read_text(), re.M))
+    rows = dict(re.findall(r"^\| (\S+-quick\S*) \| (.+) \|$", (repo / "docs" / "mpnet.md").read_text(), re.M))
     assert set(rows) == {p.name for p in SETS}
     for folder in SETS:
         meta = read_meta(folder)
@@ -38,8 +41,9 @@ def test_shipped_set_loads_and_matches_its_key(folder, tmp_path, settings):
     from mpnet.data.store import content_key
 
     meta = read_meta(folder)
-    env, scale = folder.name.rsplit("-", 1)
-    key_config = models_key_config(settings([f"+env={env}", f"scale={scale}"]))
+    base, *tags = folder.name.split("+")
+    env, scale = base.rsplit("-", 1)
+    key_config = models_key_config(settings([f"+env={env}", f"scale={scale}", *(RECIPE_PLANNERS[t] for t in tags)]))
     assert meta["config"] == json.loads(json.dumps(key_config))
     assert meta["key"] == content_key({"kind": "models", **key_config})
     write_checkpoint(folder, tmp_path / "pnet.ckpt")  # verifies the weights' sha256
@@ -63,7 +67,9 @@ def test_damaged_set_is_refused(tmp_path):
 
 @pytest.mark.slow
 def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
-    """Tiny s2d trained, exported, and both planning the tiny test set: the same paths."""
+    """Tiny s2d trained, exported, and both planning the tiny test set: the same paths. The
+    paper's recipe exported beside it, as docs/mpnet.md exports panda_mbm's (+env=panda_mbm is
+    hours of training: s2d's tiny networks stand in)."""
     from harness.artifacts.ensure import ensure_testset
     from harness.bench.run import runtime_objects
     from mpnet.planners.base import Problem
@@ -76,6 +82,9 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
     (data,) = [d for d in (cache / "data").iterdir() if d.is_dir()]
     built = json.loads((data / "manifest.json").read_text())["expert"]["paths"]
+    # another recipe's networks go beside the env's, not over them (the set is found by its key)
+    run_cli("harness.export_weights", *args, "+planner=mpnet_nr_paper", f"export_dir={tmp_path / 'sets'}")
+    assert sorted(p.name for p in (tmp_path / "sets" / "pretrained").iterdir()) == ["s2d-tiny", "s2d-tiny+paper_recipe"]
     meta = read_meta(tmp_path / "sets" / "pretrained" / "s2d-tiny")
     assert meta["training_paths"] == built > 0
     # the build and training times a doc may quote, with where and at which revision they ran
