@@ -5,18 +5,19 @@ models' content key) into DIR/pretrained/ENV-SCALE, and the test set into
 DIR/testsets/ENV-SCALE. DIR defaults to the package's mpnet/data_files, whose sets
 `python -m harness` uses when its cache lacks the artifacts of their keys.
 
-A planner whose networks are not the env's recipe (`+planner=mpnet_nr_paper`: the paper's)
-exports its own set, named by its networks' tags (ENV-SCALE+paper_recipe), beside the env's:
-a set is found by its models' key, and a shared name would replace the env's set."""
+A planner whose networks are not the env's (another models key: `+planner=mpnet_nr_paper` on
+panda_mbm, the paper's recipe) exports its own set beside the env's, named by its networks' tags
+as its runs are labelled (ENV-SCALE+paper_recipe): a shared name would replace the env's set.
+Networks that differ from the env's only in options no tag names are refused, before training."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import hydra
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf, open_dict
 
-from harness.core.cli import run_hydra, user_errors
+from harness.core.cli import UsageError, run_hydra, user_errors
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="export")
@@ -30,13 +31,14 @@ def main(cfg: DictConfig) -> None:
     from mpnet.models.pretrained import SHIPPED, export_pretrained
 
     run = settings_of(cfg)
-    folder, manifest, _ = ensure_models(run, progress=run.progress)
     key_config = models_key_config(run)
+    name = f"{run.env.name}-{run.scale}"
+    set_name = _set_name(cfg, name, key_config)  # before training: a set that cannot be named is not built
+    folder, manifest, _ = ensure_models(run, progress=run.progress)
     if manifest["config"] != key_config:  # by construction; a mismatch would ship weights under a wrong key
         raise AssertionError(f"{folder}: manifest config differs from the current config's")
-    name = f"{run.env.name}-{run.scale}"
     root = Path(cfg.export_dir) if cfg.export_dir else SHIPPED.parent
-    out = root / SHIPPED.name / "+".join([name, *_recipe_tags(cfg)])
+    out = root / SHIPPED.name / set_name
     paths = training_paths(run)  # before the export: it may read the set being replaced
     built = {"models": _built(manifest), "data": _built(_data_manifest(run, key_config))}
     meta = export_pretrained(folder / PNET_FILE, out, manifest["key"], key_config, training_paths=paths, built=built)
@@ -48,14 +50,29 @@ def main(cfg: DictConfig) -> None:
     print(f"exported: {ts_out} ({size / 1e6:.2f} MB, key {ts_meta['key']}, from {ts_folder})")
 
 
-def _recipe_tags(cfg: DictConfig) -> list[str]:
-    """The tags of the planner's own networks, as its logs carry them (none: the env's recipe)."""
-    from omegaconf import OmegaConf
-
+def _set_name(cfg: DictConfig, name: str, key_config: dict) -> str:
+    """ENV-SCALE for the env's own networks (whatever the planner, when its options change
+    nothing: the same models key); ENV-SCALE+TAGS, the tags of the planner's networks as its
+    runs are labelled, for other networks. UsageError where they differ in options no tag names."""
+    from harness.artifacts.ensure import models_key_config
+    from harness.core.settings import settings_of
     from harness.log.facts import network_variant
 
+    if cfg.get("planner") is None:
+        return name
+    bare = cfg.copy()
+    with open_dict(bare):
+        bare.pop("planner")
+    if models_key_config(settings_of(bare)) == key_config:
+        return name
     networks = OmegaConf.select(cfg, "planner.networks")
-    return network_variant(OmegaConf.to_container(networks, resolve=True) if networks is not None else None)
+    tags = network_variant(OmegaConf.to_container(networks, resolve=True) if networks is not None else None)
+    if not tags:
+        raise UsageError(
+            f"planner.networks: {cfg.planner.name}'s networks differ from the env's (set {name}) in options no "
+            "tag names, so their set would take the env's name: export the env's networks or a labelled recipe"
+        )
+    return "+".join([name, *tags])
 
 
 BUILT_FIELDS = ("build_wall_s", "created_at", "git_rev", "machine")

@@ -18,7 +18,41 @@ RECIPE_PLANNERS = {"paper_recipe": "+planner=mpnet_nr_paper"}
 
 
 def test_every_env_ships_a_quick_set():
-    assert {p.name for p in SETS} == {f"{e}-quick" for e in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")}
+    """Each env's own networks; another recipe's set (ENV-SCALE+TAGS) may ship beside them."""
+    plain = {p.name for p in SETS if "+" not in p.name}
+    assert plain == {f"{e}-quick" for e in ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")}
+
+
+def _set_name(cfg):
+    from harness.artifacts.ensure import models_key_config
+    from harness.core.settings import settings_of
+    from harness.export_weights import _set_name
+
+    run = settings_of(cfg)
+    return _set_name(cfg, f"{run.env.name}-{run.scale}", models_key_config(run))
+
+
+@pytest.mark.parametrize(
+    ("overrides", "name"),
+    [
+        (["+env=panda_mbm"], "panda_mbm-quick"),
+        (["+env=panda_mbm", "+planner=mpnet_hr_paper"], "panda_mbm-quick+paper_recipe"),
+        (["+env=panda_mbm", "+planner=mpnet_nr_dense"], "panda_mbm-quick"),  # its options are the env's recipe's
+        (["+env=s2d", "+planner=mpnet_nr_paper"], "s2d-quick"),  # s2d's recipe is the paper's
+        (["+env=s2d", "+planner=mpnet_nr", "+planner.networks.dropout=0.25"], "s2d-quick+dropout0.25"),
+    ],
+)
+def test_a_set_is_named_by_its_networks_not_its_planner(compose_config, overrides, name):
+    assert _set_name(compose_config(overrides)) == name
+
+
+def test_networks_no_tag_tells_apart_are_refused_a_name(compose_config):
+    """equal_steps changes the models key and no run label: its set would take the env's name."""
+    from harness.core.cli import UsageError
+
+    cfg = compose_config(["+env=panda_mbm", "+planner=mpnet_nr", "+planner.networks.equal_steps=false"])
+    with pytest.raises(UsageError, match="planner.networks"):
+        _set_name(cfg)
 
 
 def test_the_docs_name_each_shipped_sets_models_and_paths(repo):
@@ -67,9 +101,9 @@ def test_damaged_set_is_refused(tmp_path):
 
 @pytest.mark.slow
 def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
-    """Tiny s2d trained, exported, and both planning the tiny test set: the same paths. The
-    paper's recipe exported beside it, as docs/mpnet.md exports panda_mbm's (+env=panda_mbm is
-    hours of training: s2d's tiny networks stand in)."""
+    """Tiny s2d trained, exported, and both planning the tiny test set: the same paths. Other
+    networks exported beside it, as docs/mpnet.md exports the paper's recipe for +env=panda_mbm
+    (hours of training: s2d's tiny networks stand in; s2d's recipe is the paper's)."""
     from harness.artifacts.ensure import ensure_testset
     from harness.bench.run import runtime_objects
     from mpnet.planners.base import Problem
@@ -82,9 +116,12 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
     (data,) = [d for d in (cache / "data").iterdir() if d.is_dir()]
     built = json.loads((data / "manifest.json").read_text())["expert"]["paths"]
-    # another recipe's networks go beside the env's, not over them (the set is found by its key)
-    run_cli("harness.export_weights", *args, "+planner=mpnet_nr_paper", f"export_dir={tmp_path / 'sets'}")
-    assert sorted(p.name for p in (tmp_path / "sets" / "pretrained").iterdir()) == ["s2d-tiny", "s2d-tiny+paper_recipe"]
+    # other networks go beside the env's, not over them; the paper's recipe is s2d's own (one set)
+    for planner in (["+planner=mpnet_nr_paper"], ["+planner=mpnet_nr", "+planner.networks.dropout=0.25"]):
+        run_cli("harness.export_weights", *args, *planner, f"export_dir={tmp_path / 'sets'}")
+    sets = {p.name: read_meta(p)["key"] for p in (tmp_path / "sets" / "pretrained").iterdir()}
+    assert sorted(sets) == ["s2d-tiny", "s2d-tiny+dropout0.25"] and sets["s2d-tiny"] == models.name
+    assert sets["s2d-tiny+dropout0.25"] != models.name
     meta = read_meta(tmp_path / "sets" / "pretrained" / "s2d-tiny")
     assert meta["training_paths"] == built > 0
     # the build and training times a doc may quote, with where and at which revision they ran
