@@ -33,7 +33,7 @@ def main(cfg: DictConfig) -> None:
     run = settings_of(cfg)
     key_config = models_key_config(run)
     name = f"{run.env.name}-{run.scale}"
-    set_name = _set_name(cfg, name, key_config)  # before training: a set that cannot be named is not built
+    set_name = _set_name(cfg, run, name)  # before training: a set that cannot be named is not built
     folder, manifest, _ = ensure_models(run, progress=run.progress)
     if manifest["config"] != key_config:  # by construction; a mismatch would ship weights under a wrong key
         raise AssertionError(f"{folder}: manifest config differs from the current config's")
@@ -50,20 +50,17 @@ def main(cfg: DictConfig) -> None:
     print(f"exported: {ts_out} ({size / 1e6:.2f} MB, key {ts_meta['key']}, from {ts_folder})")
 
 
-def _set_name(cfg: DictConfig, name: str, key_config: dict) -> str:
-    """ENV-SCALE for the env's own networks (whatever the planner, when its options change
-    nothing: the same models key); ENV-SCALE+TAGS, the tags of the planner's networks as its
-    runs are labelled, for other networks. UsageError where they differ in options no tag names."""
-    from harness.artifacts.ensure import models_key_config
-    from harness.core.settings import settings_of
+def _set_name(cfg: DictConfig, run, name: str) -> str:
+    """`name` (ENV-SCALE) for the env's own networks, whatever the planner whose options change
+    nothing; NAME+TAGS, the tags of the planner's networks as its runs are labelled, for other
+    networks. UsageError where they differ in options no tag names."""
+    from harness.core.config import model_params
     from harness.log.facts import network_variant
 
-    if cfg.get("planner") is None:
-        return name
     bare = cfg.copy()
     with open_dict(bare):
-        bare.pop("planner")
-    if models_key_config(settings_of(bare)) == key_config:
+        bare.pop("planner", None)
+    if model_params(bare) == run.models:  # the dataset's params take no planner: the networks' decide
         return name
     networks = OmegaConf.select(cfg, "planner.networks")
     tags = network_variant(OmegaConf.to_container(networks, resolve=True) if networks is not None else None)

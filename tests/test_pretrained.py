@@ -24,12 +24,11 @@ def test_every_env_ships_a_quick_set():
 
 
 def _set_name(cfg):
-    from harness.artifacts.ensure import models_key_config
     from harness.core.settings import settings_of
     from harness.export_weights import _set_name
 
     run = settings_of(cfg)
-    return _set_name(cfg, f"{run.env.name}-{run.scale}", models_key_config(run))
+    return _set_name(cfg, run, f"{run.env.name}-{run.scale}")
 
 
 @pytest.mark.parametrize(
