@@ -46,6 +46,15 @@ class StateSpace(ABC):
     def half_widths(self) -> np.ndarray:
         return (self.upper - self.lower) / 2.0
 
+    def maximum_extent(self) -> float:
+        """The largest distance between two states (OMPL's getMaximumExtent)."""
+        return float(np.linalg.norm(self.upper - self.lower))
+
+    def metric_weights(self) -> np.ndarray:
+        """Per coordinate, the weight of |difference| in `distance` for the wrapped coordinates
+        (those past bounded_dims; the bounded ones are Euclidean): the compiled planners' metric."""
+        return np.ones(self.dim)
+
     @abstractmethod
     def distance(self, a, b) -> float:
         """The metric path costs are measured in."""
@@ -194,6 +203,13 @@ class SE2Space(StateSpace):
 
     def distance(self, a, b) -> float:
         return math.hypot(b[0] - a[0], b[1] - a[1]) + self.theta_weight * abs(wrap_angle(b[2] - a[2]))
+
+    def maximum_extent(self) -> float:
+        """OMPL's SE(2): the planar diagonal plus theta_weight x pi (the farthest turn)."""
+        return math.hypot(*(self.upper[:2] - self.lower[:2])) + self.theta_weight * math.pi
+
+    def metric_weights(self) -> np.ndarray:
+        return np.array([1.0, 1.0, self.theta_weight])
 
     def difference(self, a, b):
         d = np.asarray(b, float) - np.asarray(a, float)

@@ -1,0 +1,193 @@
+"""RRT-Connect (Kuffner and LaValle 2000) compiled (numba), as OMPL's `RRTConnect` runs it,
+on the env's compiled checks (mpnet.envs.checkers.compiled_env): no Python between a sample
+and its checks, so the planner pays what MPNet's compiled loop pays per check.
+
+OMPL's algorithm, step for step: the trees take turns; a uniform sample is grown toward
+from the turn's tree (its nearest state, moved at most `reach` toward the sample; the start
+tree checks the motion nearest -> new, the goal tree the new state and then new -> nearest);
+if that tree moved, the other tree is grown toward the state just added until it reaches it
+(connected) or is trapped. Nearest neighbours by a linear scan of the tree (OMPL: GNAT),
+exact and cheap at the sizes these trees reach within a budget.
+
+A search runs in slices (`grow`, at most `iterations` samples a call) so that the caller
+checks the clock between calls (numba has no clock); the trees and the turn live in the
+caller's arrays, so a slice picks up where the last stopped.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mpnet.envs.checkers.compiled_env import bounded_dims, canonical, motion_free, state_free, wrap_difference
+from mpnet.jit import njit
+
+TRAPPED, ADVANCED, REACHED = 0, 1, 2
+# grow's outcome
+RUNNING, CONNECTED, FULL = 0, 1, 2
+# state: the trees' sizes, whose turn it is (0 the start tree), the connection's two nodes
+N0, N1, TURN, JOIN0, JOIN1 = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def uniform(rng, lo, hi):
+    """A uniform draw in [lo, hi) from a splitmix64 stream (rng: its one uint64 of state). A
+    Generator argument costs ~30 us to hand to numba per call, more than a 2-D query's search."""
+    rng[0] += np.uint64(0x9E3779B97F4A7C15)
+    z = rng[0]
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    z ^= z >> np.uint64(31)
+    return lo + (hi - lo) * (np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0))
+
+
+@njit(cache=True)
+def distance(env, weights, a, b):
+    """The space's metric (mpnet.envs.spaces): Euclidean over the bounded coordinates, plus
+    weight x |difference| for each wrapped one (SE2's angle, along the shorter arc)."""
+    d = b - a
+    wrap_difference(env, d)
+    kb = bounded_dims(env, d.shape[0])
+    s = 0.0
+    for k in range(kb):
+        s += d[k] * d[k]
+    out = math.sqrt(s)
+    for k in range(kb, d.shape[0]):
+        out += weights[k] * abs(d[k])
+    return out
+
+
+@njit(cache=True)
+def nearest(env, weights, nodes, n, q):
+    """The index of the node (of the first n) nearest q."""
+    best, bi = np.inf, 0
+    d = q.shape[0]
+    if bounded_dims(env, d) == d:  # all Euclidean: squared distances compare the same, no root
+        for i in range(n):
+            s = 0.0
+            for k in range(d):
+                t = nodes[i, k] - q[k]
+                s += t * t
+                if s >= best:
+                    break
+            if s < best:
+                best, bi = s, i
+        return bi
+    for i in range(n):
+        s = distance(env, weights, nodes[i], q)
+        if s < best:
+            best, bi = s, i
+    return bi
+
+
+@njit(cache=True)
+def _extend(env, counts, weights, reach, nodes, parents, state, t, target):
+    """OMPL's growTree: tree t's nearest node moved toward target by at most `reach`, added
+    when its motion is free. TRAPPED, ADVANCED (moved, target not reached) or REACHED."""
+    n = state[t]
+    i = nearest(env, weights, nodes[t], n, target)
+    near = nodes[t, i]
+    new = nodes[t, n]
+    dist = distance(env, weights, near, target)
+    reached = True
+    if dist > reach:
+        d = target - near
+        wrap_difference(env, d)
+        f = reach / dist
+        for k in range(d.shape[0]):
+            new[k] = near[k] + f * d[k]
+        canonical(env, new)
+        same = True
+        for k in range(d.shape[0]):
+            if new[k] != near[k]:
+                same = False
+                break
+        if same:
+            return TRAPPED
+        reached = False
+    else:
+        new[:] = target
+    if t == 0:
+        counts[1] += 1
+        ok = motion_free(env, counts, near, new)
+    else:  # the goal tree: the new state, then the motion toward its tree (OMPL's order)
+        counts[0] += 1
+        ok = state_free(env, counts, new)
+        if ok:
+            counts[1] += 1
+            ok = motion_free(env, counts, new, near)
+    if not ok:
+        return TRAPPED
+    parents[t, n] = i
+    state[t] = n + 1
+    return REACHED if reached else ADVANCED
+
+
+@njit(cache=True)
+def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, iterations, room, sample):
+    """Up to `iterations` rounds of RRT-Connect on the trees (nodes (2, cap, d), parents
+    (2, cap), state: see N0..JOIN1; each tree's root placed by the caller). Returns
+    CONNECTED (state[JOIN0], state[JOIN1]: the start tree's and the goal tree's nodes that
+    meet, one state apart or the same), RUNNING (iterations spent) or FULL (a tree within
+    `room` nodes of its capacity: the caller grows the arrays)."""
+    cap = nodes.shape[1]
+    for _ in range(iterations):
+        if state[N0] + room >= cap or state[N1] + room >= cap:
+            return FULL
+        t = state[TURN]
+        state[TURN] = 1 - t
+        for k in range(sample.shape[0]):
+            sample[k] = uniform(rng, lower[k], upper[k])
+        if _extend(env, counts, weights, reach, nodes, parents, state, t, sample) == TRAPPED:
+            continue
+        added = state[t] - 1
+        target = nodes[t, added].copy()
+        o = 1 - t
+        g = _extend(env, counts, weights, reach, nodes, parents, state, o, target)
+        while g == ADVANCED:
+            g = _extend(env, counts, weights, reach, nodes, parents, state, o, target)
+        if g == REACHED:
+            if t == 0:
+                state[JOIN0], state[JOIN1] = added, state[o] - 1
+            else:
+                state[JOIN0], state[JOIN1] = state[o] - 1, added
+            return CONNECTED
+    return RUNNING
+
+
+@njit(cache=True)
+def solution(nodes, parents, state):
+    """The path of a connection: the start tree's root to its joining node, then the goal
+    tree's joining node to its root, the shared state once."""
+    d = nodes.shape[2]
+    a, b = state[JOIN0], state[JOIN1]
+    na, nb = 1, 1
+    i = a
+    while i != 0:
+        i = parents[0, i]
+        na += 1
+    i = b
+    while i != 0:
+        i = parents[1, i]
+        nb += 1
+    out = np.empty((na + nb, d))
+    i = a
+    for r in range(na - 1, -1, -1):
+        out[r] = nodes[0, i]
+        i = parents[0, i]
+    i = b
+    for r in range(na, na + nb):
+        out[r] = nodes[1, i]
+        i = parents[1, i]
+    # the goal tree reached the start tree's node (or the reverse): one copy of it
+    same = True
+    for k in range(d):
+        if out[na - 1, k] != out[na, k]:
+            same = False
+            break
+    if same:
+        keep = np.ones(na + nb, np.bool_)
+        keep[na] = False
+        return out[keep]
+    return out

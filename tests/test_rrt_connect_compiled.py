@@ -1,0 +1,141 @@
+"""rrt_connect_compiled: RRT-Connect on the compiled checks solves what OMPL's solves, every
+path passes the fine re-check, edges respect the range, budgets and bad input are honoured."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from mpnet.envs import Workspace, get_spec
+from mpnet.envs.scenes.generators import make_workspace
+from mpnet.motion import path_cost, verify_path
+from mpnet.planners import EXACT, INVALID_QUERY, TIMEOUT, Planner, Problem
+from mpnet.planners.compiled import rrt_connect as R
+from mpnet.planners.compiled.rrt_connect import CompiledRRTConnect
+
+WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
+RING = Workspace("ring", "file", [[0, 3], [0, -3], [3, 0], [-3, 0]], [[8, 2], [8, 2], [2, 8], [2, 8]])
+
+
+def problem(env, ws, start, goal, seed=None, spec=None):
+    spec = spec or get_spec(env)
+    return Problem(spec, ws, spec.make_checker(ws), np.array(start, float), np.array(goal, float), seed=seed)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def compiled():
+    """The kernels compiled (or loaded) before any budget runs, as the bench's warm-up does."""
+    for env, start, goal in (("s2d", (-10.0, 0.0), (10.0, 0.0)), ("rigid", (-10.0, 0.0, 0.0), (10.0, 0.0, 0.0))):
+        CompiledRRTConnect().warm_up(problem(env, WALL, start, goal))
+
+
+@pytest.mark.parametrize(
+    "env,start,goal",
+    [("s2d", (-10.0, 0.0), (10.0, 0.0)), ("rigid", (-10.0, 0.0, 3.0), (10.0, 0.0, -2.9))],
+)
+def test_solves_around_a_wall(env, start, goal):
+    planner = CompiledRRTConnect()
+    assert isinstance(planner, Planner)
+    p = problem(env, WALL, start, goal, seed=3)
+    res = planner.solve(p, 5.0)
+    assert res.status == EXACT and res.solved
+    assert res.path[0] == list(start) and res.path[-1] == list(goal)  # the query's ends, exactly
+    assert verify_path(p.spec, WALL, res.path, p.start, p.goal) is None
+    assert path_cost(p.spec, res.path) > 20.0  # it went around
+    assert p.checker.state_checks > 0 and p.checker.motion_checks > 0  # counted on the checker
+
+
+@pytest.mark.parametrize("env", ["c2d", "c3d", "rigid"])
+def test_generated_workspaces_every_query_re_checked(env):
+    from mpnet.data.queries import make_queries
+
+    spec = get_spec(env)
+    ws = make_workspace(spec, 0, "seen")
+    planner = CompiledRRTConnect()
+    for i, q in enumerate(make_queries(spec, ws, 5, seed=0, split="seen")):
+        p = Problem(spec, ws, spec.make_checker(ws), q.start, q.goal, seed=i)
+        res = planner.solve(p, 5.0)
+        assert res.solved and verify_path(spec, ws, res.path, q.start, q.goal) is None
+
+
+def test_edges_are_at_most_the_range():
+    """The env's planner_range bounds each edge unless the config sets one (as OMPL's RRTConnect)."""
+    spec = replace(get_spec("s2d"), planner_range=0.5)
+    for planner, bound in ((CompiledRRTConnect(), 0.5), (CompiledRRTConnect(range=2.0), 2.0)):
+        res = planner.solve(problem("s2d", WALL, (-10.0, 0.0), (10.0, 0.0), seed=1, spec=spec), 5.0)
+        seg = np.linalg.norm(np.diff(np.asarray(res.path), axis=0), axis=1)
+        assert res.solved and seg.max() <= bound + 1e-9 and seg.max() > bound / 2
+
+
+def test_without_a_range_ompls_default_a_fifth_of_the_extent():
+    res = CompiledRRTConnect().solve(problem("s2d", WALL, (-15.0, -15.0), (15.0, 15.0), seed=2), 5.0)
+    seg = np.linalg.norm(np.diff(np.asarray(res.path), axis=0), axis=1)
+    assert res.solved and seg.max() <= 0.2 * np.hypot(40, 40) + 1e-9
+
+
+@pytest.mark.parametrize("start,goal", [((0.0, 0.0), (10.0, 0.0)), ((-10.0, 0.0), (25.0, 0.0))])
+def test_invalid_endpoints_fail_fast(start, goal):
+    res = CompiledRRTConnect().solve(problem("s2d", WALL, start, goal), 10.0)
+    assert res.status == INVALID_QUERY and res.path is None
+
+
+def test_unreachable_goal_times_out_within_its_budget():
+    """A goal boxed in by four walls: the budget ends the search, and the trees, grown past
+    their first capacity, keep every state they had."""
+    import time
+
+    t = time.perf_counter()
+    res = CompiledRRTConnect().solve(problem("s2d", RING, (-10.0, -10.0), (0.0, 0.0), seed=0), 0.3)
+    elapsed = time.perf_counter() - t
+    assert res.status == TIMEOUT and res.path is None
+    assert 0.29 < elapsed < 0.3 + 2 * R.SLICE_S + 0.05
+    assert res.stats["tree_states"] > R.CAPACITY
+
+
+def test_trees_grown_past_their_capacity_still_give_a_valid_path(monkeypatch):
+    monkeypatch.setattr(R, "CAPACITY", 8)
+    spec = replace(get_spec("s2d"), planner_range=0.3)  # many short edges: several doublings
+    planner = CompiledRRTConnect()
+    res = planner.solve(problem("s2d", WALL, (-15.0, 0.0), (15.0, 0.0), seed=5, spec=spec), 5.0)
+    assert res.solved and planner._trees[0].shape[1] > 8
+    assert verify_path(spec, WALL, res.path, res.path[0], res.path[-1]) is None
+
+
+def test_a_seeded_problem_plans_the_same_whatever_ran_before():
+    planner = CompiledRRTConnect()
+    p = lambda seed: problem("s2d", WALL, (-10.0, 0.0), (10.0, 5.0), seed=seed)
+    first = planner.solve(p(11), 5.0).path
+    for seed in (1, 2, 3):
+        planner.solve(p(seed), 5.0)
+    assert planner.solve(p(11), 5.0).path == first
+    assert any(planner.solve(p(s), 5.0).path != first for s in (12, 13, 14))
+
+
+def test_a_checker_without_compiled_checks_is_refused_in_one_line():
+    spec = get_spec("rigid")
+    with pytest.raises(ValueError, match="^config key planner: rrt_connect_compiled .* fcl checker has none"):
+        CompiledRRTConnect().check_env(spec, "fcl")
+    with pytest.raises(ValueError, match="^config key planner.range"):
+        CompiledRRTConnect(range=0.0)
+
+
+def test_mbm_problems_on_the_arm(mbm_dir):
+    """MotionBenchMaker's six bundled Panda problems: each valid one solved, each path passing
+    the sphere checker's certified motions and pybullet's fine re-check."""
+    from mpnet.data.expert import planner_check
+    from mpnet.envs.mbm.files import load_mbm
+
+    spec = get_spec("panda_mbm")
+    ts = load_mbm(mbm_dir, spec)
+    planner = CompiledRRTConnect()
+    solved = 0
+    for i, q in enumerate(ts.queries):
+        ws = next(w for w in ts.workspaces if w.id == q.workspace_id)
+        checker = spec.make_checker(ws)
+        res = planner.solve(Problem(spec, ws, checker, q.start, q.goal, seed=i), 10.0)
+        if res.status == INVALID_QUERY:
+            continue
+        assert res.solved and planner_check(spec, ws, checker, res.path, q.start, q.goal)
+        assert verify_path(spec, ws, res.path, q.start, q.goal) is None
+        solved += 1
+    assert solved >= 5
