@@ -26,6 +26,7 @@ def test_perf_writes_every_section(run_cli, tmp_path, sweeps_cache):
         "## Batched planning: throughput and latency",
         "## Networks against their floor",
         "## Collision checking throughput",
+        "## The price of a check: compiled, and through OMPL's callbacks into Python",
         "## Data generation",
         "## Training throughput",
         "## GPU",
@@ -34,7 +35,7 @@ def test_perf_writes_every_section(run_cli, tmp_path, sweeps_cache):
     assert (out / "figures" / "perf_growth.png").stat().st_size > 0
     df = pd.read_csv(out / "perf.csv")
     pl = df[df["section"] == "planners"].set_index("planner")
-    assert set(pl.index) == {"mpnet_nr", "bit_star", "rrt_connect"}
+    assert set(pl.index) == {"mpnet_nr", "bit_star", "rrt_connect", "rrt_connect_compiled"}
     assert (pl["queries"] == pl["queries"].iloc[0]).all()  # the same queries for every planner
     nr = pl.loc["mpnet_nr"]
     assert nr["plan_median_s"] <= nr["time_median_s"]
@@ -57,6 +58,11 @@ def test_perf_writes_every_section(run_cli, tmp_path, sweeps_cache):
     bt = df[df["section"] == "batched"].set_index("mode")
     assert set(bt.index) == {"one", "batched"} and (bt["queries"] == bt["queries"].iloc[0]).all()
     assert bt.loc["batched", "batch_mean"] > 1 and (bt["queries_per_s"] > 0).all()
+    cx = df[df["section"] == "crossing"].set_index("check")
+    assert set(cx.index) == {"state", "motion"} and (cx["env"] == "s2d").all()
+    # through OMPL's callbacks a point robot's check costs many times the compiled one
+    assert (cx["ompl_us"] > 3 * cx["compiled_us"]).all() and (cx["compiled_us"] > 0).all()
+    assert "| Simple 2D | RRT-Connect |" in md.split("## The price of a check")[1]  # its crossings' share
     data = df[df["section"] == "data"]
     assert sorted(data["jobs"]) == [1, 2] and (data["paths"] > 0).all()
 

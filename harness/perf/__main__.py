@@ -43,6 +43,7 @@ def main(cfg: DictConfig) -> None:
     from harness.core.settings import EnvSettings
     from harness.perf import render, sections
     from harness.perf.batched import batched
+    from harness.perf.crossing import crossing
     from harness.perf.obstacles import obstacles
     from harness.perf.planners import planners
 
@@ -69,6 +70,8 @@ def main(cfg: DictConfig) -> None:
     _step("networks", t0)
     rows += sections.checkers(list(p.envs), int(p.checker_workspaces))
     _step("checkers", t0)
+    rows += crossing(list(p.envs), int(p.checker_workspaces))
+    _step("crossing", t0)
     env_cfg = OmegaConf.load(Path(__file__).resolve().parents[2] / "conf" / "env" / f"{p.data.env}.yaml")
     env = EnvSettings.of(env_cfg)
     rows += sections.data_generation(env, int(p.data.workspaces), int(p.data.paths), tuple(p.data.jobs))

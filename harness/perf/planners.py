@@ -95,6 +95,8 @@ def summarize(env: str, planner: str, out: dict) -> dict:
         "plan_median_s": _med([q.get("plan_s", q.get("time_s")) for q in solved]),
         "plan_p90_s": _p90([q.get("plan_s", q.get("time_s")) for q in solved]),
         "checks_median": _med([q.get("collision_checks") for q in qs]),
+        "state_checks_median": _med([q.get("state_checks") for q in qs]),
+        "motion_checks_median": _med([q.get("motion_checks") for q in qs]),
         "configurations_median": _med([q.get("configurations_checked") for q in qs]),
     }
     time_total = sum(float(q.get("time_s") or 0.0) for q in qs)

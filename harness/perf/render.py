@@ -52,6 +52,9 @@ PERF_LABELS = {
 }
 
 
+OMPL_PLANNERS = ("bit_star", "informed_rrt_star", "rrt_star", "rrt_connect")  # their checks cross into Python
+
+
 def planner_label(p: str) -> str:
     return PERF_LABELS.get(p, p)
 
@@ -181,6 +184,48 @@ def gpu_md(folder: Path) -> str:
         return "No GPU measurement is kept (no GPU machine was available)."
     head = ["File", "Device", "Size", "Pnet batch 1 [ms]", "Pnet batch 1024 [ms]", "Training batch 100 [samples/s]"]
     return _md_table(head, rows)
+
+
+def crossing_md(cx: pd.DataFrame, pl: pd.DataFrame | None) -> list[str]:
+    """The price of a check compiled and through OMPL's callbacks, and (with the planners' runs)
+    about how much of each OMPL planner's median time its checks' crossings are."""
+    rows_ = [
+        [env_label(r.env), r.check, _g(r.compiled_us), _g(r.python_us), _g(r.ompl_us), _g(r.crossing_us)]
+        for r in cx.itertuples()
+    ]
+    parts = [
+        "",
+        "## The price of a check: compiled, and through OMPL's callbacks into Python",
+        "",
+        _md_table(["Env", "Check", "Compiled [µs]", "From Python [µs]", "Through OMPL [µs]", "Crossing [µs]"], rows_),
+        "",
+        "The same random states, and motions from a free state toward another cut to the planner range, checked "
+        "in a compiled loop (what MPNet's compiled loop and `rrt_connect_compiled` pay), from Python through the "
+        "checker, and through OMPL's validity callback and motion validator (what every OMPL planner pays, "
+        "MPNet-HR's RRT* included; a bare Python-to-OMPL call subtracted). Crossing: OMPL's price less the "
+        "compiled one. Medians over repeats and workspaces.",
+    ]
+    if pl is None or "state_checks_median" not in pl:
+        return parts
+    price = {(r.env, r.check): r.crossing_us for r in cx.itertuples()}
+    shares = []
+    for r in pl.itertuples():
+        if r.planner not in OMPL_PLANNERS or (r.env, "state") not in price:
+            continue
+        us = r.state_checks_median * price[(r.env, "state")] + r.motion_checks_median * price[(r.env, "motion")]
+        shares.append([env_label(r.env), planner_label(r.planner), _ms(us * 1e-6), _ms(r.time_median_s),
+                       _pct(us * 1e-6 / r.time_median_s)])  # fmt: skip
+    if shares:
+        parts += [
+            "",
+            _md_table(["Env", "OMPL planner", "Crossings [ms]", "time_s median [ms]", "Share [%]"], shares),
+            "",
+            "Crossings: the median query's state and motion checks times the crossing's price, over the median "
+            "solved query's time (medians of different queries: an estimate). A time ratio between an OMPL "
+            "planner and a compiled one carries this much plumbing; `rrt_connect_compiled` against `rrt_connect` "
+            "measures it on one algorithm.",
+        ]
+    return parts
 
 
 def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: dict) -> list[Path]:
@@ -360,6 +405,8 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "Single: one counted call per state or motion (random states; motions between random free "
             "states). Batched: one vectorised call for 2000 states or 200 motions. Medians over repeats.",
         ]
+    if "crossing" in sec:
+        parts += crossing_md(sec["crossing"], sec.get("planners"))
     if "data" in sec:
         dd = sec["data"]
         base = float(dd["paths_per_s"].iloc[0])

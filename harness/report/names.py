@@ -16,7 +16,7 @@ ENV_LABELS = {
 }
 SPLIT_ORDER = ("seen", "unseen")
 PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
-KNOWN_EXTRAS = ("rrt_star", "rrt_connect")
+KNOWN_EXTRAS = ("rrt_star", "rrt_connect", "rrt_connect_compiled")
 # The planners the report knows by name: label and figure colour.
 PLANNERS = {
     "mpnet_nr": ("MPNet (NR)", "#1f77b4"),
@@ -25,6 +25,7 @@ PLANNERS = {
     "bit_star": ("BIT*", "#ff7f0e"),
     "rrt_star": ("RRT*", "#9467bd"),
     "rrt_connect": ("RRT-Connect", "#2ca02c"),
+    "rrt_connect_compiled": ("RRT-Connect (compiled)", "#8c564b"),
 }
 PLANNER_LABELS = {name: label for name, (label, _) in PLANNERS.items()}
 PLANNER_COLORS = {name: colour for name, (_, colour) in PLANNERS.items()}

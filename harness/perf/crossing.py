@@ -1,0 +1,124 @@
+"""The price of one collision check as each kind of planner pays it, per env: inside
+compiled code (MPNet's compiled loop, `rrt_connect_compiled`: the kernels called directly)
+and through OMPL's callbacks into Python (every OMPL planner, MPNet-HR's RRT* included:
+mpnet.envs.ompl_space's validity lambda and motion validator). What the crossing adds per
+check, times a planner's checks, is the part of a time ratio between the two kinds that is
+plumbing, not algorithm (DESIGN: a fair clock).
+
+The same states (random, as a sampler draws them) and motions (from a random free state
+toward another, cut to the env's planner range, as a tree planner extends) are checked three
+ways: in a compiled loop; from Python through the checker (`is_valid`, `motion_valid`); and
+through OMPL (`si.isValid`, `si.checkMotion` called from Python, less the cost of a bare
+Python-to-OMPL call, which OMPL's own C++ loop does not pay). crossing = OMPL's - compiled."""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from mpnet.envs.checkers.compiled_env import motion_free, state_free
+from mpnet.envs.ompl_space import make_space_information
+from mpnet.envs.specs import get_spec
+from mpnet.jit import njit
+
+STATES, MOTIONS, REPEATS = 1000, 100, 7
+
+
+@njit(cache=True)
+def _states_compiled(env, counts, qs):
+    n = 0
+    for i in range(qs.shape[0]):
+        n += state_free(env, counts, qs[i])
+    return n
+
+
+@njit(cache=True)
+def _motions_compiled(env, counts, A, B):
+    n = 0
+    for i in range(A.shape[0]):
+        n += motion_free(env, counts, A[i], B[i])
+    return n
+
+
+def _per_call(run, calls: int) -> float:
+    """Median over REPEATS of run()'s time per call (after one untimed run)."""
+    run()
+    ts = []
+    for _ in range(REPEATS):
+        t = time.perf_counter()
+        run()
+        ts.append((time.perf_counter() - t) / calls)
+    return statistics.median(ts)
+
+
+def _motions(spec, checker, rng, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """MOTIONS motions from a free state toward another, at most the planner range long (the
+    space's metric; OMPL's default range where the env sets none)."""
+    reach = spec.planner_range or 0.2 * spec.space.maximum_extent()
+    pick = rng.integers(0, len(free), size=(MOTIONS, 2))
+    A, B = free[pick[:, 0]], free[pick[:, 1]].copy()
+    for i in range(MOTIONS):
+        d = spec.space.distance(A[i], B[i])
+        if d > reach:
+            B[i] = A[i] + spec.space.difference(A[i], B[i]) * (reach / d)
+    return A, spec.space.wrap(B)
+
+
+def _prices(spec, checker, rng) -> dict[str, list[float]]:
+    """{check: [compiled, from Python, through OMPL] seconds per check} on one workspace."""
+    kenv, counts = checker.compiled_env(), np.zeros(3, np.int64)
+    qs = np.ascontiguousarray([spec.space.sample(rng) for _ in range(STATES)])
+    free = qs[checker.states_valid(qs)]
+    A, B = (np.ascontiguousarray(x) for x in _motions(spec, checker, rng, free))
+    si, _, set_state, keep = make_space_information(spec, checker)
+    states = [si.allocState() for _ in range(STATES)]
+    for s, q in zip(states, qs):
+        set_state(s, q)
+    sa, sb = [si.allocState() for _ in range(MOTIONS)], [si.allocState() for _ in range(MOTIONS)]
+    for s, t, a, b in zip(sa, sb, A, B):
+        set_state(s, a)
+        set_state(t, b)
+    bare = _per_call(lambda: [si.getStateDimension() for _ in states], STATES)
+    ql, al, bl = qs.tolist(), A.tolist(), B.tolist()
+    prices = {
+        "state": [
+            _per_call(lambda: _states_compiled(kenv, counts, qs), STATES),
+            _per_call(lambda: [checker.is_valid(q) for q in ql], STATES),
+            _per_call(lambda: [si.isValid(s) for s in states], STATES) - bare,
+        ],
+        "motion": [
+            _per_call(lambda: _motions_compiled(kenv, counts, A, B), MOTIONS),
+            _per_call(lambda: [checker.motion_valid(a, b) for a, b in zip(al, bl)], MOTIONS),
+            _per_call(lambda: [si.checkMotion(s, t) for s, t in zip(sa, sb)], MOTIONS) - bare,
+        ],
+    }
+    del keep  # the space and validator live as long as the setup's states
+    return prices
+
+
+def crossing(envs: list[str], workspaces: int = 2, seed: int = 0) -> list[dict]:
+    """Rows (section "crossing"): per env and kind of check, microseconds per check compiled,
+    from Python, through OMPL, and the crossing (OMPL's less compiled's), medians over the
+    workspaces' medians. An env whose checker has no compiled form has no row."""
+    rows = []
+    for env in envs:
+        spec = get_spec(env)
+        rng = np.random.default_rng(seed)
+        checkers = [spec.make_checker(spec.generator.make(w, "seen", seed)) for w in range(workspaces)]
+        per_ws = [_prices(spec, c, rng) for c in checkers if c.compiled]
+        for check in ("state", "motion") if per_ws else ():
+            compiled, python, ompl = (statistics.median(c) * 1e6 for c in zip(*(p[check] for p in per_ws)))
+            rows.append(
+                {
+                    "section": "crossing",
+                    "env": env,
+                    "check": check,
+                    "compiled_us": compiled,
+                    "python_us": python,
+                    "ompl_us": ompl,
+                    "crossing_us": ompl - compiled,
+                }
+            )
+    return rows
