@@ -7,7 +7,8 @@ sweep on a fresh install (a cluster array, joblib's workers, the test suite's wo
 compile the same kernels at once; run this first and each of them loads them in about a second.
 
 For each env (all of them by default): its default checker's four checks, the judge's fine
-re-check, the workspace point cloud, and the compiled MPNet loop (batched planning's too) for
+re-check, the workspace point cloud, the compiled RRT-Connect (`rrt_connect_compiled`), and
+the compiled MPNet loop (batched planning's too) for
 each network depth a scale gives the env (numba compiles the loop once per depth: the layers
 are a tuple), on untrained networks of that depth (their weights do not matter to the compiler).
 """
@@ -27,6 +28,7 @@ from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet
 from mpnet.motion import verify_path
 from mpnet.planners.base import Problem
 from mpnet.planners.compiled import batched
+from mpnet.planners.compiled.rrt_connect import CompiledRRTConnect
 from mpnet.planners.mpnet import MPNetSettings
 
 WIDTH, LATENT, POINTS_PER_BLOCK = 8, 4, 20  # any sizes compile the same code
@@ -81,6 +83,7 @@ def compile_env(spec: EnvSpec, depths: list[tuple[int, int]]) -> None:
     checker = spec.make_checker(ws)
     checker.warm_up(start)
     verify_path(spec, ws, [start.tolist(), goal.tolist()], start.tolist(), goal.tolist(), spec.validation_step)
+    CompiledRRTConnect().warm_up(Problem(spec, ws, checker, start, goal, seed=0))
     cloud = spec.cloud(ws, POINTS_PER_BLOCK, 0)
     settings = MPNetSettings(name="mpnet_nr", compiled=True)
     settings.check_env(spec)
@@ -104,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         depths = network_depths(spec.name)
         compile_env(spec, depths)
         layers = ", ".join(str(p) for p in sorted({p for _, p in depths}))
-        print(f"{spec.name}: checks, re-check, cloud, MPNet loop (Pnet of {layers} hidden layers): "
+        print(f"{spec.name}: checks, re-check, RRT-Connect, cloud, MPNet loop (Pnet of {layers} hidden layers): "
               f"{time.perf_counter() - t:.1f} s", flush=True)  # fmt: skip
     return 0
 
