@@ -68,6 +68,9 @@ TESTED = {
     ),
     "python -m harness.fetch_mbm data/mbm": "tests/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist",
     "python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems": MBM_RUN,
+    "python -m harness +env=panda_mbm +planner=rrt_connect_compiled problems=data/mbm/problems": (
+        "tests/test_rrt_connect_compiled.py::test_rrt_connect_compiled_runs_mbm_problems_from_the_command_line"
+    ),
     (
         "python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000 "
         "--out reports/sphere_audit"

@@ -3,7 +3,7 @@ compiled code (MPNet's compiled loop, `rrt_connect_compiled`: the kernels called
 and through OMPL's callbacks into Python (every OMPL planner, MPNet-HR's RRT* included:
 mpnet.envs.ompl_space's validity lambda and motion validator). What the crossing adds per
 check, times a planner's checks, is the part of a time ratio between the two kinds that is
-plumbing, not algorithm (DESIGN: a fair clock).
+plumbing, not algorithm.
 
 The same states (random, as a sampler draws them) and motions (from a random free state
 toward another, cut to the env's planner range, as a tree planner extends) are checked three
