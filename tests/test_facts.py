@@ -27,8 +27,10 @@ def test_logged_facts_equal_what_an_old_logs_config_text_gives(planner, compose_
     elif "_to_nr" in planner:
         assert p["target"] == "nr" and p["algorithm"] == planner.split("_to_nr")[0]
         assert p["factor"] == (float(planner.split("_x")[1]) if "_x" in planner else 1.0)
-    else:
+    elif cfg.planner.get("algorithm") is not None:  # OMPL's planners: a classical run of their algorithm
         assert p["algorithm"] == planner and p["base"] is None
+    else:  # a planner without an OMPL algorithm (rrt_connect_compiled): a plain planner, by its name
+        assert p["algorithm"] is None and p["base"] is None and cfg.planner.name == planner
 
 
 def test_facts_of_an_unreadable_config_are_empty():

@@ -54,10 +54,9 @@ class CompiledRRTConnect:
             )
 
     def _env_of(self, checker) -> tuple:
+        """The checker's kernel env, made once per checker (a checker without one: ValueError)."""
         known = self._envs.get(id(checker))
         if known is None or known[0] is not checker:  # a new checker (an id may be reused)
-            if not getattr(checker, "compiled", False):
-                self.check_env(checker.spec, None)
             known = self._envs[id(checker)] = (checker, kernel_env(checker))
         return known[1]
 
@@ -76,12 +75,14 @@ class CompiledRRTConnect:
         return known[1]
 
     def _buffers(self, d: int, room: int) -> tuple:
+        """The trees' arrays (nodes (2, cap, d), parents (2, cap)), kept between queries."""
         if self._trees is None or self._trees[0].shape[2] != d or self._trees[0].shape[1] < 2 * room:
             cap = max(CAPACITY, 2 * room)
             self._trees = (np.empty((2, cap, d)), np.zeros((2, cap), np.int64))
         return self._trees
 
-    def _grown(self, room: int) -> tuple:
+    def _grown(self) -> tuple:
+        """The trees' arrays at twice their capacity, every state and parent kept."""
         nodes, parents = self._trees
         cap = nodes.shape[1]
         more_nodes, more_parents = np.empty((2, 2 * cap, nodes.shape[2])), np.zeros((2, 2 * cap), np.int64)
@@ -113,7 +114,7 @@ class CompiledRRTConnect:
                     env, counts, weights, lower, upper, reach, rng, nodes, parents, state, chunk, room, sample
                 )
                 if outcome == K.FULL:
-                    nodes, parents = self._grown(room)
+                    nodes, parents = self._grown()
                     continue
                 done += chunk
                 now = time.perf_counter()
