@@ -71,8 +71,10 @@ def _prices(spec, checker, rng) -> dict[str, list[float]]:
     kenv, counts = checker.compiled_env(), np.zeros(3, np.int64)
     qs = np.ascontiguousarray([spec.space.sample(rng) for _ in range(STATES)])
     free = qs[checker.states_valid(qs)]
+    if len(free) < 2:
+        raise ValueError(f"env {spec.name}: fewer than two free states among {STATES} random ones")
     A, B = (np.ascontiguousarray(x) for x in _motions(spec, checker, rng, free))
-    si, _, set_state, keep = make_space_information(spec, checker)
+    si, _, set_state, keep = make_space_information(spec, checker)  # noqa: F841 (kept alive with si)
     states = [si.allocState() for _ in range(STATES)]
     for s, q in zip(states, qs):
         set_state(s, q)
@@ -94,8 +96,7 @@ def _prices(spec, checker, rng) -> dict[str, list[float]]:
             _per_call(lambda: [si.checkMotion(s, t) for s, t in zip(sa, sb)], MOTIONS) - bare,
         ],
     }
-    del keep  # the space and validator live as long as the setup's states
-    return prices
+    return prices  # (keep, the space and validator OMPL only references, lived as long as si)
 
 
 def crossing(envs: list[str], workspaces: int = 2, seed: int = 0) -> list[dict]:

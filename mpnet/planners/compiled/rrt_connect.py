@@ -9,8 +9,9 @@ Its search is OMPL's RRTConnect (same growth, same maximum edge length: the env'
 stream, so its paths are RRT-Connect's in kind, not OMPL's state for state.
 
 The clock is read between compiled slices of the search (numba has none): each slice is sized
-to take about SLICE_S at the rate measured so far, so a budget is overrun by about that much
-at most.
+to take about SLICE_S at the mean rate so far, so a budget is overrun by about a slice (the
+rounds slow as the trees grow: a few times SLICE_S at worst; the first slice is FIRST_SLICE
+rounds whatever they take).
 """
 
 from __future__ import annotations
@@ -104,10 +105,10 @@ class CompiledRRTConnect:
         start, goal = np.asarray(problem.start, float), np.asarray(problem.goal, float)
         nodes, parents = self._buffers(start.shape[0], room)
         nodes[0, 0], nodes[1, 0] = start, goal
-        state = np.array([1, 1, 0, -1, -1], np.int64)
+        state = np.array([1, 1, 0, -1, -1, 0], np.int64)
         counts = np.zeros(3, np.int64)
         sample = np.empty(start.shape[0])
-        chunk, done, outcome = FIRST_SLICE, 0, K.RUNNING
+        chunk, outcome = FIRST_SLICE, K.RUNNING
         try:
             while True:
                 outcome = K.grow(
@@ -116,18 +117,17 @@ class CompiledRRTConnect:
                 if outcome == K.FULL:
                     nodes, parents = self._grown()
                     continue
-                done += chunk
                 now = time.perf_counter()
                 if outcome == K.CONNECTED or now >= deadline:
                     break
-                per = (now - t0) / done
+                per = max(now - t0, 1e-9) / state[K.ROUNDS]
                 chunk = int(max(1, min(SLICE_S, deadline - now) / per))
         finally:  # the checks count on the checker, as OMPL's planners' do
             checker.state_checks += int(counts[0])
             checker.motion_checks += int(counts[1])
             if hasattr(checker, "configurations"):
                 checker.configurations += int(counts[2])
-        stats = {"iterations": done, "tree_states": int(state[K.N0] + state[K.N1])}
+        stats = {"iterations": int(state[K.ROUNDS]), "tree_states": int(state[K.N0] + state[K.N1])}
         if outcome != K.CONNECTED:
             return Result(None, TIMEOUT, stats)
         path = K.solution(nodes, parents, state)
@@ -140,7 +140,7 @@ class CompiledRRTConnect:
         lower, upper, weights, reach, room = self._space_of(problem.spec)
         nodes, parents = self._buffers(len(problem.start), room)
         nodes[0, 0], nodes[1, 0] = problem.start, problem.goal
-        state = np.array([1, 1, 0, -1, -1], np.int64)
+        state = np.array([1, 1, 0, -1, -1, 0], np.int64)
         K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents,
                state, 1, room, np.empty(len(problem.start)))  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0

@@ -26,8 +26,8 @@ from mpnet.jit import njit
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
 # grow's outcome
 RUNNING, CONNECTED, FULL = 0, 1, 2
-# state: the trees' sizes, whose turn it is (0 the start tree), the connection's two nodes
-N0, N1, TURN, JOIN0, JOIN1 = 0, 1, 2, 3, 4
+# state: the trees' sizes, whose turn it is (0 the start tree), the connection's two nodes, the rounds run
+N0, N1, TURN, JOIN0, JOIN1, ROUNDS = 0, 1, 2, 3, 4, 5
 
 
 @njit(cache=True)
@@ -129,14 +129,16 @@ def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, 
     """Up to `iterations` rounds of RRT-Connect on the trees (nodes (2, cap, d), parents
     (2, cap), state: see N0..JOIN1; each tree's root placed by the caller). Returns
     CONNECTED (state[JOIN0], state[JOIN1]: the start tree's and the goal tree's nodes that
-    meet, one state apart or the same), RUNNING (iterations spent) or FULL (a tree within
-    `room` nodes of its capacity: the caller grows the arrays)."""
+    meet, the same state: the connecting tree's last step reached its target exactly),
+    RUNNING (iterations spent) or FULL (a tree within `room` nodes of its capacity: the
+    caller grows the arrays). state[ROUNDS] counts the rounds run."""
     cap = nodes.shape[1]
     for _ in range(iterations):
         if state[N0] + room >= cap or state[N1] + room >= cap:
             return FULL
         t = state[TURN]
         state[TURN] = 1 - t
+        state[ROUNDS] += 1
         for k in range(sample.shape[0]):
             sample[k] = uniform(rng, lower[k], upper[k])
         if _extend(env, counts, weights, reach, nodes, parents, state, t, sample) == TRAPPED:
@@ -159,7 +161,7 @@ def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, 
 @njit(cache=True)
 def solution(nodes, parents, state):
     """The path of a connection: the start tree's root to its joining node, then the goal
-    tree's joining node to its root, the shared state once."""
+    tree's joining node's parent to its root (the joining nodes are the same state)."""
     d = nodes.shape[2]
     a, b = state[JOIN0], state[JOIN1]
     na, nb = 1, 1
@@ -180,14 +182,8 @@ def solution(nodes, parents, state):
     for r in range(na, na + nb):
         out[r] = nodes[1, i]
         i = parents[1, i]
-    # the goal tree reached the start tree's node (or the reverse): one copy of it
-    same = True
-    for k in range(d):
-        if out[na - 1, k] != out[na, k]:
-            same = False
-            break
-    if same:
-        keep = np.ones(na + nb, np.bool_)
-        keep[na] = False
-        return out[keep]
-    return out
+    # the two joining nodes are one state (a REACHED step copies its target): kept once, the
+    # start tree's; the goal tree's edge from it to its parent is the motion that was checked
+    keep = np.ones(na + nb, np.bool_)
+    keep[na] = False
+    return out[keep]
