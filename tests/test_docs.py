@@ -68,6 +68,9 @@ TESTED = {
     ),
     "python -m harness.fetch_mbm data/mbm": "tests/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist",
     "python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems": MBM_RUN,
+    "python -m harness.perf.crossing --out reports/rrt_connect_compiled/crossing": (
+        "tests/test_perf.py::test_crossing_command_writes_its_table"
+    ),
     "python -m harness +env=panda_mbm +planner=rrt_connect_compiled problems=data/mbm/problems": (
         "tests/test_rrt_connect_compiled.py::test_rrt_connect_compiled_runs_mbm_problems_from_the_command_line"
     ),

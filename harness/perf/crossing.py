@@ -1,4 +1,6 @@
-"""The price of one collision check as each kind of planner pays it, per env: inside
+"""`python -m harness.perf.crossing [ENV ...] [--workspaces N] [--out DIR]`: the price of one
+collision check as each kind of planner pays it, per env (also a section of `python -m
+harness.perf`); the command writes DIR/crossing.md and crossing.csv. Inside
 compiled code (MPNet's compiled loop, `rrt_connect_compiled`: the kernels called directly)
 and through OMPL's callbacks into Python (every OMPL planner, MPNet-HR's RRT* included:
 mpnet.envs.ompl_space's validity lambda and motion validator). What the crossing adds per
@@ -13,15 +15,22 @@ Python-to-OMPL call, which OMPL's own C++ loop does not pay). crossing = OMPL's 
 
 from __future__ import annotations
 
+import argparse
 import statistics
+import sys
 import time
+from pathlib import Path
 
-import numpy as np
+from harness.core.threads import single_threaded
 
-from mpnet.envs.checkers.compiled_env import motion_free, state_free
-from mpnet.envs.ompl_space import make_space_information
-from mpnet.envs.specs import get_spec
-from mpnet.jit import njit
+single_threaded()  # before numpy or numba load (harness.core.threads)
+
+import numpy as np  # noqa: E402
+
+from mpnet.envs.checkers.compiled_env import motion_free, state_free  # noqa: E402
+from mpnet.envs.ompl_space import make_space_information  # noqa: E402
+from mpnet.envs.specs import SPECS, get_spec  # noqa: E402
+from mpnet.jit import njit  # noqa: E402
 
 STATES, MOTIONS, REPEATS = 1000, 100, 7
 
@@ -123,3 +132,35 @@ def crossing(envs: list[str], workspaces: int = 2, seed: int = 0) -> list[dict]:
                 }
             )
     return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    import pandas as pd
+
+    from harness.core.provenance import generated_by, machine_info
+    from harness.perf.render import crossing_md
+
+    ap = argparse.ArgumentParser(prog="python -m harness.perf.crossing", description=__doc__.split("\n\n")[0])
+    ap.add_argument("envs", nargs="*", metavar="ENV", help=f"envs (default: all): {', '.join(SPECS)}")
+    ap.add_argument("--workspaces", type=int, default=2, help="generated workspaces per env (default 2)")
+    ap.add_argument("--out", type=Path, default=Path("crossing"), help="folder for crossing.md and crossing.csv")
+    args = ap.parse_args(argv)
+    try:
+        envs = [get_spec(e).name for e in args.envs or SPECS]
+    except KeyError as e:
+        print(f"error: {e.args[0]}", file=sys.stderr)
+        return 2
+    machine = machine_info()
+    rows = crossing(envs, args.workspaces)
+    args.out.mkdir(parents=True, exist_ok=True)
+    df = pd.DataFrame(rows)
+    df.to_csv(args.out / "crossing.csv", index=False)
+    command = "python -m harness.perf.crossing " + " ".join([*envs, f"--workspaces {args.workspaces}"])
+    head = ["# The price of a check", "", generated_by(command, machine, ", one process, nothing else running")]
+    (args.out / "crossing.md").write_text("\n".join(head + crossing_md(df, None)[1:]) + "\n")
+    print(f"wrote {args.out / 'crossing.md'} and crossing.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
