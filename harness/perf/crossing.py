@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     df.to_csv(args.out / "crossing.csv", index=False)
     command = "python -m harness.perf.crossing " + " ".join([*envs, f"--workspaces {args.workspaces}"])
     head = ["# The price of a check", "", generated_by(command, machine, ", one process, nothing else running")]
-    (args.out / "crossing.md").write_text("\n".join(head + crossing_md(df, None)[1:]) + "\n")
+    (args.out / "crossing.md").write_text("\n".join(head + crossing_md(df, None)) + "\n")
     print(f"wrote {args.out / 'crossing.md'} and crossing.csv")
     return 0
 
