@@ -31,6 +31,7 @@ from mpnet.envs.checkers.compiled_env import motion_free, state_free  # noqa: E4
 from mpnet.envs.ompl_space import make_space_information  # noqa: E402
 from mpnet.envs.specs import SPECS, get_spec  # noqa: E402
 from mpnet.jit import njit  # noqa: E402
+from mpnet.planners.compiled.rrt_connect import tree_range  # noqa: E402
 
 STATES, MOTIONS, REPEATS = 1000, 100, 7
 
@@ -65,7 +66,7 @@ def _per_call(run, calls: int) -> float:
 def _motions(spec, checker, rng, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """MOTIONS motions from a free state toward another, at most the planner range long (the
     space's metric; OMPL's default range where the env sets none)."""
-    reach = spec.planner_range or 0.2 * spec.space.maximum_extent()
+    reach = tree_range(spec)
     pick = rng.integers(0, len(free), size=(MOTIONS, 2))
     A, B = free[pick[:, 0]], free[pick[:, 1]].copy()
     for i in range(MOTIONS):

@@ -30,6 +30,13 @@ CAPACITY = 1024  # each tree's first capacity (states); doubled when full
 DEFAULT_RANGE_SHARE = 0.2  # OMPL's RRTConnect: maxDistance = 0.2 x the space's maximum extent
 
 
+def tree_range(spec, given: float | None = None) -> float:
+    """A tree planner's maximum edge length: the one given, else the env's `planner_range`,
+    else OMPL's default (DEFAULT_RANGE_SHARE of the space's maximum extent)."""
+    reach = given if given is not None else spec.planner_range
+    return float(reach if reach is not None else DEFAULT_RANGE_SHARE * spec.space.maximum_extent())
+
+
 class CompiledRRTConnect:
     """RRT-Connect on the checker's compiled form (CollisionChecker.compiled_env); every env
     whose default checker has one. `range`: the maximum edge length (None: the env's
@@ -65,10 +72,7 @@ class CompiledRRTConnect:
         known = self._spaces.get(id(spec))
         if known is None or known[0] is not spec:
             space = spec.space
-            reach = self.range if self.range is not None else spec.planner_range
-            if reach is None:
-                reach = DEFAULT_RANGE_SHARE * space.maximum_extent()
-            reach = float(reach)
+            reach = tree_range(spec, self.range)
             # a connection adds at most (extent / reach + 1) states to a tree: room for one round
             room = int(np.ceil(space.maximum_extent() / reach)) + 4
             lower, upper = (np.ascontiguousarray(v, float) for v in (space.lower, space.upper))
@@ -105,7 +109,7 @@ class CompiledRRTConnect:
         start, goal = np.asarray(problem.start, float), np.asarray(problem.goal, float)
         nodes, parents = self._buffers(start.shape[0], room)
         nodes[0, 0], nodes[1, 0] = start, goal
-        state = np.array([1, 1, 0, -1, -1, 0], np.int64)
+        state = K.new_state()
         counts = np.zeros(3, np.int64)
         sample = np.empty(start.shape[0])
         chunk, outcome = FIRST_SLICE, K.RUNNING
@@ -140,7 +144,7 @@ class CompiledRRTConnect:
         lower, upper, weights, reach, room = self._space_of(problem.spec)
         nodes, parents = self._buffers(len(problem.start), room)
         nodes[0, 0], nodes[1, 0] = problem.start, problem.goal
-        state = np.array([1, 1, 0, -1, -1, 0], np.int64)
+        state = K.new_state()
         K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents,
                state, 1, room, np.empty(len(problem.start)))  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0

@@ -30,6 +30,11 @@ RUNNING, CONNECTED, FULL = 0, 1, 2
 N0, N1, TURN, JOIN0, JOIN1, ROUNDS = 0, 1, 2, 3, 4, 5
 
 
+def new_state() -> np.ndarray:
+    """A search's state before its first round: one root in each tree, the start tree's turn."""
+    return np.array([1, 1, 0, -1, -1, 0], np.int64)
+
+
 @njit(cache=True)
 def uniform(rng, lo, hi):
     """A uniform draw in [lo, hi) from a splitmix64 stream (rng: its one uint64 of state). A
@@ -144,11 +149,11 @@ def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, 
         if _extend(env, counts, weights, reach, nodes, parents, state, t, sample) == TRAPPED:
             continue
         added = state[t] - 1
-        target = nodes[t, added].copy()
+        sample[:] = nodes[t, added]  # the other tree's target: the state just added (the sample is spent)
         o = 1 - t
-        g = _extend(env, counts, weights, reach, nodes, parents, state, o, target)
+        g = _extend(env, counts, weights, reach, nodes, parents, state, o, sample)
         while g == ADVANCED:
-            g = _extend(env, counts, weights, reach, nodes, parents, state, o, target)
+            g = _extend(env, counts, weights, reach, nodes, parents, state, o, sample)
         if g == REACHED:
             if t == 0:
                 state[JOIN0], state[JOIN1] = added, state[o] - 1
