@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mpnet.envs.checkers.sphere_kernels import FREE, HIT, NEAR, _dist2, unpack_obstacles, verdict
+from mpnet.envs.checkers.sphere_kernels import FREE, HIT, NEAR, NEAR_HIT, _dist2, unpack_obstacles, verdict
 from mpnet.envs.checkers.sphere_layout import (
     BRADIUS,
     DQ,
@@ -111,10 +111,9 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
         if v == FREE:
             continue
         top = bufs[TOP][0]
-        if v == NEAR:  # a grown sphere touches: is the midpoint itself hit? (ends blocked motions early)
+        if v == NEAR or v == NEAR_HIT:  # a grown sphere touches; verdict then scanned q plain (counted)
             evaluated += 1
-            v = verdict(q, m, obs, bufs, False, 0.0, dq)
-        if v == HIT or top < tol or tail - head + 2 > QUEUE:
+        if v == HIT or v == NEAR_HIT or top < tol or tail - head + 2 > QUEUE:
             return False, evaluated
         t0s[tail % QUEUE], t1s[tail % QUEUE] = t0, mid
         tail += 1

@@ -14,9 +14,10 @@ of that joint. A test descends the tree only where a bounding sphere touches, so
 configuration far from everything costs a few dozen tests, not thousands.
 
 A state's verdict is one of FREE (free even with every sphere grown by its `extra`),
-NEAR (a grown sphere touches something: returned at the first such contact, without
-looking further for a HIT, which a plain check answers far more cheaply than a grown scan)
-or HIT (a sphere touches an obstacle or another link).
+NEAR (a grown sphere touches something, and no sphere touches at q), HIT (a sphere touches
+an obstacle or another link) or NEAR_HIT (a HIT found after a grown contact: the motion
+counts it as it counts a NEAR's plain check). After the first grown contact the scan goes on
+plain: the answer is the one a grown scan and then a plain scan of q would give.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from mpnet.envs.checkers.sphere_layout import (
     GROUP_FRAME,
     GROUP_S0,
     GROUP_S1,
+    GSPEED,
     KIND,
     LB,
     LCENTRES,
@@ -54,6 +56,7 @@ from mpnet.envs.checkers.sphere_layout import (
     LLEVER,
     LOCAL,
     LPLACED,
+    LSPEED,
     ORIGIN,
     PAIR_A,
     PAIR_B,
@@ -73,7 +76,7 @@ from mpnet.envs.checkers.sphere_layout import (
 )
 from mpnet.jit import njit
 
-FREE, NEAR, HIT = 0, 1, 2
+FREE, NEAR, HIT, NEAR_HIT = 0, 1, 2, 3  # NEAR_HIT: a grown contact, then a sphere touching at q
 TABLE_SPAN = 16  # a motion interval's lookup reads at most this many table cells, else tests spheres
 
 
@@ -137,7 +140,7 @@ def forward(q, parent, origin, kind, axis, coord, out):
                 out[f, i, 3] = p0 * m[0, 3] + p1 * m[1, 3] + p2 * m[2, 3] + out[p, i, 3]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _place(pose, f, local, k, out, o):
     for i in range(3):
         out[o, i] = (
@@ -145,7 +148,7 @@ def _place(pose, f, local, k, out, o):
         )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dist2(p, o, boxes, cyls, balls, kind, j):
     """Squared distance from point p[o] to obstacle j of `kind` (0 box, 1 cylinder, 2 sphere)."""
     x, y, z = p[o, 0], p[o, 1], p[o, 2]
@@ -177,7 +180,7 @@ def _dist2(p, o, boxes, cyls, balls, kind, j):
     return d * d if d > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _outside(p, o, bounds, row, reach):
     """Is point p[o] farther than reach from axis-aligned box `row` along some axis?"""
     b = bounds[row]
@@ -187,7 +190,7 @@ def _outside(p, o, bounds, row, reach):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _speed(c, i, rad, j, grow):
     """How fast a point within rad of c[i] moves per unit of joint j's step: its distance
     from joint j's axis now plus rad (1 for a prismatic joint)."""
@@ -200,47 +203,60 @@ def _speed(c, i, rad, j, grow):
     return math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i]
 
 
-@njit(cache=True)
-def _growth(c, i, rad, Bv, g, grow):
+@njit(cache=True, inline="always")
+def _growth(c, i, rad, Bv, g, grow, sp):
     """How far any point within rad of point c[i] can move in the current half interval:
     h sum_j |dq_j| (rho_j + rad) + h^2 / 2 B, where rho_j is c[i]'s distance from joint j's
     axis now (see _motion_free). grow = (h, |dq| (D,), axis points (D, 3), axis
-    directions (D, 3), prismatic flags (D,))."""
+    directions (D, 3), prismatic flags (D,)). Each joint's speed is kept in sp[i] for
+    _growth_from (a square root per joint: the same number, not computed twice)."""
     h, dq = grow[0], grow[1]
     a = 0.0
     for j in range(dq.shape[0]):
         if dq[j] != 0.0:
-            a += dq[j] * _speed(c, i, rad, j, grow)
+            sp[i, j] = _speed(c, i, rad, j, grow)
+            a += dq[j] * sp[i, j]
     return h * a + 0.5 * h * h * Bv[g]
 
 
-@njit(cache=True)
-def _growth_from(c, i, rad, lever, j0, grow):
+@njit(cache=True, inline="always")
+def _growth_from(sp, i, rad, lever, j0, grow):
     """_growth counting only joints j0.. (those between a link and a link below it: how far
-    a point of the lower link moves relative to the upper one), its second-order term
-    computed here from the static levers."""
+    a point of the lower link moves relative to the upper one), from the speeds _growth kept
+    in sp[i], its second-order term computed here from the static levers."""
     h, dq = grow[0], grow[1]
     first, later, second = 0.0, 0.0, 0.0
     for j in range(dq.shape[0] - 1, j0 - 1, -1):
         second += dq[j] * later
         later += dq[j] * (lever[i, j] + rad[i])
         if dq[j] != 0.0:
-            first += dq[j] * _speed(c, i, rad, j, grow)
+            first += dq[j] * sp[i, j]
     return h * first + 0.5 * h * h * second
 
 
-@njit(cache=True)
-def _place_groups(li, m, bufs, grow, growing):
-    """The centres (and, in a motion, the growth) of link li's groups, once per configuration."""
-    if bufs[LPLACED][li] == 0.0:
-        pose, gcentres, gextra = bufs[POSE], bufs[GCENTRES], bufs[GEXTRA]
+@njit(cache=True, inline="always")
+def _place_groups(li, m, bufs, grow, growing, need):
+    """The centres of link li's groups, once per configuration, and, in a motion where `need`
+    says they are read, their growth, once (LPLACED: 0 nothing yet, 1 centres, 2 centres and
+    growth; a plain check's growth is 0). A link tested against a link below it in a motion
+    grows by nothing: its groups' growth is then not computed."""
+    placed = bufs[LPLACED][li]
+    gextra = bufs[GEXTRA]
+    if placed == 0.0:
+        pose, gcentres = bufs[POSE], bufs[GCENTRES]
         for g in range(m[LINK_G0][li], m[LINK_G1][li]):
             _place(pose, m[GROUP_FRAME][g], m[GLOCAL], g, gcentres, g)
-            gextra[g] = _growth(gcentres, g, m[GRADIUS], bufs[GB], g, grow) if growing else 0.0
-        bufs[LPLACED][li] = 1.0
+            if not growing:
+                gextra[g] = 0.0
+        placed = 1.0 if growing else 2.0
+    if placed == 1.0 and need:
+        for g in range(m[LINK_G0][li], m[LINK_G1][li]):
+            gextra[g] = _growth(bufs[GCENTRES], g, m[GRADIUS], bufs[GB], g, grow, bufs[GSPEED])
+        placed = 2.0
+    bufs[LPLACED][li] = placed
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _place_spheres(g, m, bufs):
     """The centres of group g's spheres, once per configuration."""
     if bufs[GPLACED][g] == 0.0:
@@ -251,7 +267,7 @@ def _place_spheres(g, m, bufs):
         bufs[GPLACED][g] = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _apart(p, i, rp, c, j, rc, reach):
     """Are point p[i] and point c[j] farther apart than rp[i] + rc[j] + reach?"""
     d2 = 0.0
@@ -261,7 +277,7 @@ def _apart(p, i, rp, c, j, rc, reach):
     return d2 > r * r
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _axes(m, pose, ap, au, pris):
     """Each joint's axis in the base frame now: a point on it, its direction, prismatic flag."""
     coord, kind, axis = m[COORD], m[KIND], m[AXIS]
@@ -357,7 +373,13 @@ def build_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n):
 def verdict(q, m, obs, bufs, growing, h, dq):
     """FREE, NEAR or HIT for configuration q (see the module docstring). `growing`: q is
     the midpoint of a motion interval of half-width h (in the motion's parameter) along
-    joint steps dq; every sphere, group and link is grown by how far it can move in it."""
+    joint steps dq; every sphere, group and link is grown by how far it can move in it.
+
+    Growing, NEAR means a grown sphere touches and no sphere touches at q itself: at the
+    first grown contact the scan goes on at the plain level (the growth multiplied by
+    `on` = 0) from where it is, for a HIT. Everything before that point cleared its grown
+    test, so cleared the plain one: the answer is a plain check's, from one pose and one
+    scan, not two."""
     boxes, cyls, balls, margin, bounds = obs
     pose, centres, lcentres, gcentres = bufs[POSE], bufs[CENTRES], bufs[LCENTRES], bufs[GCENTRES]
     lextra, gextra = bufs[LEXTRA], bufs[GEXTRA]
@@ -372,25 +394,26 @@ def verdict(q, m, obs, bufs, growing, h, dq):
     top = 0.0
     for li in range(L):
         _place(pose, m[LINK_FRAME][li], m[BLOCAL], li, lcentres, li)
-        lextra[li] = _growth(lcentres, li, bradius, bufs[LB], li, grow) if growing else 0.0
+        lextra[li] = _growth(lcentres, li, bradius, bufs[LB], li, grow, bufs[LSPEED]) if growing else 0.0
         top = max(top, lextra[li])
         bufs[LPLACED][li] = 0.0
     bufs[GPLACED][:] = 0.0
     bufs[TOP][0] = top
+    on = 1.0 if growing else 0.0  # 0 once a grown contact is found: plain from there on
     counts = (boxes.shape[0], cyls.shape[0], balls.shape[0])
     for li in range(m[FIRST], L):
         row = 0
         for ok in range(3):
             for j in range(counts[ok]):
                 row += 1
-                reach = bradius[li] + lextra[li] + margin
+                reach = bradius[li] + lextra[li] * on + margin
                 if _outside(lcentres, li, bounds, row - 1, reach):
                     continue
                 if _dist2(lcentres, li, boxes, cyls, balls, ok, j) > reach * reach:
                     continue
-                _place_groups(li, m, bufs, grow, growing)
+                _place_groups(li, m, bufs, grow, growing, on != 0.0)
                 for g in range(link_g0[li], link_g1[li]):
-                    reach = gradius[g] + gextra[g] + margin
+                    reach = gradius[g] + gextra[g] * on + margin
                     if _outside(gcentres, g, bounds, row - 1, reach):
                         continue
                     if _dist2(gcentres, g, boxes, cyls, balls, ok, j) > reach * reach:
@@ -400,49 +423,60 @@ def verdict(q, m, obs, bufs, growing, h, dq):
                         d2 = _dist2(centres, k, boxes, cyls, balls, ok, j)
                         r = radius[k] + margin
                         if d2 <= r * r:
-                            return HIT
-                        r += gextra[g]
+                            return NEAR_HIT if growing and on == 0.0 else HIT
+                        r += gextra[g] * on
                         if d2 <= r * r:
-                            return NEAR
+                            on = 0.0
     pair_a, pair_b, pair_j0, pg = m[PAIR_A], m[PAIR_B], m[PAIR_J0], bufs[PG]
-    looked_up, table_says_free = -1, False  # a table's pairs are consecutive: one lookup serves them all
+    looked_up, looked_on, table_says_free = -1, on, False  # a table's pairs are consecutive: one lookup serves them
     for pi in range(pair_a.shape[0]):
         a, b, j0 = pair_a[pi], pair_b[pi], pair_j0[pi]
         t = m[PAIR_TABLE][pi]
-        if t >= 0 and t != looked_up:
-            looked_up = t
-            table_says_free = _table_free(q, m[TABLE_I][t], m[TABLE_F][t], m[TABLE_BITS], h if growing else 0.0, dq)
+        if t >= 0 and (t != looked_up or looked_on != on):
+            looked_up, looked_on = t, on
+            table_says_free = _table_free(q, m[TABLE_I][t], m[TABLE_F][t], m[TABLE_BITS], h * on, dq)
         if t >= 0 and table_says_free:
             continue
         # In a motion, link b moves relative to link a (its ancestor) only through the joints
         # between them: b grows by that, a not at all. Otherwise both grow by their own motion.
-        rel = growing and j0 >= 0
+        rel = on != 0.0 and j0 >= 0
         if rel:
-            ra, rb = 0.0, _growth_from(lcentres, b, bradius, m[LLEVER], j0, grow)
+            ra, rb = 0.0, _growth_from(bufs[LSPEED], b, bradius, m[LLEVER], j0, grow)
         else:
-            ra, rb = lextra[a], lextra[b]
+            ra, rb = lextra[a] * on, lextra[b] * on
         if _apart(lcentres, a, bradius, lcentres, b, bradius, ra + rb):
             continue
-        _place_groups(a, m, bufs, grow, growing)
-        _place_groups(b, m, bufs, grow, growing)
+        _place_groups(a, m, bufs, grow, growing, on != 0.0 and not rel)
+        _place_groups(b, m, bufs, grow, growing, on != 0.0)
+        a_grow = 0.0  # the largest growth of a group of a
+        if not rel:
+            for ga in range(link_g0[a], link_g1[a]):
+                a_grow = max(a_grow, gextra[ga] * on)
         for gb in range(link_g0[b], link_g1[b]):
-            pg[gb] = _growth_from(gcentres, gb, gradius, m[GLEVER], j0, grow) if rel else gextra[gb]
+            pg[gb] = _growth_from(bufs[GSPEED], gb, gradius, m[GLEVER], j0, grow) if rel else gextra[gb] * on
+            # a group of b out of reach of a's bounding sphere is out of reach of each of its groups
+            if _apart(gcentres, gb, gradius, lcentres, a, bradius, pg[gb] + a_grow):
+                pg[gb] = -1.0
+        # Every growth below is multiplied by `on`: a grown contact found in this pair makes
+        # the rest of it plain too.
         for ga in range(link_g0[a], link_g1[a]):
             ga_grow = 0.0 if rel else gextra[ga]
-            if _apart(gcentres, ga, gradius, lcentres, b, bradius, ga_grow + rb):
+            if _apart(gcentres, ga, gradius, lcentres, b, bradius, (ga_grow + rb) * on):
                 continue
             for gb in range(link_g0[b], link_g1[b]):
+                if pg[gb] < 0.0:
+                    continue
                 grown = ga_grow + pg[gb]
-                if _apart(gcentres, ga, gradius, gcentres, gb, gradius, grown):
+                if _apart(gcentres, ga, gradius, gcentres, gb, gradius, grown * on):
                     continue
                 _place_spheres(ga, m, bufs)
                 _place_spheres(gb, m, bufs)
                 for k in range(group_s0[ga], group_s1[ga]):
-                    if _apart(centres, k, radius, gcentres, gb, gradius, grown):
+                    if _apart(centres, k, radius, gcentres, gb, gradius, grown * on):
                         continue
                     for n in range(group_s0[gb], group_s1[gb]):
                         if not _apart(centres, k, radius, centres, n, radius, 0.0):
-                            return HIT
-                        if not _apart(centres, k, radius, centres, n, radius, grown):
-                            return NEAR
-    return FREE
+                            return NEAR_HIT if growing and on == 0.0 else HIT
+                        if on != 0.0 and not _apart(centres, k, radius, centres, n, radius, grown):
+                            on = 0.0
+    return NEAR if growing and on == 0.0 else FREE

@@ -81,7 +81,8 @@ TABLE_BITS = _field(MODEL, "table_bits", INTS, "W")
 # Scratch: poses (pose[F] is forward's spare); sphere, link and group centres; link and group
 # placed flags; link and group growth and second-order terms; a joint vector and the motion's
 # joint steps; the joints' axes (points, directions, prismatic flags); the largest growth;
-# the motion queue's interval ends; a pair's groups' growth.
+# the motion queue's interval ends; a pair's groups' growth; each link's and group's speed
+# per joint in the current interval (_growth's terms, which _growth_from reads back).
 POSE = _field(SCRATCH, "pose", BUF, "F + 1", 3, 4)
 CENTRES = _field(SCRATCH, "centres", BUF, "S", 3)
 LCENTRES = _field(SCRATCH, "lcentres", BUF, "L", 3)
@@ -101,6 +102,8 @@ TOP = _field(SCRATCH, "top", BUF, 1)
 T0S = _field(SCRATCH, "t0s", BUF, QUEUE)
 T1S = _field(SCRATCH, "t1s", BUF, QUEUE)
 PG = _field(SCRATCH, "pg", BUF, "G")
+LSPEED = _field(SCRATCH, "lspeed", BUF, "L", "D")
+GSPEED = _field(SCRATCH, "gspeed", BUF, "G", "D")
 
 # mi's header: each field's start, end and sizes, MODEL's then SCRATCH's
 _SLOTS = np.cumsum([0] + [2 + len(f.shape) for f in MODEL + SCRATCH]).tolist()

@@ -1,0 +1,86 @@
+"""The sphere checker's verdicts and certified motions: one scan answers what a grown scan
+and then a plain scan of the same configuration answered, and motions' answers and counts
+are the ones the two-scan kernels gave (recorded at f9c0b80)."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+
+from mpnet.envs.checkers import sphere_checks as C
+from mpnet.envs.checkers import sphere_kernels as K
+from mpnet.envs.checkers import sphere_layout as L
+from mpnet.envs.checkers.sphere_checks import _second_order
+from mpnet.envs.checkers.spheres import CERTIFY_TOL
+from mpnet.envs.mbm.files import load_mbm
+from mpnet.envs.specs import get_spec
+from mpnet.jit import njit
+
+SPEC = get_spec("panda_mbm")
+
+# (workspace, free motions of 200, configurations evaluated, sha256 of the answers' bytes),
+# from the kernels that scanned a NEAR midpoint again, plain (f9c0b80)
+RECORDED = [
+    ("bookshelf_small_panda/0001", 131, 1710, "dffe647c8e6ec767"),
+    ("bookshelf_small_panda/0002", 132, 1762, "d00c2e346e2a3e54"),
+    ("box_panda/0001", 116, 1602, "83cf969f8c1cea15"),
+    ("box_panda/0002", 120, 1912, "d36d382602e0bf16"),
+    ("table_pick_panda/0001", 143, 1843, "71278479d9f046af"),
+    ("table_pick_panda/0002", 136, 1989, "35587fc404602a7e"),
+]
+
+
+@pytest.fixture(scope="module")
+def checkers(mbm_dir):
+    ts = load_mbm(mbm_dir, SPEC)
+    ws = {w.id: w for w in ts.workspaces}
+    return [(q.workspace_id, SPEC.make_checker(ws[q.workspace_id])) for q in ts.queries]
+
+
+def _motions(seed: int, lo: np.ndarray, up: np.ndarray, n: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """n motions from uniform states, each up to 1.5 rad long, inside the limits."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(lo, up, (n, len(lo)))
+    step = rng.normal(size=a.shape)
+    step *= (rng.uniform(0, 1.5, n) / np.linalg.norm(step, axis=1))[:, None]
+    return a, np.clip(a + step, lo, up)
+
+
+def test_motions_answer_and_count_as_the_two_scan_kernels_did(checkers):
+    got = []
+    for i, (name, ch) in enumerate(checkers):
+        mi, mf, ob, lo, up = ch._args
+        a, b = _motions(i, lo, up)
+        free, n = C.motions_free(a, b, mi, mf, ob, lo, up, CERTIFY_TOL, ch._buf)
+        got.append((name, int(free.sum()), int(n), hashlib.sha256(free.tobytes()).hexdigest()[:16]))
+    assert got == RECORDED
+
+
+@njit(cache=True)
+def _verdicts(qs, hs, dqs, mi, mf, ob, buf):
+    """(growing verdict, plain verdict) of each row."""
+    m, obs, bufs = L.unpack(mi, mf), K.unpack_obstacles(ob), L.unpack_buffers(mi, buf)
+    out = np.empty((qs.shape[0], 2), np.int64)
+    for i in range(qs.shape[0]):
+        _second_order(m[L.LLEVER], m[L.BRADIUS], dqs[i], bufs[L.LB])
+        _second_order(m[L.GLEVER], m[L.GRADIUS], dqs[i], bufs[L.GB])
+        for plain in range(2):  # one call site: verdict is inlined once (half the compilation)
+            out[i, plain] = K.verdict(qs[i], m, obs, bufs, plain == 0, 0.0 if plain else hs[i], dqs[i])
+    return out
+
+
+def test_a_grown_scan_answers_hit_exactly_where_a_plain_one_does(checkers):
+    """HIT or NEAR_HIT where the plain scan hits, NEAR or FREE where it does not; with no
+    growth there is no NEAR; a wide interval finds grown contacts."""
+    for i, (_, ch) in enumerate(checkers):
+        mi, mf, ob, lo, up = ch._args
+        a, b = _motions(100 + i, lo, up, 400)
+        hs = np.random.default_rng(i).choice([0.0, 0.03, 0.125, 0.5], 400)
+        v = _verdicts(0.5 * (a + b), hs, np.abs(b - a), mi, mf, ob, ch._buf)
+        hit = v[:, 1] == K.HIT
+        assert set(v[:, 1]) <= {K.FREE, K.HIT}
+        assert (np.isin(v[:, 0], [K.HIT, K.NEAR_HIT]) == hit).all()
+        assert (v[hs == 0.0, 0] != K.NEAR).all() and (v[hs == 0.0, 0] != K.NEAR_HIT).all()
+        assert (v[hs == 0.5, 0] != K.FREE).any() and hit.any() and (~hit).any()
