@@ -233,6 +233,7 @@ def test_statistics_exact(tmp_path, known, capsys):
     assert math.isnan(row["mpnet_hr_time_mean_s"]) and math.isnan(t1.iloc[1]["bit_star_over_mpnet_nr"])
     md = (out / "table1.md").read_text()
     assert "| Simple 2D | seen | 0.250 ± 0.129 |  |  | 2.50 ± 0.58 | 10.0 |" in md
+    assert "The clock: MPNet's planning loop and RRT-Connect (compiled) call the collision kernels" in md
     sc = (out / "success_cost.md").read_text()
     # pooled 4/6 = 66.7% with its Wilson interval [30.0, 90.3]
     assert "| Simple 2D | seen | MPNet (NR) | 62.5 ± 17.7 | 66.7 [30.0, 90.3] | 25.0 | 6 | 2 |" in sc

@@ -169,7 +169,13 @@ def render_table1(
         "plan_p90_s: plan_s, the time given the workspace's code (time_s less the cloud and Enet), as a "
         "robot that encodes its scene once and then plans many queries would see it."
     )
-    notes = [f"Layout of Table I of {CITATION}.", mark, which]
+    clock = (
+        "The clock: MPNet's planning loop and RRT-Connect (compiled) call the collision kernels directly, "
+        "compiled; OMPL's planners (BIT*, Informed-RRT*, RRT*, RRT-Connect, and MPNet (HR)'s RRT*) call back "
+        "into Python for every state and motion they check. What that crossing costs per check, env by env: "
+        "`python -m harness.perf`'s section 'The price of a check'."
+    )
+    notes = [f"Layout of Table I of {CITATION}.", mark, which, clock]
     if any(k and (what == "ratio" or facts.tag(k)[1]) for what, k in layout):
         notes.append(
             f"Columns marked [NAME] are the runs given as `--label NAME=DIR`; {RATIO_LABEL} [NAME], where "
