@@ -140,7 +140,7 @@ def forward(q, parent, origin, kind, axis, coord, out):
                 out[f, i, 3] = p0 * m[0, 3] + p1 * m[1, 3] + p2 * m[2, 3] + out[p, i, 3]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _place(pose, f, local, k, out, o):
     for i in range(3):
         out[o, i] = (
@@ -148,7 +148,7 @@ def _place(pose, f, local, k, out, o):
         )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dist2(p, o, boxes, cyls, balls, kind, j):
     """Squared distance from point p[o] to obstacle j of `kind` (0 box, 1 cylinder, 2 sphere)."""
     x, y, z = p[o, 0], p[o, 1], p[o, 2]
@@ -180,7 +180,7 @@ def _dist2(p, o, boxes, cyls, balls, kind, j):
     return d * d if d > 0.0 else 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _outside(p, o, bounds, row, reach):
     """Is point p[o] farther than reach from axis-aligned box `row` along some axis?"""
     b = bounds[row]
@@ -190,6 +190,10 @@ def _outside(p, o, bounds, row, reach):
     return False
 
 
+# The growth helpers are inlined (numba's IR): called hundreds of times a verdict with the
+# motion's tuple, they were a tenth of a motion check as calls. Inlining more (the placements,
+# the tests) made every kernel that inlines the checks compile ~3x longer (a first arm command
+# 70 -> 204 s) for no measured gain.
 @njit(cache=True, inline="always")
 def _speed(c, i, rad, j, grow):
     """How fast a point within rad of c[i] moves per unit of joint j's step: its distance
@@ -234,7 +238,7 @@ def _growth_from(sp, i, rad, lever, j0, grow):
     return h * first + 0.5 * h * h * second
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _place_groups(li, m, bufs, grow, growing, need):
     """The centres of link li's groups, once per configuration, and, in a motion where `need`
     says they are read, their growth, once (LPLACED: 0 nothing yet, 1 centres, 2 centres and
@@ -256,7 +260,7 @@ def _place_groups(li, m, bufs, grow, growing, need):
     bufs[LPLACED][li] = placed
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _place_spheres(g, m, bufs):
     """The centres of group g's spheres, once per configuration."""
     if bufs[GPLACED][g] == 0.0:
@@ -267,7 +271,7 @@ def _place_spheres(g, m, bufs):
         bufs[GPLACED][g] = 1.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _apart(p, i, rp, c, j, rc, reach):
     """Are point p[i] and point c[j] farther apart than rp[i] + rc[j] + reach?"""
     d2 = 0.0
@@ -277,7 +281,7 @@ def _apart(p, i, rp, c, j, rc, reach):
     return d2 > r * r
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _axes(m, pose, ap, au, pris):
     """Each joint's axis in the base frame now: a point on it, its direction, prismatic flag."""
     coord, kind, axis = m[COORD], m[KIND], m[AXIS]
