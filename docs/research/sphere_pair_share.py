@@ -22,32 +22,25 @@ single_threaded()  # before numpy or numba load
 import numpy as np  # noqa: E402
 
 from harness.core.provenance import machine_info, write_readme  # noqa: E402
+from harness.perf.crossing import range_motions  # noqa: E402
 from mpnet.envs.checkers import sphere_checks as C  # noqa: E402
 from mpnet.envs.checkers import sphere_layout  # noqa: E402
 from mpnet.envs.checkers.spheres import CERTIFY_TOL  # noqa: E402
 from mpnet.envs.mbm.files import load_mbm  # noqa: E402
 from mpnet.envs.specs import get_spec  # noqa: E402
-from mpnet.planners.compiled.rrt_connect import tree_range  # noqa: E402
 
 EVERY, MOTIONS, REPEATS = 35, 300, 5
 
 
-def _motions(spec, checker, rng) -> tuple[np.ndarray, np.ndarray]:
+def _free_states(checker, rng) -> np.ndarray:
+    """MOTIONS free states, uniform in the joint limits."""
     lo, up = checker._args[3], checker._args[4]
     free = []
     while len(free) < MOTIONS:
         q = rng.uniform(lo, up)
         if checker.is_valid(q):
             free.append(q)
-    free = np.array(free)
-    pick = rng.integers(0, MOTIONS, size=(MOTIONS, 2))
-    a, b = free[pick[:, 0]], free[pick[:, 1]].copy()
-    reach = tree_range(spec)
-    for i in range(MOTIONS):
-        d = spec.space.distance(a[i], b[i])
-        if d > reach:
-            b[i] = a[i] + (b[i] - a[i]) * (reach / d)
-    return a, b
+    return np.array(free)
 
 
 def _without_pairs(model):
@@ -71,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     cases = []
     for q in ts.queries[::EVERY]:
         ch = spec.make_checker(ws[q.workspace_id])
-        cases.append((ch, *_motions(spec, ch, rng)))
+        cases.append((ch, *range_motions(spec, rng, _free_states(ch, rng), MOTIONS)))
     model = cases[0][0].model
     kinds = {
         "the model as it is": (model.mi, model.mf, model.buffers()),

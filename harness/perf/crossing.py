@@ -63,13 +63,13 @@ def _per_call(run, calls: int) -> float:
     return statistics.median(ts)
 
 
-def _motions(spec, checker, rng, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """MOTIONS motions from a free state toward another, at most the planner range long (the
-    space's metric; OMPL's default range where the env sets none)."""
+def range_motions(spec, rng, free: np.ndarray, n: int = MOTIONS) -> tuple[np.ndarray, np.ndarray]:
+    """n motions from a free state toward another, at most the planner range long (the
+    space's metric; OMPL's default range where the env sets none), as a tree planner extends."""
     reach = tree_range(spec)
-    pick = rng.integers(0, len(free), size=(MOTIONS, 2))
+    pick = rng.integers(0, len(free), size=(n, 2))
     A, B = free[pick[:, 0]], free[pick[:, 1]].copy()
-    for i in range(MOTIONS):
+    for i in range(n):
         d = spec.space.distance(A[i], B[i])
         if d > reach:
             B[i] = A[i] + spec.space.difference(A[i], B[i]) * (reach / d)
@@ -83,7 +83,7 @@ def _prices(spec, checker, rng) -> dict[str, list[float]]:
     free = qs[checker.states_valid(qs)]
     if len(free) < 2:
         raise ValueError(f"env {spec.name}: fewer than two free states among {STATES} random ones")
-    A, B = (np.ascontiguousarray(x) for x in _motions(spec, checker, rng, free))
+    A, B = (np.ascontiguousarray(x) for x in range_motions(spec, rng, free))
     si, _, set_state, keep = make_space_information(spec, checker)  # noqa: F841 (kept alive with si)
     states = [si.allocState() for _ in range(STATES)]
     for s, q in zip(states, qs):

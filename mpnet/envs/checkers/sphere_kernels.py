@@ -375,7 +375,7 @@ def build_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n):
 
 @njit(cache=True, inline="always")
 def verdict(q, m, obs, bufs, growing, h, dq):
-    """FREE, NEAR or HIT for configuration q (see the module docstring). `growing`: q is
+    """FREE, NEAR, HIT or NEAR_HIT for configuration q (see the module docstring). `growing`: q is
     the midpoint of a motion interval of half-width h (in the motion's parameter) along
     joint steps dq; every sphere, group and link is grown by how far it can move in it.
 
