@@ -124,14 +124,35 @@ class ReachCache(FunctionCache):
     _impl_class = _ReachCacheImpl
 
 
-def njit(*args, cache: bool = False, **options):
-    """numba.njit; with cache=True, cached on disk under the reach stamp (see the module)."""
+class _BorrowedCacheImpl(_ReachCacheImpl):
+    def get_filename_base(self, fullname, abiflags):
+        return super().get_filename_base(f"{fullname}_borrowed", abiflags)
+
+
+class BorrowedReachCache(ReachCache):
+    """ReachCache under other file names: a function compiled both ways keeps two caches."""
+
+    _impl_class = _BorrowedCacheImpl
+
+
+def njit(*args, cache: bool = False, borrowed: bool = False, **options):
+    """numba.njit; with cache=True, cached on disk under the reach stamp (see the module).
+
+    borrowed=True compiles without numba's reference counts (its `_nrt=False`): every array
+    passed, indexed out of a tuple or viewed costs an atomic increment and decrement, which
+    was two thirds of the arm's certified motion check (reports/rrt_connect_compiled/borrowed).
+    A borrowed kernel allocates nothing, reads and writes only arrays its caller keeps alive,
+    and hands the views it returns only to other borrowed kernels: a kernel that counts would
+    release a reference it never got, and Python would get the viewed array's parent."""
+
+    if borrowed:
+        options["_nrt"] = False
 
     def wrap(func):
         dispatcher = numba.njit(**options)(func)
         if cache:
             # Dispatcher.enable_caching does exactly this with numba's FunctionCache
-            dispatcher._cache = ReachCache(dispatcher.py_func)
+            dispatcher._cache = (BorrowedReachCache if borrowed else ReachCache)(dispatcher.py_func)
         return dispatcher
 
     if args and callable(args[0]):

@@ -5,6 +5,7 @@ are the ones the two-scan kernels gave (recorded at f9c0b80)."""
 from __future__ import annotations
 
 import hashlib
+import sys
 
 import numpy as np
 import pytest
@@ -61,7 +62,7 @@ def test_motions_answer_and_count_as_the_two_scan_kernels_did(checkers):
 @njit(cache=True)
 def _verdicts(qs, hs, dqs, mi, mf, ob, buf):
     """(growing verdict, plain verdict) of each row."""
-    m, obs, bufs = L.unpack(mi, mf), K.unpack_obstacles(ob), L.unpack_buffers(mi, buf)
+    m, obs, bufs = L.model_views(mi, mf), K.obstacle_views(ob), L.scratch_views(mi, buf)  # this kernel counts
     out = np.empty((qs.shape[0], 2), np.int64)
     for i in range(qs.shape[0]):
         _second_order(m[L.LLEVER], m[L.BRADIUS], dqs[i], bufs[L.LB])
@@ -84,3 +85,47 @@ def test_a_grown_scan_answers_hit_exactly_where_a_plain_one_does(checkers):
         assert (np.isin(v[:, 0], [K.HIT, K.NEAR_HIT]) == hit).all()
         assert (v[hs == 0.0, 0] != K.NEAR).all() and (v[hs == 0.0, 0] != K.NEAR_HIT).all()
         assert (v[hs == 0.5, 0] != K.FREE).any() and hit.any() and (~hit).any()
+
+
+@njit(cache=True)
+def _counting_caller(qs, a, b, mi, mf, ob, lo, up, buf):
+    """A kernel with numba's reference counts (as the compiled planners are) calling the borrowed
+    checks: how many states are free, how many of the motions a[i] -> b[i] are."""
+    n = 0
+    for i in range(qs.shape[0]):
+        n += C.state_free(qs[i], mi, mf, ob, lo, up, buf)
+        ok, _ = C.motion_free(a[i], b[i], mi, mf, ob, lo, up, CERTIFY_TOL, buf)
+        n += ok
+    return n
+
+
+def test_the_borrowed_kernels_neither_keep_nor_drop_a_reference(checkers):
+    """The checks run without numba's reference counts (mpnet.jit's borrowed): from Python and
+    from a counting kernel, every array they are handed keeps its reference count, numba's
+    allocations all come back, and the answers are the counting twin's."""
+    from numba.core.runtime import _nrt_python, rtsys
+
+    _nrt_python.memsys_enable_stats()
+    _, ch = checkers[0]
+    mi, mf, ob, lo, up = ch._args
+    buf = ch._buf
+    a, b = _motions(7, lo, up, 50)
+    held = (mi, mf, ob, lo, up, buf, a, b)
+
+    def calls():
+        n = int(C.states_free(a, mi, mf, ob, lo, up, buf).sum())
+        n += sum(C.state_free(q, mi, mf, ob, lo, up, buf) for q in a)
+        n += int(C.motions_free(a, b, mi, mf, ob, lo, up, CERTIFY_TOL, buf)[0].sum())
+        n += sum(C.motion_free(p, q, mi, mf, ob, lo, up, CERTIFY_TOL, buf)[0] for p, q in zip(a, b))
+        return n + _counting_caller(a, a, b, mi, mf, ob, lo, up, buf)
+
+    first = calls()  # compiles or loads everything first
+    refs = [sys.getrefcount(x) for x in held]
+    stats = rtsys.get_allocation_stats()
+    assert [calls() for _ in range(5)] == [first] * 5
+    after = rtsys.get_allocation_stats()
+    assert [sys.getrefcount(x) for x in held] == refs
+    assert after.alloc - stats.alloc == after.free - stats.free > 0
+    assert after.mi_alloc - stats.mi_alloc == after.mi_free - stats.mi_free
+    views = K.obstacle_views(ob)  # the counting twin of the kernels' unpack_obstacles, from Python
+    assert views[0].shape[1] == 15 and views[4].shape == (sum(len(v) for v in views[:3]), 6)

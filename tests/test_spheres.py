@@ -66,14 +66,15 @@ def test_kernel_kinematics_match_the_model():
 
 
 def test_the_kernels_views_are_the_model_fields_the_layout_names():
-    """unpack gives back each field SphereModel packed, at its constant's index; the scratch's
+    """The views (model_views, the counting twin of the kernels' unpack, generated from the same
+    table) give back each field SphereModel packed, at its constant's index; the scratch's
     views tile it exactly; a field of the wrong shape is refused."""
     m = sphere_model("panda")
-    views = L.unpack(m.mi, m.mf)
+    views = L.model_views(m.mi, m.mf)
     assert len(views) == len(L.MODEL) and L.TABLE_BITS == len(L.MODEL) - 1
     for i, field in enumerate(L.MODEL):
         assert np.array_equal(views[i], getattr(m, field.name)), field.name
-    scratch = L.unpack_buffers(m.mi, m.buffers())
+    scratch = L.scratch_views(m.mi, m.buffers())
     assert sum(v.size for v in scratch) == m.buffers().size
     assert scratch[L.POSE].shape == (len(m.parent) + 1, 3, 4) and scratch[L.T0S].size == L.QUEUE
     bad = copy.copy(m)
@@ -163,7 +164,7 @@ def test_sphere_against_a_primitive_agrees_with_fcl(kind, dims, quat, centre, ra
     hit = C.any_hit(np.array([centre], float), np.array([radius]), ob)
     assert hit == (gap < 0)
     # The axis-aligned bounds the kernels reject with first never reject a touching sphere.
-    bounds = K.unpack_obstacles(ob)[4]
+    bounds = K.obstacle_views(ob)[4]
     if K._outside(np.array([centre], float), 0, bounds, 0, radius):
         assert gap > 0
 

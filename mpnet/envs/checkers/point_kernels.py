@@ -14,7 +14,7 @@ import numpy as np
 from mpnet.jit import njit
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def in_bounds(q, lower, upper):
     for k in range(q.shape[0]):
         if not lower[k] <= q[k] <= upper[k]:
@@ -22,7 +22,7 @@ def in_bounds(q, lower, upper):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def state_free(q, lo, hi, lower, upper):
     """In bounds and in no closed box."""
     if not in_bounds(q, lower, upper):
@@ -38,14 +38,14 @@ def state_free(q, lo, hi, lower, upper):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def states_free(qs, lo, hi, lower, upper, out):
     """state_free for each row of qs, into out."""
     for i in range(qs.shape[0]):
         out[i] = state_free(qs[i], lo, hi, lower, upper)
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def motion_free(a, b, lo, hi, lower, upper, d):
     """Both ends in bounds and the segment meets no box (slab test by the reciprocal). d: scratch."""
     if not (in_bounds(a, lower, upper) and in_bounds(b, lower, upper)):
@@ -77,7 +77,7 @@ def motion_free(a, b, lo, hi, lower, upper, d):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def motions_free(A, B, lo, hi, lower, upper, out):
     """For each motion A[i] -> B[i], into out: both ends in bounds and no box met (slab test by
     division; a still coordinate inside its slab or not)."""

@@ -16,18 +16,18 @@ HX, HY, RADIUS, MARGIN, X0, X1, Y0, Y1 = range(8)
 MAX_STEPS = 20000  # advancement steps before a motion is called blocked
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def wrap_angle(a):
     """mpnet.envs.spaces.wrap_angle: into [-pi, pi)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _in_bounds(f, x, y):
     return f[X0] <= x <= f[X1] and f[Y0] <= y <= f[Y1]
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def clearance(x, y, th, centres, halves, f):
     """Lower bound on the distance from the body at (x, y, th) to the nearest box (<= 0: overlap)."""
     c, s = math.cos(th), math.sin(th)
@@ -50,7 +50,7 @@ def clearance(x, y, th, centres, halves, f):
     return best
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def state_free(q, centres, halves, f):
     """In bounds and every box separated (clearance > 0)."""
     if not _in_bounds(f, q[0], q[1]):
@@ -58,14 +58,14 @@ def state_free(q, centres, halves, f):
     return clearance(q[0], q[1], q[2], centres, halves, f) > 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def states_free(qs, centres, halves, f, out):
     """state_free for each row of qs, into out."""
     for i in range(qs.shape[0]):
         out[i] = state_free(qs[i], centres, halves, f)
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _safe_step(x, y, th, centres, halves, near, n_near, f, dx, dy, dth):
     """How far the motion's parameter may advance from (x, y, th) without touching any of the
     boxes near[:n_near] (margin-grown); -1.0 when one is within the margin already. Stepping
@@ -107,7 +107,7 @@ def _safe_step(x, y, th, centres, halves, near, n_near, f, dx, dy, dth):
     return best
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def advance(a, b, centres, halves, f, near):
     """(free, steps): is the motion free (ends in bounds, then conservative advancement against
     the boxes that meet the swept disc hull), and how many advancement steps it took. x, y move
@@ -139,7 +139,7 @@ def advance(a, b, centres, halves, f, near):
     return False, MAX_STEPS
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def motion_free(a, b, centres, halves, f, near):
     """Is the motion a -> b free (advance's verdict)?"""
     return advance(a, b, centres, halves, f, near)[0]

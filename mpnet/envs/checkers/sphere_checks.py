@@ -30,7 +30,7 @@ from mpnet.envs.checkers.sphere_layout import (
 from mpnet.jit import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, borrowed=True, inline="always")
 def _state_free(q, m, obs, lower, upper, bufs):
     for d in range(q.shape[0]):
         if not lower[d] <= q[d] <= upper[d]:
@@ -38,7 +38,7 @@ def _state_free(q, m, obs, lower, upper, bufs):
     return verdict(q, m, obs, bufs, False, 0.0, q) != HIT
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def state_free(q, mi, mf, ob, lower, upper, buf):
     """In bounds and no sphere touching (a plain check)."""
     return _state_free(q, unpack(mi, mf), unpack_obstacles(ob), lower, upper, unpack_buffers(mi, buf))
@@ -47,14 +47,19 @@ def state_free(q, mi, mf, ob, lower, upper, buf):
 @njit(cache=True)
 def states_free(qs, mi, mf, ob, lower, upper, buf):
     """state_free for each row of qs."""
-    m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
     out = np.empty(qs.shape[0], np.bool_)
-    for i in range(qs.shape[0]):
-        out[i] = _state_free(qs[i], m, obs, lower, upper, bufs)
+    _states_into(qs, mi, mf, ob, lower, upper, buf, out)
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
+def _states_into(qs, mi, mf, ob, lower, upper, buf, out):
+    m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
+    for i in range(qs.shape[0]):
+        out[i] = _state_free(qs[i], m, obs, lower, upper, bufs)
+
+
+@njit(cache=True, borrowed=True)
 def _second_order(lever, rad, dq, out):
     """B = sum_j |dq_j| sum_{k > j} |dq_k| (R_k + rad) per row: how much a point's distance
     from joint j's axis can change per unit of the interval (joints after j move it)."""
@@ -67,7 +72,7 @@ def _second_order(lever, rad, dq, out):
         out[i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
     """Is the straight joint motion a -> b free everywhere along it? Returns (free,
     configurations evaluated).
@@ -122,7 +127,7 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
     return True, evaluated
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def motion_free(a, b, mi, mf, ob, lower, upper, tol, buf):
     """Is the straight joint motion a -> b free everywhere along it? (free, configurations
     evaluated); see _motion_free."""
@@ -132,17 +137,22 @@ def motion_free(a, b, mi, mf, ob, lower, upper, tol, buf):
 @njit(cache=True)
 def motions_free(A, B, mi, mf, ob, lower, upper, tol, buf):
     """motion_free for each row pair (A[i], B[i]); also the configurations evaluated in all."""
-    m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
     out = np.empty(A.shape[0], np.bool_)
+    return out, _motions_into(A, B, mi, mf, ob, lower, upper, tol, buf, out)
+
+
+@njit(cache=True, borrowed=True)
+def _motions_into(A, B, mi, mf, ob, lower, upper, tol, buf, out):
+    m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
     total = 0
     for i in range(A.shape[0]):
         ok, n = _motion_free(A[i], B[i], m, obs, lower, upper, tol, bufs)
         total += n
         out[i] = ok
-    return out, total
+    return total
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def any_hit(centres, radii, ob):
     """Does any sphere (centres, radii) touch an obstacle?"""
     boxes, cyls, balls, margin, _ = unpack_obstacles(ob)

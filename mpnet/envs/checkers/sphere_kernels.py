@@ -80,8 +80,7 @@ FREE, NEAR, HIT, NEAR_HIT = 0, 1, 2, 3  # NEAR_HIT: a grown contact, then a sphe
 TABLE_SPAN = 16  # a motion interval's lookup reads at most this many table cells, else tests spheres
 
 
-@njit(cache=True)
-def unpack_obstacles(ob):
+def _obstacles(ob):
     """(boxes (B, 15), cylinders (C, 8), balls (K, 4), margin, bounds (B + C + K, 6)) from
     [B, C, K, margin, ...]; bounds: each obstacle's axis-aligned box (low, high), boxes'
     first, a test of 6 comparisons that rejects most (link, obstacle) pairs before _dist2."""
@@ -97,7 +96,11 @@ def unpack_obstacles(ob):
     return boxes, cyls, balls, ob[3], bounds
 
 
-@njit(cache=True)
+unpack_obstacles = njit(cache=True, borrowed=True)(_obstacles)  # for borrowed kernels (mpnet.jit)
+obstacle_views = njit(cache=True)(_obstacles)  # the same, for Python and counting kernels
+
+
+@njit(cache=True, borrowed=True)
 def forward(q, parent, origin, kind, axis, coord, out):
     """Every frame's pose (3 x 4, base frame) at joint vector q, into out[:F]; out[F] is
     scratch. Scalar loops throughout: array slicing costs more than the arithmetic here."""
@@ -140,7 +143,7 @@ def forward(q, parent, origin, kind, axis, coord, out):
                 out[f, i, 3] = p0 * m[0, 3] + p1 * m[1, 3] + p2 * m[2, 3] + out[p, i, 3]
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _place(pose, f, local, k, out, o):
     for i in range(3):
         out[o, i] = (
@@ -148,7 +151,7 @@ def _place(pose, f, local, k, out, o):
         )
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _dist2(p, o, boxes, cyls, balls, kind, j):
     """Squared distance from point p[o] to obstacle j of `kind` (0 box, 1 cylinder, 2 sphere)."""
     x, y, z = p[o, 0], p[o, 1], p[o, 2]
@@ -180,7 +183,7 @@ def _dist2(p, o, boxes, cyls, balls, kind, j):
     return d * d if d > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _outside(p, o, bounds, row, reach):
     """Is point p[o] farther than reach from axis-aligned box `row` along some axis?"""
     b = bounds[row]
@@ -194,7 +197,7 @@ def _outside(p, o, bounds, row, reach):
 # motion's tuple, they were a tenth of a motion check as calls. Inlining more (the placements,
 # the tests) made every kernel that inlines the checks compile ~3x longer (a first arm command
 # 70 -> 204 s) for no measured gain.
-@njit(cache=True, inline="always")
+@njit(cache=True, borrowed=True, inline="always")
 def _speed(c, i, rad, j, grow):
     """How fast a point within rad of c[i] moves per unit of joint j's step: its distance
     from joint j's axis now plus rad (1 for a prismatic joint)."""
@@ -207,7 +210,7 @@ def _speed(c, i, rad, j, grow):
     return math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, borrowed=True, inline="always")
 def _growth(c, i, rad, Bv, g, grow, sp):
     """How far any point within rad of point c[i] can move in the current half interval:
     h sum_j |dq_j| (rho_j + rad) + h^2 / 2 B, where rho_j is c[i]'s distance from joint j's
@@ -223,7 +226,7 @@ def _growth(c, i, rad, Bv, g, grow, sp):
     return h * a + 0.5 * h * h * Bv[g]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, borrowed=True, inline="always")
 def _growth_from(sp, i, rad, lever, j0, grow):
     """_growth counting only joints j0.. (those between a link and a link below it: how far
     a point of the lower link moves relative to the upper one), from the speeds _growth kept
@@ -238,7 +241,7 @@ def _growth_from(sp, i, rad, lever, j0, grow):
     return h * first + 0.5 * h * h * second
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _place_groups(li, m, bufs, grow, growing, need):
     """The centres of link li's groups, once per configuration, and, in a motion where `need`
     says they are read, their growth, once (LPLACED: 0 nothing yet, 1 centres, 2 centres and
@@ -260,7 +263,7 @@ def _place_groups(li, m, bufs, grow, growing, need):
     bufs[LPLACED][li] = placed
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _place_spheres(g, m, bufs):
     """The centres of group g's spheres, once per configuration."""
     if bufs[GPLACED][g] == 0.0:
@@ -271,7 +274,7 @@ def _place_spheres(g, m, bufs):
         bufs[GPLACED][g] = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _apart(p, i, rp, c, j, rc, reach):
     """Are point p[i] and point c[j] farther apart than rp[i] + rc[j] + reach?"""
     d2 = 0.0
@@ -281,7 +284,7 @@ def _apart(p, i, rp, c, j, rc, reach):
     return d2 > r * r
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _axes(m, pose, ap, au, pris):
     """Each joint's axis in the base frame now: a point on it, its direction, prismatic flag."""
     coord, kind, axis = m[COORD], m[KIND], m[AXIS]
@@ -295,13 +298,13 @@ def _axes(m, pose, ap, au, pris):
             au[j, x] = pose[f, x, 0] * axis[f, 0] + pose[f, x, 1] * axis[f, 1] + pose[f, x, 2] * axis[f, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _cell(v, lo, width, n):
     c = int(math.floor((v - lo) / width))
     return 0 if c < 0 else (n - 1 if c >= n else c)
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _table_free(q, ti, tf, bits, h, dq):
     """Does pair table ti certify its pairs free for every joint vector within h dq of q?
     ti = (joint a, joint b or -1, cells along a, cells along b, first word of its bits);
@@ -333,13 +336,19 @@ def build_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n):
     half the cell's width times its static lever, which bounds its distance from that
     joint's axis in any configuration), clears every sphere of a. The other joints are held
     at 0: they move a and its partners together."""
+    bits = np.zeros((n[0] * n[1] + 63) // 64, np.int64)
+    _fill_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n, np.zeros(lever.shape[1]), bits)
+    return bits
+
+
+@njit(cache=True, borrowed=True)
+def _fill_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n, q, bits):
+    """build_table's cells, into bits (q: a joint vector of zeros, scratch)."""
     m, bufs = unpack(mi, mf), unpack_buffers(mi, buf)
     pose, centres, gcentres = bufs[POSE], bufs[CENTRES], bufs[GCENTRES]
     link_g0, link_g1, group_s0, group_s1 = m[LINK_G0], m[LINK_G1], m[GROUP_S0], m[GROUP_S1]
     radius, gradius, glever = m[RADIUS], m[GRADIUS], m[GLEVER]
-    q = np.zeros(m[LLEVER].shape[1])
     hb = 0.5 * width[1] if jb >= 0 else 0.0
-    bits = np.zeros((n[0] * n[1] + 63) // 64, np.int64)
     for i in range(n[0]):
         for k in range(n[1]):
             q[ja] = lo[0] + (i + 0.5) * width[0]
@@ -370,10 +379,9 @@ def build_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n):
             if free:
                 c = i * n[1] + k
                 bits[c >> 6] |= np.int64(1) << np.int64(c & 63)
-    return bits
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, borrowed=True, inline="always")
 def verdict(q, m, obs, bufs, growing, h, dq):
     """FREE, NEAR, HIT or NEAR_HIT for configuration q (see the module docstring). `growing`: q is
     the midpoint of a motion interval of half-width h (in the motion's parameter) along

@@ -7,7 +7,7 @@ of 27 does not). From the tables follow the packing (`pack`, which also gives th
 length), each field's index in the kernels' tuples (PARENT, ..., module constants: numba
 freezes globals when it compiles) and the views (`unpack`, `unpack_buffers`). mi starts with
 a header that gives each field its start, end and shape, so the views read the layout the
-packing wrote; numba builds a tuple of views only from code that names each one, so the two
+packing wrote; numba builds a tuple of views only from code that names each one, so the
 view kernels are generated from the tables (as dataclasses writes `__init__`), under this
 file's name: mpnet.jit's cache stamps them with its text.
 
@@ -156,17 +156,24 @@ def _view(f: Field, slot: int) -> str:
     return f"{flat}.reshape(({', '.join(f'mi[{slot + 2 + i}]' for i in range(len(f.shape)))}))"
 
 
-def _views(name: str, args: str, fields: list[Field], slots: list[int], doc: str):
+def _views(name: str, args: str, fields: list[Field], slots: list[int], doc: str, borrowed: bool):
     """A kernel returning the tuple of `fields`' views, generated from the table."""
     body = ",\n        ".join(_view(f, s) for f, s in zip(fields, slots))
     namespace = {"__name__": __name__}
     exec(compile(f"def {name}({args}):\n    return (\n        {body},\n    )\n", __file__, "exec"), namespace)
     func = namespace[name]
     func.__doc__ = doc
-    return njit(cache=True)(func)
+    return njit(cache=True, borrowed=borrowed)(func)
 
 
-unpack = _views("unpack", "mi, mf", MODEL, _SLOTS[: len(MODEL)], "The model's fields (MODEL) as views of mi and mf.")
+# The kernels' views are borrowed (mpnet.jit: no reference counts), so only borrowed kernels
+# may call them; Python and counting kernels read the same views through the *_views twins.
+_MODEL_SLOTS, _SCRATCH_SLOTS = _SLOTS[: len(MODEL)], _SLOTS[len(MODEL) : -1]
+unpack = _views("unpack", "mi, mf", MODEL, _MODEL_SLOTS, "The model's fields (MODEL) as views of mi and mf.", True)
 unpack_buffers = _views(
-    "unpack_buffers", "mi, buf", SCRATCH, _SLOTS[len(MODEL) : -1], "The scratch's fields (SCRATCH) as views of buf."
+    "unpack_buffers", "mi, buf", SCRATCH, _SCRATCH_SLOTS, "The scratch's fields (SCRATCH) as views of buf.", True
+)
+model_views = _views("model_views", "mi, mf", MODEL, _MODEL_SLOTS, "unpack, for Python and counting kernels.", False)
+scratch_views = _views(
+    "scratch_views", "mi, buf", SCRATCH, _SCRATCH_SLOTS, "unpack_buffers, for Python and counting kernels.", False
 )

@@ -232,7 +232,7 @@ def obstacle_arrays(ws: Workspace) -> dict[str, np.ndarray]:
     """The workspace's primitives as arrays (the packed layout's, sphere_kernels.unpack_obstacles):
     boxes (B, 15: centre, rotation's columns, half sizes), cylinders (C, 8: centre, axis,
     radius, half height), balls (K, 4: centre, radius)."""
-    boxes, cyls, balls, _, _ = K.unpack_obstacles(pack_obstacles(ws, 0.0))
+    boxes, cyls, balls, _, _ = K.obstacle_views(pack_obstacles(ws, 0.0))
     return {"boxes": boxes.copy(), "cylinders": cyls.copy(), "balls": balls.copy()}
 
 
