@@ -50,7 +50,7 @@ def _is_arm(env) -> bool:
     return len(env.types) == ARM_FIELDS
 
 
-@overload(state_free)
+@overload(state_free, jit_options={"_nrt": False})  # borrowed (mpnet.jit), as the checks it calls
 def _state_typed(env, counts, q):
     if _is_arm(env):
 
@@ -70,7 +70,7 @@ def _state_typed(env, counts, q):
     return boxes
 
 
-@overload(motion_free)
+@overload(motion_free, jit_options={"_nrt": False})
 def _motion_typed(env, counts, a, b):
     if _is_arm(env):
 
@@ -119,21 +119,21 @@ def _motions_typed(env, counts, A, B, out):
     return boxes
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def canonical(env, q):
     """The state space's wrap of a state (SE2: the angle into [-pi, pi)), in place."""
     if env[0] == RIGID:
         q[2] = R.wrap_angle(q[2])
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def wrap_difference(env, d):
     """A difference of states along the shorter way (SE2: the angle's into [-pi, pi)), in place."""
     if env[0] == RIGID:
         d[2] = R.wrap_angle(d[2])
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def bounded_dims(env, n):
     """How many leading coordinates of an n-D state have bounds to clip into (SE2: x and y; the
     angle wraps)."""

@@ -111,12 +111,12 @@ class CompiledRRTConnect:
         nodes[0, 0], nodes[1, 0] = start, goal
         state = K.new_state()
         counts = np.zeros(3, np.int64)
-        sample = np.empty(start.shape[0])
+        sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
         chunk, outcome = FIRST_SLICE, K.RUNNING
         try:
             while True:
                 outcome = K.grow(
-                    env, counts, weights, lower, upper, reach, rng, nodes, parents, state, chunk, room, sample
+                    env, counts, weights, lower, upper, reach, rng, nodes, parents, state, chunk, room, sample, diff
                 )
                 if outcome == K.FULL:
                     nodes, parents = self._grown()
@@ -146,6 +146,6 @@ class CompiledRRTConnect:
         nodes[0, 0], nodes[1, 0] = problem.start, problem.goal
         state = K.new_state()
         K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents,
-               state, 1, room, np.empty(len(problem.start)))  # fmt: skip
+               state, 1, room, np.empty(len(problem.start)), np.empty(len(problem.start)))  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0
         K.solution(nodes, parents, state)

@@ -35,7 +35,7 @@ def new_state() -> np.ndarray:
     return np.array([1, 1, 0, -1, -1, 0], np.int64)
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def uniform(rng, lo, hi):
     """A uniform draw in [lo, hi) from a splitmix64 stream (rng: its one uint64 of state). A
     Generator argument costs ~30 us to hand to numba per call, more than a 2-D query's search."""
@@ -47,11 +47,13 @@ def uniform(rng, lo, hi):
     return lo + (hi - lo) * (np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0))
 
 
-@njit(cache=True)
-def distance(env, weights, a, b):
+@njit(cache=True, borrowed=True)
+def distance(env, weights, a, b, d):
     """The space's metric (mpnet.envs.spaces): Euclidean over the bounded coordinates, plus
-    weight x |difference| for each wrapped one (SE2's angle, along the shorter arc)."""
-    d = b - a
+    weight x |difference| for each wrapped one (SE2's angle, along the shorter arc). d: scratch,
+    left holding b - a the shorter way."""
+    for k in range(d.shape[0]):
+        d[k] = b[k] - a[k]
     wrap_difference(env, d)
     kb = bounded_dims(env, d.shape[0])
     s = 0.0
@@ -63,9 +65,9 @@ def distance(env, weights, a, b):
     return out
 
 
-@njit(cache=True)
-def nearest(env, weights, nodes, n, q):
-    """The index of the node (of the first n) nearest q."""
+@njit(cache=True, borrowed=True)
+def nearest(env, weights, nodes, n, q, scratch):
+    """The index of the node (of the first n) nearest q (scratch: distance's)."""
     best, bi = np.inf, 0
     d = q.shape[0]
     if bounded_dims(env, d) == d:  # all Euclidean: squared distances compare the same, no root
@@ -80,25 +82,24 @@ def nearest(env, weights, nodes, n, q):
                 best, bi = s, i
         return bi
     for i in range(n):
-        s = distance(env, weights, nodes[i], q)
+        s = distance(env, weights, nodes[i], q, scratch)
         if s < best:
             best, bi = s, i
     return bi
 
 
-@njit(cache=True)
-def _extend(env, counts, weights, reach, nodes, parents, state, t, target):
+@njit(cache=True, borrowed=True)
+def _extend(env, counts, weights, reach, nodes, parents, state, t, target, d):
     """OMPL's growTree: tree t's nearest node moved toward target by at most `reach`, added
-    when its motion is free. TRAPPED, ADVANCED (moved, target not reached) or REACHED."""
+    when its motion is free. TRAPPED, ADVANCED (moved, target not reached) or REACHED. d:
+    scratch."""
     n = state[t]
-    i = nearest(env, weights, nodes[t], n, target)
+    i = nearest(env, weights, nodes[t], n, target, d)
     near = nodes[t, i]
     new = nodes[t, n]
-    dist = distance(env, weights, near, target)
+    dist = distance(env, weights, near, target, d)  # d: target - near, the shorter way
     reached = True
     if dist > reach:
-        d = target - near
-        wrap_difference(env, d)
         f = reach / dist
         for k in range(d.shape[0]):
             new[k] = near[k] + f * d[k]
@@ -112,7 +113,8 @@ def _extend(env, counts, weights, reach, nodes, parents, state, t, target):
             return TRAPPED
         reached = False
     else:
-        new[:] = target
+        for k in range(new.shape[0]):  # a loop: a slice copy may allocate (arrays could overlap)
+            new[k] = target[k]
     if t == 0:
         counts[1] += 1
         ok = motion_free(env, counts, near, new)
@@ -129,10 +131,11 @@ def _extend(env, counts, weights, reach, nodes, parents, state, t, target):
     return REACHED if reached else ADVANCED
 
 
-@njit(cache=True)
-def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, iterations, room, sample):
+@njit(cache=True, borrowed=True)
+def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, iterations, room, sample, d):
     """Up to `iterations` rounds of RRT-Connect on the trees (nodes (2, cap, d), parents
-    (2, cap), state: see N0..JOIN1; each tree's root placed by the caller). Returns
+    (2, cap), state: see N0..JOIN1; each tree's root placed by the caller; sample, d: scratch
+    of a state's length). Returns
     CONNECTED (state[JOIN0], state[JOIN1]: the start tree's and the goal tree's nodes that
     meet, the same state: the connecting tree's last step reached its target exactly),
     RUNNING (iterations spent) or FULL (a tree within `room` nodes of its capacity: the
@@ -146,14 +149,15 @@ def grow(env, counts, weights, lower, upper, reach, rng, nodes, parents, state, 
         state[ROUNDS] += 1
         for k in range(sample.shape[0]):
             sample[k] = uniform(rng, lower[k], upper[k])
-        if _extend(env, counts, weights, reach, nodes, parents, state, t, sample) == TRAPPED:
+        if _extend(env, counts, weights, reach, nodes, parents, state, t, sample, d) == TRAPPED:
             continue
         added = state[t] - 1
-        sample[:] = nodes[t, added]  # the other tree's target: the state just added (the sample is spent)
+        for k in range(sample.shape[0]):  # the other tree's target: the state just added (the sample is spent)
+            sample[k] = nodes[t, added, k]
         o = 1 - t
-        g = _extend(env, counts, weights, reach, nodes, parents, state, o, sample)
+        g = _extend(env, counts, weights, reach, nodes, parents, state, o, sample, d)
         while g == ADVANCED:
-            g = _extend(env, counts, weights, reach, nodes, parents, state, o, sample)
+            g = _extend(env, counts, weights, reach, nodes, parents, state, o, sample, d)
         if g == REACHED:
             if t == 0:
                 state[JOIN0], state[JOIN1] = added, state[o] - 1
