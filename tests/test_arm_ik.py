@@ -104,3 +104,21 @@ def test_the_first_restart_that_succeeds_is_returned_and_later_ones_are_not_solv
     calls = []
     q = solve(MODEL, target, rng, seed_q=q0, attempts=200, valid=lambda q: calls.append(q) or True)
     assert len(calls) == 1 and np.abs(q - q0).max() < 0.05
+
+
+def test_a_restart_iterates_as_before_the_scratch():
+    """dls's iterations write scratch instead of allocating (borrowed kernels): the same joint
+    vectors and poses, bit for bit, as the allocating kernel gave (recorded at 2424fa5)."""
+    import hashlib
+
+    origins, coords, kinds, axes = chain_arrays(MODEL, "panda_link8")
+    rng = np.random.default_rng(42)
+    h = hashlib.sha256()
+    for _ in range(200):
+        qt, q0 = rng.uniform(LOWER, UPPER), rng.uniform(LOWER, UPPER)
+        z = np.zeros((len(origins), 3))
+        T = ik_kernels.chain_pose(qt, origins, coords, kinds, axes, z, z.copy())
+        aim_p, aim_R = T[:3, 3] + rng.uniform(-0.01, 0.01, 3), np.ascontiguousarray(T[:3, :3])
+        q, T2 = ik_kernels.dls(q0, aim_p, aim_R, LOWER, UPPER, origins, coords, kinds, axes, 100, 0.05)
+        h.update(q.tobytes() + T2.tobytes())
+    assert h.hexdigest()[:16] == "865156361e8cc190"

@@ -5,7 +5,9 @@ of up to 100 iterations each; as numpy arrays over the restarts, IK was most of 
 time (a profile of 14 scenes: 98 of 166 CPU-s, the planning itself 67). Here each restart runs
 alone, in attempt order, so the first restart that meets the target ends the call without
 solving the others; each restart's iterates are the batched version's (each restart's
-update never read another's), up to floating-point rounding.
+update never read another's), up to floating-point rounding. A restart's iterations allocate
+nothing and count no references (mpnet.jit's borrowed: the pose, rotation vector and solve
+write scratch that dls allocates once), the same arithmetic in the same order.
 
 A chain is arrays: per frame on the path from the base to the tip, its fixed origin (4 x 4),
 the planned coordinate that drives it (-1: none), its kind (arm_model's REVOLUTE/PRISMATIC)
@@ -28,8 +30,15 @@ def rotvec(R: np.ndarray) -> np.ndarray:
     """The rotation vector of a 3 x 3 rotation matrix, as scipy's Rotation computes it: the
     matrix's quaternion by the largest of its trace and diagonal, scalar part made >= 0, then
     angle 2 atan2(|xyz|, w) about xyz."""
+    out = np.empty(3)
+    _rotvec_into(R, np.empty(4), out)
+    return out
+
+
+@njit(cache=True, borrowed=True)
+def _rotvec_into(R, q, out):
+    """rotvec(R) into out (q: scratch of 4, the quaternion x, y, z, w)."""
     t = R[0, 0] + R[1, 1] + R[2, 2]
-    q = np.empty(4)  # x, y, z, w
     k, best = 0, R[0, 0]  # argmax of (R00, R11, R22, trace), the first of equals
     for i in range(1, 3):
         if R[i, i] > best:
@@ -60,13 +69,11 @@ def rotvec(R: np.ndarray) -> np.ndarray:
         scale = 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0
     else:
         scale = angle / math.sin(angle / 2.0)
-    out = np.empty(3)
     for i in range(3):
         out[i] = scale * q[i]
-    return out
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _mul4(A, B, out):
     """out = A @ B for 4 x 4 (out distinct from both)."""
     for r in range(4):
@@ -78,12 +85,33 @@ def _mul4(A, B, out):
 def chain_pose(q, origins, coords, kinds, axes, joint_axes, joint_origins) -> np.ndarray:
     """The tip's 4 x 4 pose at q; fills each driven frame's world axis and origin (rows in
     chain order, the rest untouched)."""
-    T = np.eye(4)
-    tmp = np.empty((4, 4))
-    m = np.eye(4)
+    T = np.empty((4, 4))
+    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, np.empty((4, 4)), np.empty((4, 4)))
+    return T
+
+
+@njit(cache=True, borrowed=True)
+def _eye4(m):
+    for r in range(4):
+        for c in range(4):
+            m[r, c] = 1.0 if r == c else 0.0
+
+
+@njit(cache=True, borrowed=True)
+def _copy4(src, out):
+    for r in range(4):
+        for c in range(4):
+            out[r, c] = src[r, c]
+
+
+@njit(cache=True, borrowed=True)
+def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m):
+    """chain_pose into T (tmp, m: 4 x 4 scratch)."""
+    _eye4(T)
+    _eye4(m)
     for f in range(origins.shape[0]):
         _mul4(T, origins[f], tmp)
-        T[:] = tmp
+        _copy4(tmp, T)
         c = coords[f]
         if c < 0:
             continue
@@ -105,11 +133,10 @@ def chain_pose(q, origins, coords, kinds, axes, joint_axes, joint_origins) -> np
             m[2, 0], m[2, 1], m[2, 2] = z * x * C - y * si, z * y * C + x * si, co + z * z * C
             m[0, 3], m[1, 3], m[2, 3] = 0.0, 0.0, 0.0
         _mul4(T, m, tmp)
-        T[:] = tmp
-    return T
+        _copy4(tmp, T)
 
 
-@njit(cache=True)
+@njit(cache=True, borrowed=True)
 def _spd_solve6(A, b, L, y):
     """Solve A x = b in place of b for a 6 x 6 symmetric positive definite A (Cholesky; the
     damped normal matrix J J^T + damping^2 I always is). L, y: scratch."""
@@ -137,42 +164,53 @@ def dls(q0, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations
     steps dq = J^T (J J^T + damping^2 I)^-1 e, clipped to the limits, stopping once the
     error's norm is under 1e-6. Returns (q, the tip's pose at q)."""
     q = q0.copy()
+    n = origins.shape[0]
+    T = np.empty((4, 4))
+    _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping, T,
+              np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((6, q.shape[0])), np.empty(6), np.empty((6, 6)),
+              np.zeros((6, 6)), np.empty(6), np.empty((3, 3)), np.empty((4, 4)), np.empty((4, 4)), np.empty(4),
+              np.empty(3))  # fmt: skip
+    return q, T
+
+
+@njit(cache=True, borrowed=True)
+def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping, T,
+              joint_axes, joint_origins, J, e, A, L, y, R, tmp, m, quat, rv):  # fmt: skip
+    """dls's iterations on q in place, the tip's pose into T; the rest: scratch (allocated
+    once a restart by dls, so the iterations allocate nothing and count no references)."""
     dof = q.shape[0]
     n = origins.shape[0]
-    joint_axes = np.zeros((n, 3))
-    joint_origins = np.zeros((n, 3))
-    J = np.zeros((6, dof))
-    e = np.empty(6)
-    A = np.empty((6, 6))
-    L = np.zeros((6, 6))
-    y = np.empty(6)
-    R = np.empty((3, 3))
     lam = damping * damping
-    T = chain_pose(q, origins, coords, kinds, axes, joint_axes, joint_origins)
+    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m)
     for _ in range(iterations):
         for i in range(3):
             e[i] = aim_p[i] - T[i, 3]
         for r in range(3):  # aim_R @ T_R^T
             for c in range(3):
                 R[r, c] = aim_R[r, 0] * T[c, 0] + aim_R[r, 1] * T[c, 1] + aim_R[r, 2] * T[c, 2]
-        rv = rotvec(R)
+        _rotvec_into(R, quat, rv)
         e[3], e[4], e[5] = rv[0], rv[1], rv[2]
-        if math.sqrt(np.sum(e * e)) < 1e-6:
+        s = 0.0  # np.sum(e * e), term by term in the same order
+        for i in range(6):
+            s += e[i] * e[i]
+        if math.sqrt(s) < 1e-6:
             break
-        J[:] = 0.0
+        for i in range(6):
+            for k in range(dof):
+                J[i, k] = 0.0
         for f in range(n):
             c = coords[f]
             if c < 0:
                 continue
-            a = joint_axes[f]
+            a0, a1, a2 = joint_axes[f, 0], joint_axes[f, 1], joint_axes[f, 2]
             if kinds[f] == PRISMATIC:
-                J[0, c], J[1, c], J[2, c] = a[0], a[1], a[2]
+                J[0, c], J[1, c], J[2, c] = a0, a1, a2
             else:
                 d0, d1, d2 = T[0, 3] - joint_origins[f, 0], T[1, 3] - joint_origins[f, 1], T[2, 3] - joint_origins[f, 2]
-                J[0, c] = a[1] * d2 - a[2] * d1
-                J[1, c] = a[2] * d0 - a[0] * d2
-                J[2, c] = a[0] * d1 - a[1] * d0
-                J[3, c], J[4, c], J[5, c] = a[0], a[1], a[2]
+                J[0, c] = a1 * d2 - a2 * d1
+                J[1, c] = a2 * d0 - a0 * d2
+                J[2, c] = a0 * d1 - a1 * d0
+                J[3, c], J[4, c], J[5, c] = a0, a1, a2
         for i in range(6):
             for j in range(i + 1):
                 s = lam if i == j else 0.0
@@ -186,8 +224,7 @@ def dls(q0, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations
             for i in range(6):
                 s += J[i, k] * e[i]
             q[k] = min(max(q[k] + s, lower[k]), upper[k])
-        T = chain_pose(q, origins, coords, kinds, axes, joint_axes, joint_origins)
-    return q, T
+        _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m)
 
 
 @njit(cache=True)
