@@ -146,8 +146,9 @@ def njit(*args, cache: bool = False, borrowed: bool = False, **options):
     and hands the views it returns only to other borrowed kernels: a kernel that counts would
     release a reference it never got, and Python would get the viewed array's parent."""
 
-    if borrowed:
-        options["_nrt"] = False
+    # Pinned either way: numba lets a callee without the flag inherit its first caller's, so a
+    # counting kernel first compiled under a borrowed one would run (and be cached) borrowed.
+    options["_nrt"] = not borrowed
 
     def wrap(func):
         dispatcher = numba.njit(**options)(func)

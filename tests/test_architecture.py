@@ -139,3 +139,40 @@ def test_no_test_data_is_git_ignored(repo):
     cmd = ["git", "check-ignore", "--no-index", "--stdin"]
     p = subprocess.run(cmd, cwd=repo, input="\n".join(files), capture_output=True, text=True)
     assert p.stdout.split() == [], p.stdout
+
+
+BORROWED_VIEWS = {"unpack", "unpack_buffers", "unpack_obstacles"}  # views without reference counts (mpnet.jit)
+
+
+def _decorator_options(fn) -> dict:
+    """The keyword options of a function's njit(...) decorator, as source text."""
+    import ast
+
+    for d in fn.decorator_list:
+        if isinstance(d, ast.Call) and getattr(d.func, "id", getattr(d.func, "attr", "")) == "njit":
+            return {k.arg: ast.unparse(k.value) for k in d.keywords}
+    return {}
+
+
+def test_the_borrowed_views_are_read_only_by_borrowed_kernels(repo):
+    """A borrowed kernel's views carry no reference: a counting kernel would release one it never
+    got, Python would get the viewed array's parent. Every read of them sits in a function
+    compiled `borrowed=True` that is not inlined into whatever calls it."""
+    import ast
+
+    bad = []
+    files = _sources(repo) + sorted((repo / "tests").rglob("*.py")) + sorted((repo / "docs").rglob("*.py"))
+    for p in files:
+        tree = ast.parse(p.read_text(), str(p))
+        for fn in [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)]:
+            reads = [
+                n
+                for n in ast.walk(fn)
+                if isinstance(n, (ast.Name, ast.Attribute))
+                and isinstance(n.ctx, ast.Load)
+                and (n.id if isinstance(n, ast.Name) else n.attr) in BORROWED_VIEWS
+            ]
+            opts = _decorator_options(fn)
+            if reads and (opts.get("borrowed") != "True" or opts.get("inline") == "'always'"):
+                bad.append(f"{p.relative_to(repo)}:{reads[0].lineno} in {fn.name}")
+    assert not bad, f"borrowed views read outside a borrowed kernel: {bad}"

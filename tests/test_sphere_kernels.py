@@ -13,6 +13,7 @@ import pytest
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers import sphere_layout as L
+from mpnet.envs.checkers.compiled_env import motion_free, motions_free, state_free
 from mpnet.envs.checkers.sphere_checks import _second_order
 from mpnet.envs.checkers.spheres import CERTIFY_TOL
 from mpnet.envs.mbm.files import load_mbm
@@ -99,26 +100,54 @@ def _counting_caller(qs, a, b, mi, mf, ob, lo, up, buf):
     return n
 
 
+@njit(cache=True)
+def _through_the_env(env, counts, A, B):
+    """The compiled planners' way in (a counting kernel, the env's overloads)."""
+    n = 0
+    for i in range(A.shape[0]):
+        n += state_free(env, counts, A[i]) + motion_free(env, counts, A[i], B[i])
+    out = np.empty(A.shape[0], np.bool_)
+    motions_free(env, counts, A, B, out)
+    return n + out.sum()
+
+
 def test_the_borrowed_kernels_neither_keep_nor_drop_a_reference(checkers):
-    """The checks run without numba's reference counts (mpnet.jit's borrowed): from Python and
-    from a counting kernel, every array they are handed keeps its reference count, numba's
-    allocations all come back, and the answers are the counting twin's."""
+    """The checks run without numba's reference counts (mpnet.jit's borrowed): from Python, from
+    a counting kernel and through the compiled planners' env (the checks, the compiled
+    RRT-Connect's search, IK's restarts), every array they are handed keeps its reference count,
+    numba's allocations all come back, and the answers are the same every time."""
     from numba.core.runtime import _nrt_python, rtsys
 
+    from mpnet.envs.arm import ik_kernels
+    from mpnet.envs.arm.ik import chain_arrays
+    from mpnet.planners.base import Problem
+    from mpnet.planners.compiled.planner import kernel_env
+    from mpnet.planners.compiled.rrt_connect import CompiledRRTConnect
+
     _nrt_python.memsys_enable_stats()
-    _, ch = checkers[0]
+    name, ch = checkers[0]
     mi, mf, ob, lo, up = ch._args
     buf = ch._buf
     a, b = _motions(7, lo, up, 50)
-    held = (mi, mf, ob, lo, up, buf, a, b)
+    free = a[C.states_free(a, mi, mf, ob, lo, up, buf)]
+    env, rrt = kernel_env(ch), CompiledRRTConnect()
+    problem = Problem(SPEC, None, ch, free[0], free[1], seed=1)
+    chain = chain_arrays(SPEC.robot.model, "panda_link8")
+    centres, radii = np.ascontiguousarray(a[:, :3]), np.full(len(a), 0.05)
+    held = (mi, mf, ob, lo, up, buf, a, b, centres, radii, *chain, *env)
 
     def calls():
         n = int(C.states_free(a, mi, mf, ob, lo, up, buf).sum())
         n += sum(C.state_free(q, mi, mf, ob, lo, up, buf) for q in a)
         n += int(C.motions_free(a, b, mi, mf, ob, lo, up, CERTIFY_TOL, buf)[0].sum())
         n += sum(C.motion_free(p, q, mi, mf, ob, lo, up, CERTIFY_TOL, buf)[0] for p, q in zip(a, b))
-        return n + _counting_caller(a, a, b, mi, mf, ob, lo, up, buf)
+        n += _counting_caller(a, a, b, mi, mf, ob, lo, up, buf) + C.any_hit(centres, radii, ob)
+        n += _through_the_env(env, np.zeros(3, np.int64), a, b)
+        n += len(rrt.solve(problem, 1.0).path or [])
+        q, T = ik_kernels.dls(a[0], T0[:3, 3], np.ascontiguousarray(T0[:3, :3]), lo, up, *chain, 100, 0.05)
+        return n, q.tobytes()
 
+    T0 = ik_kernels.chain_pose(b[0], *chain, np.zeros((len(chain[0]), 3)), np.zeros((len(chain[0]), 3)))
     first = calls()  # compiles or loads everything first
     refs = [sys.getrefcount(x) for x in held]
     stats = rtsys.get_allocation_stats()

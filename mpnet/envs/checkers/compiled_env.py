@@ -93,7 +93,7 @@ def _motion_typed(env, counts, a, b):
     return boxes
 
 
-@overload(motions_free)
+@overload(motions_free, jit_options={"_nrt": True})  # counts: S.motions_free allocates its answers
 def _motions_typed(env, counts, A, B, out):
     if _is_arm(env):
 
