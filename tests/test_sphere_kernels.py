@@ -125,7 +125,7 @@ def test_the_borrowed_kernels_neither_keep_nor_drop_a_reference(checkers):
     from mpnet.planners.compiled.rrt_connect import CompiledRRTConnect
 
     _nrt_python.memsys_enable_stats()
-    name, ch = checkers[0]
+    _, ch = checkers[0]
     mi, mf, ob, lo, up = ch._args
     buf = ch._buf
     a, b = _motions(7, lo, up, 50)

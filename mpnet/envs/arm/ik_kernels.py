@@ -195,9 +195,7 @@ def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, itera
             s += e[i] * e[i]
         if math.sqrt(s) < 1e-6:
             break
-        for i in range(6):
-            for k in range(dof):
-                J[i, k] = 0.0
+        J[:] = 0.0
         for f in range(n):
             c = coords[f]
             if c < 0:
