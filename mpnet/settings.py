@@ -58,7 +58,7 @@ class ExpertSettings:
     the env's judge). Read by the data build (mpnet.data), the configs' schema
     (harness.core.schema) and the logs (harness.log.facts), so that they cannot disagree."""
 
-    planner: str = "rrt_star"  # or rrt_connect (mpnet.data.expert.EXPERTS)
+    planner: str = "rrt_star"  # or rrt_connect, rrt_connect_compiled (mpnet.data.expert.EXPERTS)
     pairs: str = "env"  # or uniform (mpnet.data.expert.PAIRS)
     check: str = "judge"  # or planner (mpnet.data.expert.CHECKS)
     chunk: int = 1  # workspaces per expert process

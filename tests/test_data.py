@@ -227,15 +227,17 @@ def test_expert_runs_ended_by_the_clock_are_counted_and_kept_through_chunks(tmp_
     assert quick.clock_stops == 0 and summary(quick)["runs_ended_by_clock"] == 0
 
 
-def test_an_rrt_connect_expert_on_an_iteration_budget_is_the_same_on_any_clock():
+@pytest.mark.parametrize("planner", ["rrt_connect", "rrt_connect_compiled"])
+def test_an_rrt_connect_expert_on_an_iteration_budget_is_the_same_on_any_clock(planner):
     """With run_iterations the clock ends no RRT-Connect run (a 2 s clock made two builds of one
     key differ: FINDINGS, issue 42): the same paths with a 30 s and a 1 ns max_seconds, no
-    clock stops; a budget too small to connect finds no path, and that is no clock stop."""
-    from mpnet.data.expert import rrt_connect_path
+    clock stops; a budget too small to connect finds no path, and that is no clock stop. For
+    OMPL's RRT-Connect and the compiled one alike."""
+    from mpnet.data.expert import EXPERTS
 
     spec = get_spec("s2d")
     wss = [(i, make_workspace(spec, i, "train")) for i in range(2)]
-    args = dict(planner="rrt_connect", jobs=1, run_iterations=5000, contract=True)
+    args = dict(planner=planner, jobs=1, run_iterations=5000, contract=True)
     slow, fast = (expert_paths(spec, wss, 3, 5, 2, s, **args) for s in (30.0, 1e-9))
     assert len(slow) == 6 and slow.clock_stops == fast.clock_stops == 0
     assert np.array_equal(slow.states, fast.states) and np.array_equal(slow.offsets, fast.offsets)
@@ -245,4 +247,34 @@ def test_an_rrt_connect_expert_on_an_iteration_budget_is_the_same_on_any_clock()
     start, goal = (-18.0, -18.0), (18.0, 18.0)  # 36 apart, the straight line blocked
     assert not checker.motion_valid(list(start), list(goal))
     # no iteration at all (RRT-Connect's connect step can cross s2d in one): no path, and no clock stop
-    assert rrt_connect_path(spec, checker, start, goal, 2, 1e-9, clock, run_iterations=0) is None and clock == []
+    assert EXPERTS[planner](spec, checker, start, goal, 2, 1e-9, clock, run_iterations=0) is None and clock == []
+    # on a clock (run_iterations None), a run that finds nothing in time is a clock stop
+    assert EXPERTS[planner](spec, checker, start, goal, 2, 0.0, clock) is None and clock == [1]
+
+
+def test_the_compiled_expert_plans_the_arm_as_the_recipe_says_whatever_ompls_seed():
+    """The compiled expert on panda_mbm (MBM-style queries of one training scene, the env's
+    recipe: the best of 3 runs, each rope-shortcut and contracted): every path passes the
+    planning checker and starts and ends at its query; its stream is each query's own, so
+    OMPL's RNG seed (which its rope shortcut does not draw from either) changes nothing; a
+    process of its own (a chunk) plans the same paths as this one."""
+    from ompl import util as ou
+
+    from mpnet.data.expert import chunk_worker, planner_check, workspace_paths
+
+    spec = get_spec("panda_mbm")
+    ws = spec.generator.make(0, "train", 0)
+    options = dict(iterations=3, max_seconds=2.0, blocked_only=False, contract=True, check="planner")
+    options |= dict(planner="rrt_connect_compiled", run_iterations=2000)
+    got = []
+    for seed in (1, 2):
+        ou.RNG.setSeed(seed)
+        got.append(workspace_paths(spec, ws, 0, 3, 0, **options))
+    a, b = got
+    assert len(a) == 3 and np.array_equal(a.states, b.states) and np.array_equal(a.offsets, b.offsets)
+    checker = spec.make_checker(ws)
+    for p in a.paths():
+        assert planner_check(spec, ws, checker, p, p[0], p[-1])
+    assert np.all(a.cost <= a.raw_cost + 1e-9)
+    c = chunk_worker((spec, [(0, ws)], 3, 0, 0, options))
+    assert np.array_equal(c.states, a.states)

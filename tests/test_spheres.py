@@ -71,7 +71,7 @@ def test_the_kernels_views_are_the_model_fields_the_layout_names():
     views tile it exactly; a field of the wrong shape is refused."""
     m = sphere_model("panda")
     views = L.model_views(m.mi, m.mf)
-    assert len(views) == len(L.MODEL) and L.TABLE_BITS == len(L.MODEL) - 1
+    assert len(views) == len(L.MODEL) and L.TABLE_SUM == len(L.MODEL) - 1
     for i, field in enumerate(L.MODEL):
         assert np.array_equal(views[i], getattr(m, field.name)), field.name
     scratch = L.scratch_views(m.mi, m.buffers())
@@ -130,10 +130,29 @@ def test_pair_tables_certify_whole_cells(seed):
         q = ARM.space.sample(rng)
         q[ja] = lo_a + (i + rng.uniform()) * wa
         q[jb] = lo_b + (k + rng.uniform()) * wb
-        looked_up = K._table_free(q, m.table_i[0], m.table_f[0], m.table_bits, 0.0, np.zeros(7))
+        looked_up = K._table_free(q, m.table_i[0], m.table_f[0], m.table_sum, 0.0, np.zeros(7))
         assert looked_up == free
         if free:
             assert not _table_pairs_overlap(m, q)
+
+
+@settings(deadline=None, max_examples=60)
+@given(st.integers(0, 100_000))
+def test_a_pair_table_answers_a_box_of_any_size_as_its_cells_do(seed):
+    """The lookup over a motion interval (a box of cells, from one to the whole table) is
+    free exactly when every cell in the box is free by the table's bits (the summed-area
+    counts stand in for reading each cell)."""
+    m = sphere_model("panda")
+    (ja, jb, na, nb, _), (lo_a, wa, lo_b, wb) = m.table_i[0], m.table_f[0]
+    bits = np.unpackbits(m.table_bits.view(np.uint8), bitorder="little")[: na * nb].reshape(na, nb)
+    rng = np.random.default_rng(seed)
+    q, dq = ARM.space.sample(rng), np.abs(rng.normal(0, 1, 7))
+    h = rng.choice([0.0, 1e-3, 0.05, 0.5, 5.0]) * rng.uniform()
+    cell = lambda v, lo, w, n: int(np.clip(np.floor((v - lo) / w), 0, n - 1))  # noqa: E731
+    i0, i1 = (cell(q[ja] + s * h * dq[ja], lo_a, wa, na) for s in (-1, 1))
+    k0, k1 = (cell(q[jb] + s * h * dq[jb], lo_b, wb, nb) for s in (-1, 1))
+    expected = bool(bits[i0 : i1 + 1, k0 : k1 + 1].all())
+    assert K._table_free(q, m.table_i[0], m.table_f[0], m.table_sum, h, dq) == expected
 
 
 def _fcl_shape(p: Primitive):
@@ -290,7 +309,7 @@ def test_a_log_names_the_model_it_was_judged_with():
 def test_the_model_and_checker_version_are_in_every_arm_cache_key():
     """Data built with another arm model, sphere set or checker version is another artifact."""
     ident = ARM.robot.cache_identity()
-    assert ident == {"robot": f"panda:{MODEL.digest()}", "checker": "spheres@2"}
+    assert ident == {"robot": f"panda:{MODEL.digest()}", "checker": "spheres@3"}
     assert get_spec("s2d").robot.cache_identity() == {}
 
 

@@ -31,6 +31,7 @@ from harness.core.schema import (
     number,
     value_of,
 )
+from mpnet.data.expert import TREE_EXPERTS
 from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec
@@ -296,10 +297,10 @@ def check_env(env_cfg: DictConfig) -> None:
     if (
         expert is not None
         and expert.get("run_iterations") is not None
-        and value_of(expert, ExpertKnobs, "planner") != "rrt_connect"
+        and value_of(expert, ExpertKnobs, "planner") not in TREE_EXPERTS
     ):
         raise UsageError(
-            "config key env.expert.run_iterations: the rrt_connect expert's budget (rrt_star's: iterations)"
+            "config key env.expert.run_iterations: the rrt_connect experts' budget (rrt_star's: iterations)"
         )
     checkers = get_spec(env_cfg.name).robot.checkers
     if env_cfg.collision not in checkers:

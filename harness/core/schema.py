@@ -175,17 +175,22 @@ class ExpertKnobs:
     """An env's `expert:` section (conf/env/*.yaml says each env's choice and why)."""
 
     iterations: int = _option(
-        int, "RRT*'s iterations a path (rrt_connect: runs a query, the shortest kept)", default=MISSING
+        int, "RRT*'s iterations a path (rrt_connect*: runs a query, the shortest kept)", default=MISSING
     )
     max_seconds: float = _option(
-        float, "the expert's time limit a run (rrt_connect with run_iterations: the reference's only)", default=MISSING
+        float, "the expert's time limit a run (rrt_connect* with run_iterations: the reference's only)", default=MISSING
     )
     run_iterations: int | None = _option(
         int,
-        "rrt_connect: a run's iteration budget, in place of its clock: paths that depend on the seed alone",
+        "rrt_connect*: a run's iteration budget, in place of its clock: paths that depend on the seed alone",
         minimum=1,
     )
-    planner: str = _option(str, "the expert planner", choices=tuple(EXPERTS), default=EXPERT.planner)
+    planner: str = _option(
+        str,
+        "the expert planner (rrt_connect_compiled: rrt_connect's recipe, its search compiled)",
+        choices=tuple(EXPERTS),
+        default=EXPERT.planner,
+    )
     check: str = _option(str, "which checker a kept path must pass", choices=tuple(CHECKS), default=EXPERT.check)
     pairs: str = _option(str, "where the start/goal pairs come from", choices=tuple(PAIRS), default=EXPERT.pairs)
     chunk: int = _option(int, "scenes per expert process", minimum=1, default=EXPERT.chunk)

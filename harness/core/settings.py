@@ -31,6 +31,7 @@ from harness.core.config import (
 from harness.core.schema import ExpertKnobs, value_of
 from harness.log.facts import facts_from_config
 from mpnet.data.dataset import DataParams
+from mpnet.data.expert import TREE_EXPERTS
 from mpnet.envs.spec import EnvSpec
 from mpnet.settings import EXPERT
 
@@ -188,7 +189,7 @@ def data_params(env: EnvSettings, train) -> DataParams:
     the scale's sizes (scale.train). The RRT-Connect expert plans with the env's planner
     range: then the data depends on it."""
     expert = env.expert
-    planner_range = {"planner_range": env.spec.planner_range} if expert.planner == "rrt_connect" else {}
+    planner_range = {"planner_range": env.spec.planner_range} if expert.planner in TREE_EXPERTS else {}
     return DataParams(
         env=env.name,
         data_seed=env.data_seed,

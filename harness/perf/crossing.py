@@ -31,7 +31,7 @@ from mpnet.envs.checkers.compiled_env import motion_free, state_free  # noqa: E4
 from mpnet.envs.ompl_space import make_space_information  # noqa: E402
 from mpnet.envs.specs import SPECS, get_spec  # noqa: E402
 from mpnet.jit import njit  # noqa: E402
-from mpnet.planners.compiled.rrt_connect import tree_range  # noqa: E402
+from mpnet.search.rrt_connect import tree_range  # noqa: E402
 
 STATES, MOTIONS, REPEATS = 1000, 100, 7
 

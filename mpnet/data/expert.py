@@ -12,6 +12,7 @@ one build.
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
 import os
@@ -198,7 +199,78 @@ def rrt_connect_path(
     return best
 
 
-EXPERTS = {"rrt_star": rrt_star_path, "rrt_connect": rrt_connect_path}
+def _query_stream(start, goal, run: int) -> np.ndarray:
+    """A compiled search's random stream (rrt_kernels' splitmix64 state) for one run of one
+    query: from the query's coordinates and the run's number alone (no process-wide RNG), so a
+    path depends on its query and nothing else."""
+    digest = hashlib.blake2b(np.asarray([*start, *goal, run], float).tobytes(), digest_size=8).digest()
+    return np.array([int.from_bytes(digest, "little")], np.uint64)
+
+
+def rrt_connect_compiled_path(
+    spec: EnvSpec,
+    checker,
+    start,
+    goal,
+    runs: int,
+    max_seconds: float,
+    clock: list | None = None,
+    run_iterations: int | None = None,
+) -> list | None:
+    """rrt_connect_path's recipe (the shortest of `runs` RRT-Connect runs at the env's
+    planner_range, each shortened by OMPL's rope shortcut and lazy states contraction, the
+    runs stopping at the first that finds no path) with each run's search compiled on the
+    checker's compiled form (mpnet.search.rrt_connect: no Python between a sample and its
+    checks, where OMPL's RRTConnect asks Python about each). Its random stream is each run's
+    own (_query_stream), not OMPL's: the paths are RRT-Connect's in kind, not OMPL's state for
+    state. run_iterations / max_seconds / clock: as rrt_connect_path's."""
+    from ompl import geometric as og
+
+    from mpnet.envs.ompl_space import make_space_information
+    from mpnet.search.rrt_connect import RRTConnectSearch
+
+    env = checker.compiled_env()
+    search = RRTConnectSearch()
+    # one SpaceInformation for every run's shortcut; `keep` (its Python motion validator) outlives
+    # each path, which is deleted before the next is made (a path freed after the space
+    # information that made it was replaced crashed OMPL)
+    si, to_tuple, set_state, keep = make_space_information(spec, checker)
+    best, best_cost = None, math.inf
+    for run in range(runs):
+        deadline = math.inf if run_iterations is not None else time.perf_counter() + max_seconds
+        found = search.run(env, spec, start, goal, _query_stream(start, goal, run), deadline, run_iterations)
+        checker.state_checks += int(found.counts[0])
+        checker.motion_checks += int(found.counts[1])
+        if hasattr(checker, "configurations"):
+            checker.configurations += int(found.counts[2])
+        if found.path is None:
+            if clock is not None and run_iterations is None:  # the clock ended the run
+                clock.append(1)
+            break
+        solution = og.PathGeometric(si)
+        state = si.allocState()  # the binding frees it (a freeState here freed it twice)
+        for q in found.path:
+            set_state(state, q)
+            solution.append(state)  # a copy
+        og.PathSimplifier(si).ropeShortcutPath(solution)
+        path = [list(to_tuple(x)) for x in solution.getStates()]
+        del solution
+        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
+        path = lazy_states_contraction(checker, dedupe(path))
+        cost = path_cost(spec, path)
+        if cost < best_cost:
+            best, best_cost = path, cost
+    del keep
+    return best
+
+
+EXPERTS = {
+    "rrt_star": rrt_star_path,
+    "rrt_connect": rrt_connect_path,
+    "rrt_connect_compiled": rrt_connect_compiled_path,
+}
+# the experts that plan with the env's planner_range and take a budget in rounds (run_iterations)
+TREE_EXPERTS = ("rrt_connect", "rrt_connect_compiled")
 
 # Where expert paths' start/goal pairs come from: the env's own (its test queries' kind:
 # MotionBenchMaker's for panda_mbm, uniform states elsewhere), or uniform valid states in any

@@ -12,8 +12,8 @@ view kernels are generated from the tables (as dataclasses writes `__init__`), u
 file's name: mpnet.jit's cache stamps them with its text.
 
 A shape is a tuple of sizes: a number, or an expression in the model's counts (F frames,
-L links, G groups, S spheres, P self-collision pairs, D joints, T pair tables, W words of
-the tables' bits), each count read from the first MODEL field whose shape names it alone.
+L links, G groups, S spheres, P self-collision pairs, D joints, T pair tables, W entries of
+the tables' summed counts), each count read from the first MODEL field whose shape names it alone.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ PAIR_J0 = _field(MODEL, "pair_j0", INTS, "P")
 PAIR_TABLE = _field(MODEL, "pair_table", INTS, "P")
 TABLE_I = _field(MODEL, "table_i", INTS, "T", 5)
 TABLE_F = _field(MODEL, "table_f", FLOATS, "T", 4)
-TABLE_BITS = _field(MODEL, "table_bits", INTS, "W")
+TABLE_SUM = _field(MODEL, "table_sum", INTS, "W")
 
 # Scratch: poses (pose[F] is forward's spare); sphere, link and group centres; link and group
 # placed flags; link and group growth and second-order terms; a joint vector and the motion's

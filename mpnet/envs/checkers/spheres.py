@@ -84,9 +84,10 @@ class SphereModel:
         self.lower = np.array([b[0] for b in model.limits])
         self.upper = np.array([b[1] for b in model.limits])
         self.pair_table = np.full(len(pairs), -1, np.int64)
-        # The pair tables (_build_tables): rows of ints, rows of floats, and their bits
+        # The pair tables (_build_tables): rows of ints, rows of floats, their bits (which
+        # cells are free) and the kernels' summed-area counts of the cells that are not
         self.table_i, self.table_f = np.zeros((0, 5), np.int64), np.zeros((0, 4))
-        self.table_bits = np.zeros(0, np.int64)
+        self.table_bits, self.table_sum = np.zeros(0, np.int64), np.zeros(0, np.int64)
         self._pack()
         self._build_tables()
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
@@ -105,7 +106,7 @@ class SphereModel:
             coords = self._coords_between(a, b)
             if coords is not None and 1 <= len(coords) <= 2:
                 partners.setdefault((a, coords), []).append(pi)
-        rows_i, rows_f, words = [], [], []
+        rows_i, rows_f, words, sums = [], [], [], []
         for t, ((a, coords), pis) in enumerate(partners.items()):
             lo = np.array([self.lower[c] for c in coords] + [0.0] * (2 - len(coords)))
             hi = np.array([self.upper[c] for c in coords] + [1.0] * (2 - len(coords)))
@@ -115,13 +116,14 @@ class SphereModel:
             bits = K.build_table(
                 self.mi, self.mf, self.buffers(), self.lever, a, self.pair_b[pis], coords[0], jb, lo, width, n
             )
-            rows_i.append([coords[0], jb, n[0], n[1], sum(len(w) for w in words)])
+            rows_i.append([coords[0], jb, n[0], n[1], sum(len(c) for c in sums)])
             rows_f.append([lo[0], width[0], lo[1], width[1]])
             words.append(bits)
+            sums.append(_summed_area(bits, n))
             self.pair_table[pis] = t
         if rows_i:
             self.table_i, self.table_f = np.array(rows_i, np.int64), np.array(rows_f)
-            self.table_bits = np.concatenate(words)
+            self.table_bits, self.table_sum = np.concatenate(words), np.concatenate(sums)
             self._pack()
 
     def _coords_between(self, a: int, b: int) -> tuple[int, ...] | None:
@@ -237,6 +239,18 @@ def obstacle_arrays(ws: Workspace) -> dict[str, np.ndarray]:
 
 
 TABLE_CELLS = 256  # a pair table's cells along each of its joints
+
+
+def _summed_area(bits: np.ndarray, n) -> np.ndarray:
+    """A pair table's summed-area counts ((n[0] + 1) x (n[1] + 1), flat) of the cells its bits
+    do not call free: entry [i, k] counts those below i along its first joint and below k
+    along its second (sphere_kernels._table_free reads any box of cells in four entries)."""
+    free = np.unpackbits(bits.view(np.uint8), bitorder="little")[: n[0] * n[1]].reshape(n[0], n[1])
+    out = np.zeros((n[0] + 1, n[1] + 1), np.int64)
+    out[1:, 1:] = (1 - free.astype(np.int64)).cumsum(0).cumsum(1)
+    return out.ravel()
+
+
 GROUP = 8  # spheres per group of the tree (about): a link's groups are tested before its spheres
 
 
@@ -298,7 +312,9 @@ class SphereChecker(SampledConfigurations):
 
     # Bumped whenever a change can change an answer (the motion bound, the tests): it is in
     # every arm cache key, so data built by another version is rebuilt, never reused.
-    VERSION = 2  # 2: pair tables (a motion NEAR by the growth bound can be free by a table)
+    # 2: pair tables (a motion NEAR by the growth bound can be free by a table); 3: a table
+    # answers a motion interval over any number of its cells (2: at most 16, else the spheres)
+    VERSION = 3
     compiled = True
 
     def compiled_env(self) -> tuple:

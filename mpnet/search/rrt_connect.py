@@ -1,0 +1,132 @@
+"""RRT-Connect's search on an env's compiled checks (mpnet.search.rrt_kernels), run to a
+connection, a clock or a number of rounds: what the named planner `rrt_connect_compiled`
+(mpnet.planners.compiled.rrt_connect) and the compiled expert (mpnet.data.expert) both run.
+Its search is OMPL's RRTConnect (same growth, same maximum edge length: the env's
+`planner_range`, else OMPL's default of a fifth of the space's extent) with its own random
+stream, so its paths are RRT-Connect's in kind, not OMPL's state for state.
+
+The clock is read between compiled slices of the search (numba has none): each slice is sized
+to take about SLICE_S at the mean rate so far, so a budget is overrun by about a slice (the
+rounds slow as the trees grow: a few times SLICE_S at worst; the first slice is FIRST_SLICE
+rounds whatever they take). A budget in rounds (`max_rounds`) ends the search at exactly that
+many rounds, whatever the machine: the paths then depend on the seed alone.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpnet.search import rrt_kernels as K
+
+SLICE_S = 0.005  # a slice of the search lasts about this long once its rate is known
+FIRST_SLICE = 32  # iterations of the first slice: most arm queries connect within it
+CAPACITY = 1024  # each tree's first capacity (states); doubled when full
+DEFAULT_RANGE_SHARE = 0.2  # OMPL's RRTConnect: maxDistance = 0.2 x the space's maximum extent
+
+
+def tree_range(spec, given: float | None = None) -> float:
+    """A tree planner's maximum edge length: the one given, else the env's `planner_range`,
+    else OMPL's default (DEFAULT_RANGE_SHARE of the space's maximum extent)."""
+    reach = given if given is not None else spec.planner_range
+    return float(reach if reach is not None else DEFAULT_RANGE_SHARE * spec.space.maximum_extent())
+
+
+@dataclass
+class Searched:
+    """One search's outcome: the path (None: no connection within the budget), the rounds
+    run, the trees' states, and the checks (states, motions, configurations evaluated)."""
+
+    path: np.ndarray | None
+    rounds: int
+    tree_states: int
+    counts: np.ndarray
+
+
+class RRTConnectSearch:
+    """The search with its trees' arrays, kept between queries (grown when a search fills
+    them). `range`: the maximum edge length (None: the env's `planner_range`, else OMPL's
+    default)."""
+
+    def __init__(self, range: float | None = None):
+        self.range = range
+        self._spaces: dict[int, tuple] = {}  # id(spec) -> (spec, (lower, upper, weights, reach, room))
+        self._trees: tuple | None = None
+
+    def space_of(self, spec) -> tuple:
+        """(lower, upper, metric weights, maximum edge length, room a round needs), once per spec."""
+        known = self._spaces.get(id(spec))
+        if known is None or known[0] is not spec:
+            space = spec.space
+            reach = tree_range(spec, self.range)
+            # a connection adds at most (extent / reach + 1) states to a tree: room for one round
+            room = int(np.ceil(space.maximum_extent() / reach)) + 4
+            lower, upper = (np.ascontiguousarray(v, float) for v in (space.lower, space.upper))
+            known = self._spaces[id(spec)] = (spec, (lower, upper, space.metric_weights(), reach, room))
+        return known[1]
+
+    def _buffers(self, d: int, room: int) -> tuple:
+        """The trees' arrays (nodes (2, cap, d), parents (2, cap))."""
+        if self._trees is None or self._trees[0].shape[2] != d or self._trees[0].shape[1] < 2 * room:
+            cap = max(CAPACITY, 2 * room)
+            self._trees = (np.empty((2, cap, d)), np.zeros((2, cap), np.int64))
+        return self._trees
+
+    def _grown(self) -> tuple:
+        """The trees' arrays at twice their capacity, every state and parent kept."""
+        nodes, parents = self._trees
+        cap = nodes.shape[1]
+        more_nodes, more_parents = np.empty((2, 2 * cap, nodes.shape[2])), np.zeros((2, 2 * cap), np.int64)
+        more_nodes[:, :cap], more_parents[:, :cap] = nodes, parents
+        self._trees = (more_nodes, more_parents)
+        return self._trees
+
+    def run(
+        self, env, spec, start, goal, rng, deadline: float = math.inf, max_rounds: int | None = None, counts=None
+    ) -> Searched:
+        """Search from start to goal on the checker's compiled form `env` until connected,
+        `deadline` (time.perf_counter's) or `max_rounds` rounds. rng: the kernels' splitmix64
+        state (one uint64, advanced in place); counts: the checks are added into it (int64 (3,),
+        the caller's, so that a search stopped by an exception still counts them)."""
+        t0 = time.perf_counter()
+        lower, upper, weights, reach, room = self.space_of(spec)
+        start, goal = np.asarray(start, float), np.asarray(goal, float)
+        nodes, parents = self._buffers(start.shape[0], room)
+        nodes[0, 0], nodes[1, 0] = start, goal
+        state = K.new_state()
+        counts = np.zeros(3, np.int64) if counts is None else counts
+        sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
+        chunk, outcome = FIRST_SLICE, K.RUNNING
+        while True:
+            if max_rounds is not None:
+                chunk = min(chunk, max_rounds - int(state[K.ROUNDS]))
+                if chunk <= 0:
+                    break
+            outcome = K.grow(
+                env, counts, weights, lower, upper, reach, rng, nodes, parents, state, chunk, room, sample, diff
+            )
+            if outcome == K.FULL:
+                nodes, parents = self._grown()
+                continue
+            now = time.perf_counter()
+            if outcome == K.CONNECTED or now >= deadline:
+                break
+            per = max(now - t0, 1e-9) / state[K.ROUNDS]
+            chunk = int(max(1, min(SLICE_S, deadline - now) / per))
+        path = K.solution(nodes, parents, state) if outcome == K.CONNECTED else None
+        return Searched(path, int(state[K.ROUNDS]), int(state[K.N0] + state[K.N1]), counts)
+
+    def warm_up(self, env, spec, start, goal) -> None:
+        """The search's kernels compiled (or loaded from numba's cache): one round, and a path
+        read back."""
+        lower, upper, weights, reach, room = self.space_of(spec)
+        nodes, parents = self._buffers(len(start), room)
+        nodes[0, 0], nodes[1, 0] = start, goal
+        state = K.new_state()
+        K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents,
+               state, 1, room, np.empty(len(start)), np.empty(len(start)))  # fmt: skip
+        state[K.JOIN0], state[K.JOIN1] = 0, 0
+        K.solution(nodes, parents, state)
