@@ -216,6 +216,9 @@ def test_the_experts_run_budget_is_in_the_data_key_and_only_rrt_connects(setting
         settings(["+env=s2d", "+env.expert.run_iterations=5"])
     with pytest.raises(UsageError, match="^config key env.expert.run_iterations: expected"):
         settings(["+env=panda_mbm", "env.expert.run_iterations=0"])
+    # the compiled expert: another dataset (its planner in the key), the same budget and range
+    compiled = settings(["+env=panda_mbm", "env.expert.planner=rrt_connect_compiled"]).data.key_config()
+    assert compiled == {**mbm.data.key_config(), "expert_planner": "rrt_connect_compiled"}
 
 
 @pytest.mark.slow  # over ~1.3 s: out of the fast loop

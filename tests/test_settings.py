@@ -5,7 +5,8 @@ recomputed since: when a workspace's cloud became a function of its geometry alo
 data key, and so every models key, moved then, and no test set's; when panda_mbm's expert began to stop
 on an iteration count (env.expert.run_iterations, issue 42): panda_mbm's data and models keys only; and
 when panda_mbm's recipe took a collision loss (networks.collision_loss, issue 42), and when that loss
-was measured along each step (networks.collision_motion): its models keys only)."""
+was measured along each step (networks.collision_motion): its models keys only; and when the sphere
+checker became VERSION 3 (issue 64): every arm7 and panda_mbm key)."""
 
 from __future__ import annotations
 

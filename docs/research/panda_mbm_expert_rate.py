@@ -7,6 +7,7 @@ after a warm-up that compiles the kernels; appends a row to reports/panda_mbm_ex
 README.md. Run it alone on an idle machine.
 
     PYTHONPATH=<checkout> python docs/research/panda_mbm_expert_rate.py [--scenes 14] [--check planner]
+        [--planner rrt_connect_compiled]
 """
 
 from __future__ import annotations
@@ -26,13 +27,15 @@ HEADER = [
     "",
     "Rows appended by `docs/research/panda_mbm_expert_rate.py`, one process, one job at a time on an otherwise "
     "idle machine: training scenes 0..N-1 drawn (scene CPU-s), then 15 MBM-style queries each, the shortest of "
-    "3 RRT-Connect runs (each stopped at 2 s; from revision 76b37c1 on, at --run-iterations iterations), "
+    "3 RRT-Connect runs (each stopped at 2 s; from revision 76b37c1 on, at --run-iterations iterations; "
+    "expert: OMPL's `rrt_connect`, or `rrt_connect_compiled`, the same recipe with each run's search compiled), "
     "contracted, kept when they pass `check` (judge: pybullet's re-check at "
     "0.002 rad; planner: the sphere checker's certified motions). Item 3's bar: 0.29 CPU-s a path "
     "(50,000 paths in 2 h on two cores).",
     "",
-    "| revision | date | machine | check | scenes | scene CPU-s | paths | expert CPU-s | CPU-s / path | with scenes |",
-    "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    "| revision | date | machine | check | expert | scenes | scene CPU-s | paths | expert CPU-s | CPU-s / path | "
+    "with scenes |",
+    "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
 ]
 
 
@@ -40,6 +43,12 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--scenes", type=int, default=14)
     ap.add_argument("--check", default="planner", choices=["planner", "judge"])
+    ap.add_argument(
+        "--planner",
+        default="rrt_connect",
+        choices=["rrt_connect", "rrt_connect_compiled"],
+        help="the expert (env.expert.planner): OMPL's RRT-Connect, or the same recipe with its search compiled",
+    )
     ap.add_argument("--out", type=Path, default=Path("reports/panda_mbm_expert_rate"))
     ap.add_argument(
         "--run-iterations", type=int, default=20000, help="an RRT-Connect run's budget (env.expert.run_iterations)"
@@ -53,7 +62,7 @@ def main() -> None:
         max_seconds=2.0,
         blocked_only=False,
         contract=True,
-        planner="rrt_connect",
+        planner=args.planner,
         check=args.check,
         run_iterations=args.run_iterations,
     )
@@ -68,8 +77,8 @@ def main() -> None:
     m = machine_info()
     row = (
         f"| {git_rev()[:12]} | {m.get('date', '')[:10]} | {m.get('cpu', '')} ({m.get('cpus', '')} CPUs) | "
-        f"{args.check} | {args.scenes} | {scene_s:.1f} | {paths} | {expert_s:.1f} | {expert_s / paths:.3f} | "
-        f"{(expert_s + scene_s) / paths:.3f} |"
+        f"{args.check} | {args.planner} | {args.scenes} | {scene_s:.1f} | {paths} | {expert_s:.1f} | "
+        f"{expert_s / paths:.3f} | {(expert_s + scene_s) / paths:.3f} |"
     )
     out = args.out / "README.md"
     args.out.mkdir(parents=True, exist_ok=True)
