@@ -18,9 +18,10 @@ from pathlib import Path
 
 from ompl import util as ou
 
+from harness.core.config import env_spec
 from harness.core.provenance import git_rev, machine_info
+from harness.core.settings import settings_of
 from mpnet.data.expert import workspace_paths
-from mpnet.envs.specs import get_spec
 
 HEADER = [
     "# panda_mbm's expert: CPU seconds per path",
@@ -56,7 +57,14 @@ def main() -> None:
     args = ap.parse_args()
     ou.setLogLevel(ou.LOG_WARN)
     ou.RNG.setSeed(1)
-    spec = get_spec("panda_mbm")
+    # the env as a build sees it: the config's planner_range (1 rad) is the expert's edge length
+    # (the registry's spec has none: the earlier rows ran OMPL's default, 2.6 rad; the README says which)
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(str(Path(__file__).resolve().parents[2] / "conf"), version_base="1.3"):
+        cfg = compose("config", ["+env=panda_mbm"])
+    spec = env_spec(cfg.env)
+    assert spec.planner_range == settings_of(cfg).env.spec.planner_range == 1.0
     kw = dict(
         iterations=3,
         max_seconds=2.0,
