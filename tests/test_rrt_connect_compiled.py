@@ -10,8 +10,9 @@ from mpnet.envs import Workspace, get_spec
 from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import path_cost, verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, TIMEOUT, Planner, Problem
-from mpnet.planners.compiled import rrt_connect as R
 from mpnet.planners.compiled.rrt_connect import CompiledRRTConnect
+from mpnet.search import rrt_connect as R
+from mpnet.search import rrt_kernels as K
 
 WALL = Workspace("wall", "file", [[0.0, 0.0]], [[4.0, 30.0]])
 RING = Workspace("ring", "file", [[0, 3], [0, -3], [3, 0], [-3, 0]], [[8, 2], [8, 2], [2, 8], [2, 8]])
@@ -90,7 +91,7 @@ def test_unreachable_goal_times_out_within_its_budget():
     elapsed = time.perf_counter() - t
     assert res.status == TIMEOUT and res.path is None
     assert 0.29 < elapsed < 0.3 + 4 * R.SLICE_S + 0.05
-    assert planner._trees[0].shape[1] > R.CAPACITY and res.stats["tree_states"] > R.CAPACITY  # doubled
+    assert planner.search._trees[0].shape[1] > R.CAPACITY and res.stats["tree_states"] > R.CAPACITY  # doubled
     assert res.stats["iterations"] >= res.stats["tree_states"] / 2  # a round adds to a tree at most its connection
 
 
@@ -99,9 +100,25 @@ def test_trees_grown_past_their_capacity_still_give_a_valid_path(monkeypatch):
     spec = replace(get_spec("s2d"), planner_range=0.3)  # many short edges: several doublings
     planner = CompiledRRTConnect()
     res = planner.solve(problem("s2d", WALL, (-15.0, 0.0), (15.0, 0.0), seed=5, spec=spec), 5.0)
-    room = planner._space_of(spec)[4]
-    assert res.solved and planner._trees[0].shape[1] >= 4 * room  # doubled at least once
+    room = planner.search.space_of(spec)[4]
+    assert res.solved and planner.search._trees[0].shape[1] >= 4 * room  # doubled at least once
     assert verify_path(spec, WALL, res.path, res.path[0], res.path[-1]) is None
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_nearest_is_the_first_node_of_least_distance(seed):
+    """The scan a coordinate at a time over the nodes' columns finds the node a scan node by node
+    finds: the least squared distance, the first of equals (duplicated nodes, ties included)."""
+    rng = np.random.default_rng(seed)
+    d, n = 7, int(rng.integers(1, 3000))
+    nodes = rng.uniform(-3, 3, (n, d))
+    nodes[rng.integers(0, n, n // 3)] = nodes[rng.integers(0, n, n // 3)]  # repeated states
+    q = nodes[rng.integers(n)] if seed % 2 else rng.uniform(-3, 3, d)
+    env = get_spec("panda_mbm").make_checker(make_workspace(get_spec("panda_mbm"), 0, "train")).compiled_env()
+    cols = np.ascontiguousarray(nodes.T)
+    got = K.nearest(env, np.ones(d), nodes, cols, n, q, np.empty(d), np.empty(n))
+    squared = ((nodes - q) ** 2).sum(axis=1)
+    assert got == int(np.flatnonzero(squared == squared.min())[0])
 
 
 def test_a_seeded_problem_plans_the_same_whatever_ran_before():

@@ -13,7 +13,7 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
-from mpnet.data.expert import rrt_connect_path, rrt_star_path
+from mpnet.data.expert_planners import rrt_connect_path, rrt_star_path
 from mpnet.envs.ompl_space import make_problem
 from mpnet.envs.specs import get_spec
 from mpnet.motion import lazy_states_contraction, path_cost

@@ -31,7 +31,7 @@ from harness.core.schema import (
     number,
     value_of,
 )
-from mpnet.data.expert import TREE_EXPERTS
+from mpnet.data.expert_planners import TREE_EXPERTS
 from mpnet.envs.mbm.files import is_mbm
 from mpnet.envs.scenes.camera import camera_cloud
 from mpnet.envs.spec import EnvSpec

@@ -31,7 +31,7 @@ from harness.core.config import (
 from harness.core.schema import ExpertKnobs, value_of
 from harness.log.facts import facts_from_config
 from mpnet.data.dataset import DataParams
-from mpnet.data.expert import TREE_EXPERTS
+from mpnet.data.expert_planners import TREE_EXPERTS
 from mpnet.envs.spec import EnvSpec
 from mpnet.settings import EXPERT
 

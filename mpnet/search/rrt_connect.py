@@ -69,20 +69,29 @@ class RRTConnectSearch:
         return known[1]
 
     def _buffers(self, d: int, room: int) -> tuple:
-        """The trees' arrays (nodes (2, cap, d), parents (2, cap))."""
+        """The trees' arrays: nodes (2, cap, d), parents (2, cap), the nodes column by column
+        (2, d, cap) and nearest's distances (cap,)."""
         if self._trees is None or self._trees[0].shape[2] != d or self._trees[0].shape[1] < 2 * room:
             cap = max(CAPACITY, 2 * room)
-            self._trees = (np.empty((2, cap, d)), np.zeros((2, cap), np.int64))
+            self._trees = (np.empty((2, cap, d)), np.zeros((2, cap), np.int64), np.empty((2, d, cap)), np.empty(cap))
         return self._trees
 
     def _grown(self) -> tuple:
         """The trees' arrays at twice their capacity, every state and parent kept."""
-        nodes, parents = self._trees
-        cap = nodes.shape[1]
-        more_nodes, more_parents = np.empty((2, 2 * cap, nodes.shape[2])), np.zeros((2, 2 * cap), np.int64)
-        more_nodes[:, :cap], more_parents[:, :cap] = nodes, parents
-        self._trees = (more_nodes, more_parents)
+        nodes, parents, cols, _ = self._trees
+        cap, d = nodes.shape[1], nodes.shape[2]
+        more = (np.empty((2, 2 * cap, d)), np.zeros((2, 2 * cap), np.int64), np.empty((2, d, 2 * cap)))
+        more = (*more, np.empty(2 * cap))
+        more[0][:, :cap], more[1][:, :cap], more[2][:, :, :cap] = nodes, parents, cols
+        self._trees = more
         return self._trees
+
+    def _roots(self, start, goal, room: int) -> tuple:
+        """The trees' arrays with start and goal their roots."""
+        nodes, parents, cols, dist = self._buffers(len(start), room)
+        nodes[0, 0], nodes[1, 0] = start, goal
+        cols[0, :, 0], cols[1, :, 0] = start, goal
+        return nodes, parents, cols, dist
 
     def run(
         self, env, spec, start, goal, rng, deadline: float = math.inf, max_rounds: int | None = None, counts=None
@@ -94,8 +103,7 @@ class RRTConnectSearch:
         t0 = time.perf_counter()
         lower, upper, weights, reach, room = self.space_of(spec)
         start, goal = np.asarray(start, float), np.asarray(goal, float)
-        nodes, parents = self._buffers(start.shape[0], room)
-        nodes[0, 0], nodes[1, 0] = start, goal
+        nodes, parents, cols, dist = self._roots(start, goal, room)
         state = K.new_state()
         counts = np.zeros(3, np.int64) if counts is None else counts
         sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
@@ -106,10 +114,11 @@ class RRTConnectSearch:
                 if chunk <= 0:
                     break
             outcome = K.grow(
-                env, counts, weights, lower, upper, reach, rng, nodes, parents, state, chunk, room, sample, diff
-            )
+                env, counts, weights, lower, upper, reach, rng, nodes, parents, cols, dist, state, chunk, room, sample,
+                diff,
+            )  # fmt: skip
             if outcome == K.FULL:
-                nodes, parents = self._grown()
+                nodes, parents, cols, dist = self._grown()
                 continue
             now = time.perf_counter()
             if outcome == K.CONNECTED or now >= deadline:
@@ -123,10 +132,9 @@ class RRTConnectSearch:
         """The search's kernels compiled (or loaded from numba's cache): one round, and a path
         read back."""
         lower, upper, weights, reach, room = self.space_of(spec)
-        nodes, parents = self._buffers(len(start), room)
-        nodes[0, 0], nodes[1, 0] = start, goal
+        nodes, parents, cols, dist = self._roots(np.asarray(start, float), np.asarray(goal, float), room)
         state = K.new_state()
-        K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents,
-               state, 1, room, np.empty(len(start)), np.empty(len(start)))  # fmt: skip
+        K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents, cols,
+               dist, state, 1, room, np.empty(len(start)), np.empty(len(start)))  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0
         K.solution(nodes, parents, state)
