@@ -66,6 +66,34 @@ def rrt_star_path(
     return path
 
 
+def _shortest_of_runs(spec: EnvSpec, checker, start, goal, runs: int, clock, run_iterations, solve_run) -> list | None:
+    """RRT-Connect's expert recipe around one run's search (`solve_run(run)`: (space
+    information, its PathGeometric, to_tuple), or None when the run found no path): each
+    found path shortened by OMPL's rope shortcut, its ends the query's exactly, contracted
+    (lazy states contraction); the shortest kept. The runs stop at the first that finds no
+    path (a pair RRT-Connect cannot solve costs one run, not `runs`), which is a clock stop
+    when no run_iterations budget ended it."""
+    from ompl import geometric as og
+
+    best, best_cost = None, math.inf
+    for run in range(runs):
+        found = solve_run(run)
+        if found is None:
+            if clock is not None and run_iterations is None:  # the clock ended the run
+                clock.append(1)
+            break
+        si, solution, to_tuple = found
+        og.PathSimplifier(si).ropeShortcutPath(solution)
+        path = [list(to_tuple(x)) for x in solution.getStates()]
+        del found, solution  # before the next run's path is made
+        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
+        path = lazy_states_contraction(checker, dedupe(path))
+        cost = path_cost(spec, path)
+        if cost < best_cost:
+            best, best_cost = path, cost
+    return best
+
+
 def rrt_connect_path(
     spec: EnvSpec,
     checker,
@@ -90,9 +118,11 @@ def rrt_connect_path(
 
     from mpnet.envs.ompl_space import make_problem
 
-    best, best_cost = None, math.inf
-    for _ in range(runs):
-        si, pdef, to_tuple, keep = make_problem(spec, checker, start, goal)
+    keep = []  # each run's setup lives until the expert returns (OMPL only references it)
+
+    def solve_run(run: int):
+        si, pdef, to_tuple, held = make_problem(spec, checker, start, goal)
+        keep.append(held)
         planner = og.RRTConnect(si)
         if spec.planner_range is not None:
             planner.setRange(float(spec.planner_range))
@@ -102,19 +132,9 @@ def rrt_connect_path(
             planner.solve(ob.timedPlannerTerminationCondition(max_seconds))
         else:
             planner.solve(ob.PlannerTerminationCondition(_budget(run_iterations)[0]))
-        if not pdef.hasExactSolution():
-            if clock is not None and run_iterations is None:  # the clock ended the run
-                clock.append(1)
-            break  # a pair RRT-Connect cannot solve costs one run, not `runs`
-        solution = pdef.getSolutionPath()
-        og.PathSimplifier(si).ropeShortcutPath(solution)
-        path = [list(to_tuple(x)) for x in solution.getStates()]
-        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
-        path = lazy_states_contraction(checker, dedupe(path))
-        cost = path_cost(spec, path)
-        if cost < best_cost:
-            best, best_cost = path, cost
-    return best
+        return (si, pdef.getSolutionPath(), to_tuple) if pdef.hasExactSolution() else None
+
+    return _shortest_of_runs(spec, checker, start, goal, runs, clock, run_iterations, solve_run)
 
 
 def _query_stream(start, goal, run: int) -> np.ndarray:
@@ -135,9 +155,7 @@ def rrt_connect_compiled_path(
     clock: list | None = None,
     run_iterations: int | None = None,
 ) -> list | None:
-    """rrt_connect_path's recipe (the shortest of `runs` RRT-Connect runs at the env's
-    planner_range, each shortened by OMPL's rope shortcut and lazy states contraction, the
-    runs stopping at the first that finds no path) with each run's search compiled on the
+    """rrt_connect_path's recipe (_shortest_of_runs) with each run's search compiled on the
     checker's compiled form (mpnet.search.rrt_connect: no Python between a sample and its
     checks, where OMPL's RRTConnect asks Python about each). Its random stream is each run's
     own (_query_stream), not OMPL's: the paths are RRT-Connect's in kind, not OMPL's state for
@@ -149,12 +167,11 @@ def rrt_connect_compiled_path(
 
     env = checker.compiled_env()
     search = RRTConnectSearch()
-    # one SpaceInformation for every run's shortcut; `keep` (its Python motion validator) outlives
-    # each path, which is deleted before the next is made (a path freed after the space
-    # information that made it was replaced crashed OMPL)
-    si, to_tuple, set_state, keep = make_space_information(spec, checker)
-    best, best_cost = None, math.inf
-    for run in range(runs):
+    # one SpaceInformation for every run's shortcut, alive (with its Python motion validator,
+    # `held`) until every path made from it is gone
+    si, to_tuple, set_state, held = make_space_information(spec, checker)
+
+    def solve_run(run: int):
         deadline = math.inf if run_iterations is not None else time.perf_counter() + max_seconds
         found = search.run(env, spec, start, goal, _query_stream(start, goal, run), deadline, run_iterations)
         checker.state_checks += int(found.counts[0])
@@ -162,23 +179,16 @@ def rrt_connect_compiled_path(
         if hasattr(checker, "configurations"):
             checker.configurations += int(found.counts[2])
         if found.path is None:
-            if clock is not None and run_iterations is None:  # the clock ended the run
-                clock.append(1)
-            break
+            return None
         solution = og.PathGeometric(si)
         state = si.allocState()  # the binding frees it (a freeState here freed it twice)
         for q in found.path:
             set_state(state, q)
             solution.append(state)  # a copy
-        og.PathSimplifier(si).ropeShortcutPath(solution)
-        path = [list(to_tuple(x)) for x in solution.getStates()]
-        del solution
-        path[0], path[-1] = list(map(float, start)), list(map(float, goal))
-        path = lazy_states_contraction(checker, dedupe(path))
-        cost = path_cost(spec, path)
-        if cost < best_cost:
-            best, best_cost = path, cost
-    del keep
+        return si, solution, to_tuple
+
+    best = _shortest_of_runs(spec, checker, start, goal, runs, clock, run_iterations, solve_run)
+    del held
     return best
 
 
