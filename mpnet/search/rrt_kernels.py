@@ -70,8 +70,9 @@ def nearest(env, weights, nodes, cols, n, q, scratch, dist):
     """The index of the node (of the first n) nearest q, the first of equals (scratch:
     distance's). cols: the nodes column by column (cols[k, i] = nodes[i, k]), so that an
     all-Euclidean space's squared distances are summed a coordinate at a time over every node
-    (a loop the compiler vectorises: a tree of thousands of states is scanned ~3x faster than
-    node by node), into dist, in the same order as node by node, so the same sums."""
+    (a loop the compiler vectorises; node by node, a tree of thousands of states cost more to
+    scan than its collision checks), into dist, in the same order as node by node: the same
+    sums, so the same node."""
     d = q.shape[0]
     if bounded_dims(env, d) == d:  # all Euclidean: squared distances compare the same, no root
         for i in range(n):
