@@ -1,6 +1,6 @@
 """RRT-Connect's search on an env's compiled checks (mpnet.search.rrt_kernels), run to a
 connection, a clock or a number of rounds: what the named planner `rrt_connect_compiled`
-(mpnet.planners.compiled.rrt_connect) and the compiled expert (mpnet.data.expert) both run.
+(mpnet.planners.compiled.rrt_connect) and the compiled expert (mpnet.data.expert_planners) both run.
 Its search is OMPL's RRTConnect (same growth, same maximum edge length: the env's
 `planner_range`, else OMPL's default of a fifth of the space's extent) with its own random
 stream, so its paths are RRT-Connect's in kind, not OMPL's state for state.
