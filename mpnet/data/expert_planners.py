@@ -163,7 +163,7 @@ def rrt_connect_compiled_path(
     from ompl import geometric as og
 
     from mpnet.envs.ompl_space import make_space_information
-    from mpnet.search.rrt_connect import RRTConnectSearch
+    from mpnet.search.rrt_connect import RRTConnectSearch, add_counts
 
     env = checker.compiled_env()
     search = RRTConnectSearch()
@@ -174,10 +174,7 @@ def rrt_connect_compiled_path(
     def solve_run(run: int):
         deadline = math.inf if run_iterations is not None else time.perf_counter() + max_seconds
         found = search.run(env, spec, start, goal, _query_stream(start, goal, run), deadline, run_iterations)
-        checker.state_checks += int(found.counts[0])
-        checker.motion_checks += int(found.counts[1])
-        if hasattr(checker, "configurations"):
-            checker.configurations += int(found.counts[2])
+        add_counts(checker, found.counts)
         if found.path is None:
             return None
         solution = og.PathGeometric(si)

@@ -68,20 +68,23 @@ class RRTConnectSearch:
             known = self._spaces[id(spec)] = (spec, (lower, upper, space.metric_weights(), reach, room))
         return known[1]
 
+    @staticmethod
+    def _arrays(cap: int, d: int) -> tuple:
+        """The trees' arrays for `cap` states each: nodes (2, cap, d), parents (2, cap), the
+        nodes column by column (2, d, cap) and nearest's distances (cap,)."""
+        return np.empty((2, cap, d)), np.zeros((2, cap), np.int64), np.empty((2, d, cap)), np.empty(cap)
+
     def _buffers(self, d: int, room: int) -> tuple:
-        """The trees' arrays: nodes (2, cap, d), parents (2, cap), the nodes column by column
-        (2, d, cap) and nearest's distances (cap,)."""
+        """The trees' arrays (_arrays), kept between queries."""
         if self._trees is None or self._trees[0].shape[2] != d or self._trees[0].shape[1] < 2 * room:
-            cap = max(CAPACITY, 2 * room)
-            self._trees = (np.empty((2, cap, d)), np.zeros((2, cap), np.int64), np.empty((2, d, cap)), np.empty(cap))
+            self._trees = self._arrays(max(CAPACITY, 2 * room), d)
         return self._trees
 
     def _grown(self) -> tuple:
         """The trees' arrays at twice their capacity, every state and parent kept."""
         nodes, parents, cols, _ = self._trees
-        cap, d = nodes.shape[1], nodes.shape[2]
-        more = (np.empty((2, 2 * cap, d)), np.zeros((2, 2 * cap), np.int64), np.empty((2, d, 2 * cap)))
-        more = (*more, np.empty(2 * cap))
+        cap = nodes.shape[1]
+        more = self._arrays(2 * cap, nodes.shape[2])
         more[0][:, :cap], more[1][:, :cap], more[2][:, :, :cap] = nodes, parents, cols
         self._trees = more
         return self._trees
@@ -130,11 +133,17 @@ class RRTConnectSearch:
 
     def warm_up(self, env, spec, start, goal) -> None:
         """The search's kernels compiled (or loaded from numba's cache): one round, and a path
-        read back."""
-        lower, upper, weights, reach, room = self.space_of(spec)
-        nodes, parents, cols, dist = self._roots(np.asarray(start, float), np.asarray(goal, float), room)
+        read back (the two roots joined)."""
+        self.run(env, spec, start, goal, np.zeros(1, np.uint64), max_rounds=1)
         state = K.new_state()
-        K.grow(env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents, cols,
-               dist, state, 1, room, np.empty(len(start)), np.empty(len(start)))  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0
-        K.solution(nodes, parents, state)
+        K.solution(self._trees[0], self._trees[1], state)
+
+
+def add_counts(checker, counts: np.ndarray) -> None:
+    """A search's checks (states, motions, configurations evaluated) counted on the checker,
+    as OMPL's planners' are."""
+    checker.state_checks += int(counts[0])
+    checker.motion_checks += int(counts[1])
+    if hasattr(checker, "configurations"):
+        checker.configurations += int(counts[2])

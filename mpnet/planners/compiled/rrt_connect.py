@@ -16,7 +16,7 @@ import numpy as np
 
 from mpnet.planners.base import EXACT, TIMEOUT, Problem, Result, check_endpoints, sub_seed
 from mpnet.planners.compiled.planner import kernel_env, supports
-from mpnet.search.rrt_connect import RRTConnectSearch
+from mpnet.search.rrt_connect import RRTConnectSearch, add_counts
 
 
 class CompiledRRTConnect:
@@ -61,11 +61,8 @@ class CompiledRRTConnect:
         counts = np.zeros(3, np.int64)
         try:
             found = self.search.run(env, problem.spec, problem.start, problem.goal, rng, t0 + budget_s, counts=counts)
-        finally:  # the checks count on the checker, as OMPL's planners' do
-            checker.state_checks += int(counts[0])
-            checker.motion_checks += int(counts[1])
-            if hasattr(checker, "configurations"):
-                checker.configurations += int(counts[2])
+        finally:  # counted even when stopped by an exception
+            add_counts(checker, counts)
         stats = {"iterations": found.rounds, "tree_states": found.tree_states}
         if found.path is None:
             return Result(None, TIMEOUT, stats)
