@@ -5,6 +5,7 @@ the two-scan kernels gave (recorded at f9c0b80; their counts at checker VERSION 
 from __future__ import annotations
 
 import hashlib
+import math
 import sys
 
 import numpy as np
@@ -160,3 +161,50 @@ def test_the_borrowed_kernels_neither_keep_nor_drop_a_reference(checkers):
     assert after.mi_alloc - stats.mi_alloc == after.mi_free - stats.mi_free
     views = K.obstacle_views(ob)  # the counting twin of the kernels' unpack_obstacles, from Python
     assert views[0].shape[1] == 15 and views[4].shape == (sum(len(v) for v in views[:3]), 6)
+
+
+def _general_forward(q, parent, origin, coord, axis) -> np.ndarray:
+    """forward's revolute-joint arithmetic for any axis, in Python floats, in its order."""
+    out = np.zeros((len(parent), 3, 4))
+    for f in range(len(parent)):
+        m = origin[f].copy()
+        x, y, z = (float(v) for v in axis[f])
+        cs, sn = math.cos(q[coord[f]]), math.sin(q[coord[f]])
+        C = 1.0 - cs
+        r = [
+            [cs + x * x * C, x * y * C - z * sn, x * z * C + y * sn],
+            [y * x * C + z * sn, cs + y * y * C, y * z * C - x * sn],
+            [z * x * C - y * sn, z * y * C + x * sn, cs + z * z * C],
+        ]
+        for i in range(3):
+            a0, a1, a2 = (float(v) for v in origin[f, i, :3])
+            for j in range(3):
+                m[i, j] = a0 * r[0][j] + a1 * r[1][j] + a2 * r[2][j]
+        p = parent[f]
+        if p < 0:
+            out[f] = m
+            continue
+        for i in range(3):
+            p0, p1, p2 = (float(v) for v in out[p, i, :3])
+            for j in range(3):
+                out[f, i, j] = p0 * m[0, j] + p1 * m[1, j] + p2 * m[2, j]
+            out[f, i, 3] = p0 * m[0, 3] + p1 * m[1, 3] + p2 * m[2, 3] + out[p, i, 3]
+    return out
+
+
+def test_forward_about_z_gives_the_general_rotations_numbers_bit_for_bit():
+    """forward's shortcut for joints about z drops the general product's zero terms only:
+    the same poses to the last bit, so no answer of the checker moves (no new VERSION)."""
+    rng = np.random.default_rng(3)
+    F = 5
+    parent, coord, kind = np.arange(-1, F - 1), np.arange(F), np.ones(F, np.int64)
+    origin = np.zeros((F, 3, 4))
+    for f in range(F):
+        origin[f, :, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        origin[f, :, 3] = rng.normal(size=3)
+    axis = np.tile([0.0, 0.0, 1.0], (F, 1))
+    for _ in range(200):
+        q = rng.uniform(-3.0, 3.0, F)
+        out = np.zeros((F + 1, 3, 4))
+        K.forward(q, parent, origin, kind, axis, coord, out)
+        assert np.array_equal(out[:F], _general_forward(q, parent, origin, coord, axis))
