@@ -19,7 +19,7 @@ pytestmark = [
     pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's"),
 ]
 
-BUDGET = 10  # s per query of the job killed (Informed-RRT* plans to its budget: planner.stop=time)
+BUDGET = 3  # s per query of the job killed (Informed-RRT* plans to its budget: planner.stop=time)
 
 
 def _children(pid: int) -> list[int]:
@@ -39,16 +39,16 @@ def test_a_killed_sweep_stops_its_job_and_keeps_its_finished_queries(tmp_path, w
     sweep = tmp_path / "sweep"
     cmd = [
         sys.executable, "-m", "harness", "-m", "+env=s2d", "+planner=informed_rrt_star", "planner.stop=time",
-        f"budget_s=1,{BUDGET}", "seed=0", "scale=tiny", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
+        f"budget_s=0.2,{BUDGET}", "seed=0", "scale=tiny", f"cache_dir={sweeps_cache}", f"hydra.sweep.dir={sweep}",
         "hydra.sweep.subdir=job${hydra.job.num}", "progress=false", "rerun=false",
     ]  # fmt: skip
     # Its output to a file, as a scheduler's (or `> log 2>&1`): the orphan was seen so, not with a pipe.
     err = tmp_path / "sweep.err"
     with err.open("w") as log:
         sweep_proc = subprocess.Popen(cmd, cwd=workdir, stdout=log, stderr=subprocess.STDOUT)
-    # Killed in the second job (the first plans its 8 queries at 1 s each): a kill during the first
-    # was seen to stop it, one during a later job not. The second's 8 queries take 10 s each, so
-    # without the fix its job still plans when the wait below ends.
+    # Killed in the second job (the first plans its 8 queries at 0.2 s each): a kill during the
+    # first was seen to stop it, one during a later job not. The second's 8 queries take BUDGET s
+    # each, so without the fix its job still plans when the wait below ends (7 x 3 s > 3 + 5 s).
     queries = sweep / "job1" / "queries.csv"
     deadline = time.monotonic() + 300
     while not (queries.exists() and len(queries.read_text().splitlines()) >= 2):  # a header and one query
