@@ -568,9 +568,10 @@ def test_mpnet_sweep_builds_artifacts_once(tmp_path, run_cli):
     assert not any(m["fallback_used"] for t, m in msgs if t == "/query")
 
 
-PAPER_PNETS = {  # a point robot and an arm (tests/test_configs.py builds every env's paper scale)
+PAPER_PNETS = {  # a box robot and both arms (tests/test_configs.py builds every env's paper scale)
     "s2d": [1280, 1024, 896, 768, 512, 384, 256, 256, 128, 64, 32],
-    "panda_mbm": [1280, 896, 512, 384, 256, 128, 64, 32],  # the original code's 9-layer arm Pnet
+    "arm7": [1280, 896, 512, 384, 256, 128, 64, 32],  # the original code's 9-layer arm Pnet
+    "panda_mbm": [1280, 896, 512, 384, 256, 128, 64, 32],
 }
 
 
@@ -590,7 +591,7 @@ def test_paper_scale_dry_run(tmp_path, env, run_cli):
     assert "seen" in p.stdout and "unseen" in p.stdout
     manifest = json.loads(next((tmp_path / "cache" / "models").glob("*/manifest.json")).read_text())
     assert manifest["config"]["pnet_hidden"] == PAPER_PNETS[env]
-    assert manifest["config"].get("end_to_end", False) == (env == "panda_mbm")
+    assert manifest["config"].get("end_to_end", False) == (env in ("arm7", "panda_mbm"))
     assert manifest["config"]["limit_batches"] == 2
     rows = list(csv.DictReader((tmp_path / "run" / "queries.csv").open()))
     assert len(rows) == 4

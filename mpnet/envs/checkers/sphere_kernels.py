@@ -116,15 +116,12 @@ def forward(q, parent, origin, kind, axis, coord, out):
                 x, y, z = axis[f, 0], axis[f, 1], axis[f, 2]
                 cs, sn = math.cos(v), math.sin(v)
                 C = 1.0 - cs
-                if x == 0.0 and y == 0.0 and z == 1.0:
-                    # about z (every joint of a URDF arm's usual frames): the general product
-                    # below without its zero terms, bit for bit the same numbers, ~12% less FK
-                    r22 = cs + C
+                if x == 0.0 and y == 0.0 and z == 1.0:  # the product below less its zero terms: the same bits
                     for i in range(3):
                         a0, a1 = origin[f, i, 0], origin[f, i, 1]
                         m[i, 0] = a0 * cs + a1 * sn
                         m[i, 1] = a0 * -sn + a1 * cs
-                        m[i, 2] = origin[f, i, 2] * r22
+                        m[i, 2] = origin[f, i, 2] * (cs + C)
                 else:
                     r00, r01, r02 = cs + x * x * C, x * y * C - z * sn, x * z * C + y * sn
                     r10, r11, r12 = y * x * C + z * sn, cs + y * y * C, y * z * C - x * sn
