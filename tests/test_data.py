@@ -228,6 +228,7 @@ def test_expert_runs_ended_by_the_clock_are_counted_and_kept_through_chunks(tmp_
     assert quick.clock_stops == 0 and summary(quick)["runs_ended_by_clock"] == 0
 
 
+@pytest.mark.slow  # two expert builds of 5,000-iteration runs: seconds each
 @pytest.mark.parametrize("planner", ["rrt_connect", "rrt_connect_compiled"])
 def test_an_rrt_connect_expert_on_an_iteration_budget_is_the_same_on_any_clock(planner):
     """With run_iterations the clock ends no RRT-Connect run (a 2 s clock made two builds of one
