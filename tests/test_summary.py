@@ -24,7 +24,7 @@ def test_readme_and_summary_md_are_the_committed_reports(repo):
 
 
 def _copy_reports(repo, tmp_path):
-    for folder in {s.folder for s in summary.SOURCES}:
+    for folder in summary._folders():
         dst = tmp_path / folder
         dst.mkdir(parents=True)
         for name in ("results.csv", "README.md"):
@@ -80,3 +80,32 @@ def test_every_source_report_has_the_planners_it_is_read_for(repo, folder):
     cells = summary.read_rows(repo / "reports")
     for src in (s for s in summary.SOURCES if s.folder == folder):
         assert "mpnet_nr" in cells[src] and {"bit_star", "rrt_connect"} & set(cells[src]), src.label
+
+
+def test_an_extra_report_fills_only_the_planners_a_row_lacks_and_its_cells_are_marked(repo, tmp_path):
+    """The compiled RRT-Connect's arm cells come from their own reports (another session's runs):
+    marked †, with MPNet-NR's time there named; a planner the row's own report has is never
+    taken from an extra one."""
+    reports = _copy_reports(repo, tmp_path / "reports")
+    rows = summary.read_rows(reports)
+    for src in (s for s in summary.SOURCES if s.extra):
+        cells = rows[src]
+        assert cells["rrt_connect_compiled"].extra == src.extra[0]
+        assert all(cells[p].extra is None for p in ("mpnet_nr", "bit_star", "rrt_connect"))
+        assert summary._cell(cells["rrt_connect_compiled"]).endswith(" †")
+    table = summary.render(reports)
+    assert "†: from another report" in table and "MPNet-NR there" in table
+    # the row's own report gets a compiled run: its cell is that one, unmarked
+    mbm = next(s for s in summary.SOURCES if s.env == "panda_mbm")
+    path = reports / mbm.folder / "results.csv"
+    with open(path, newline="") as f:
+        own = list(csv.DictReader(f))
+    with open(reports / mbm.extra[0] / "results.csv", newline="") as f:
+        compiled = next(r for r in csv.DictReader(f) if r["planner"] == "rrt_connect_compiled")
+    compiled = {k: compiled.get(k, "") for k in own[0]} | {"successes": "1"}
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(own[0]))
+        w.writeheader()
+        w.writerows([*own, compiled])
+    cell = summary.read_rows(reports)[mbm]["rrt_connect_compiled"]
+    assert cell.extra is None and cell.solved == 1

@@ -1,8 +1,9 @@
 """`python -m harness.report.summary [--reports reports] [--readme README.md]`: the bottom line.
 
 One short table (per env: success, median time and path cost of MPNet-NR, MPNet-HR, BIT*,
-RRT-Connect and random proposals in MPNet's loop) and three sentences of what it means,
-read from the committed reports' `results.csv` files (SOURCES) and written into
+RRT-Connect, the compiled RRT-Connect and random proposals in MPNet's loop) and three sentences
+of what it means, read from the committed reports' `results.csv` files (SOURCES: a row's own
+report, then its `extra` reports for the planners it lacks, their cells marked) and written into
 reports/summary.md and between the README's markers. Nothing is typed by hand: a changed
 report changes the summary, and tests/test_summary.py fails while the README's copy is stale.
 
@@ -25,12 +26,14 @@ BEGIN, END = "<!-- summary:begin -->", "<!-- summary:end -->"
 
 @dataclass(frozen=True)
 class Source:
-    """One row: an env's split in one committed report folder."""
+    """One row: an env's split in one committed report folder (and, for planners that report has
+    no run of, in `extra` folders: another session's runs, so their cells are marked)."""
 
     label: str
     folder: str  # under reports/
     env: str
     split: str
+    extra: tuple[str, ...] = ()
 
 
 SOURCES = (
@@ -38,14 +41,21 @@ SOURCES = (
     Source("Complex 2D, unseen workspaces", "stats", "c2d", "unseen"),
     Source("Complex 3D, unseen workspaces", "stats", "c3d", "unseen"),
     Source("Rigid body (SE(2)), unseen workspaces", "stats", "rigid", "unseen"),
-    Source("7-DOF Panda, our shelf scenes (arm7), unseen", "arm7", "arm7", "unseen"),
-    Source("7-DOF Panda, MotionBenchMaker's 700 (panda_mbm)", "panda_mbm_mbm", "panda_mbm", "file"),
+    Source("7-DOF Panda, our shelf scenes (arm7), unseen", "arm7", "arm7", "unseen", ("rrt_connect_compiled/arm7",)),
+    Source(
+        "7-DOF Panda, MotionBenchMaker's 700 (panda_mbm)",
+        "panda_mbm_mbm",
+        "panda_mbm",
+        "file",
+        ("rrt_connect_compiled/beside_nr",),
+    ),
 )
 PLANNERS = (
     ("MPNet-NR", "mpnet_nr"),
     ("MPNet-HR", "mpnet_hr"),
     ("BIT*", "bit_star"),
     ("RRT-Connect", "rrt_connect"),
+    ("RRT-Connect (compiled)", "rrt_connect_compiled"),
     ("random proposals", "mpnet_nr_random"),
 )
 
@@ -57,6 +67,7 @@ class Cell:
     valid: int
     time_s: float | None
     cost: float | None  # median cost / BIT*'s on queries both solve
+    extra: str | None = None  # the extra folder the cell comes from (None: the row's own)
 
     @property
     def rate(self) -> float:
@@ -81,25 +92,31 @@ def _invalid(failures: str) -> int:
 
 
 def read_rows(reports: Path) -> dict[Source, dict[str, Cell]]:
-    """Each source's cells by planner (a planner without a row in its report is absent)."""
+    """Each source's cells by planner (a planner without a row in its reports is absent): from
+    the row's own report, then from its extra ones for the planners it lacks."""
     out: dict[Source, dict[str, Cell]] = {}
     tables: dict[str, list[dict]] = {}
     for src in SOURCES:
-        path = reports / src.folder / "results.csv"
-        if src.folder not in tables:
-            with open(path, newline="") as f:
-                tables[src.folder] = list(csv.DictReader(f))
-        cells = {}
-        for row in tables[src.folder]:
-            if row["env"] != src.env or row["split"] != src.split:
-                continue
-            valid = int(row["queries"]) - _invalid(row.get("failures", ""))
-            cost = 1.0 if row["planner"] == "bit_star" else _float(row.get("cost_over_bit_star_median"))
-            cells[row["planner"]] = Cell(
-                int(row["seeds"]), int(row["successes"]), valid, _float(row["time_median_s"]), cost
-            )
+        cells: dict[str, Cell] = {}
+        for folder in (src.folder, *src.extra):
+            if folder not in tables:
+                with open(reports / folder / "results.csv", newline="") as f:
+                    tables[folder] = list(csv.DictReader(f))
+            for row in tables[folder]:
+                if row["env"] != src.env or row["split"] != src.split or row["planner"] in cells:
+                    continue
+                valid = int(row["queries"]) - _invalid(row.get("failures", ""))
+                cost = 1.0 if row["planner"] == "bit_star" else _float(row.get("cost_over_bit_star_median"))
+                time = _float(row["time_median_s"])
+                extra = None if folder == src.folder else folder
+                cells[row["planner"]] = Cell(int(row["seeds"]), int(row["successes"]), valid, time, cost, extra)
         out[src] = cells
     return out
+
+
+def _folders() -> list[str]:
+    """Every report the summary reads, rows' own first."""
+    return list(dict.fromkeys([s.folder for s in SOURCES] + [f for s in SOURCES for f in s.extra]))
 
 
 def _cell(c: Cell | None) -> str:
@@ -107,7 +124,31 @@ def _cell(c: Cell | None) -> str:
         return "—"
     time = "—" if c.time_s is None else f"{c.time_s * 1e3:.2g} ms" if c.time_s < 1 else f"{c.time_s:.2g} s"
     cost = "—" if c.cost is None else f"{c.cost:.2f}"
-    return f"{pct(c.rate)} · {time} · {cost}"
+    return f"{pct(c.rate)} · {time} · {cost}" + (" †" if c.extra else "")
+
+
+def _marked(reports: Path, rows: dict[Source, dict[str, Cell]]) -> str:
+    """What † means: the reports the marked cells come from, and MPNet-NR's median time in each
+    (the time measured beside them)."""
+    beside = []
+    for src in SOURCES:
+        for folder in sorted({c.extra for c in rows[src].values() if c.extra}):
+            with open(reports / folder / "results.csv", newline="") as f:
+                nr = [
+                    r
+                    for r in csv.DictReader(f)
+                    if (r["env"], r["split"], r["planner"]) == (src.env, src.split, "mpnet_nr")
+                ]
+            time = _float(nr[0]["time_median_s"]) if nr else None
+            said = f"MPNet-NR there {time * 1e3:.2g} ms" if time is not None else "no MPNet-NR there"
+            beside.append(f"[{folder}/](reports/{folder}/README.md) for {src.env} ({said})")
+    if not beside:
+        return ""
+    return (
+        f"†: from another report, run in another session than the row's own: {'; '.join(beside)}. Its time "
+        "compares with the runs beside it there, not with this row's; its cost is over that report's BIT* "
+        "(— where it has none)."
+    )
 
 
 def _revisions(reports: Path, folders: list[str]) -> list[str]:
@@ -150,7 +191,8 @@ def sentences(rows: dict[Source, dict[str, Cell]]) -> list[str]:
         r = rows[s]
         words.append(
             f"{s.label}: MPNet-NR {_rate(r, 'mpnet_nr')}, MPNet-HR {_rate(r, 'mpnet_hr')}, "
-            f"BIT* {_rate(r, 'bit_star')}, RRT-Connect {_rate(r, 'rrt_connect')}"
+            f"BIT* {_rate(r, 'bit_star')}, RRT-Connect {_rate(r, 'rrt_connect')} "
+            f"(compiled: {_rate(r, 'rrt_connect_compiled')})"
         )
     out.append("On the arm: " + "; ".join(words) + ".")
     ahead = [s for s in SOURCES if _beats(rows[s], "mpnet_nr_random", "mpnet_nr")]
@@ -186,7 +228,7 @@ def _rate(cells: dict[str, Cell], planner: str) -> str:
 def _budget(reports: Path) -> str:
     """The per-query budget the source reports' READMEs state ("budget per query: 10.0 s")."""
     found = set()
-    for folder in dict.fromkeys(s.folder for s in SOURCES):
+    for folder in _folders():
         try:
             m = re.search(r"budget per query: ([^\n]+?) s\b", (reports / folder / "README.md").read_text())
         except OSError:
@@ -205,8 +247,9 @@ def render(reports: Path) -> str:
         f"/ BIT*'s on the queries both solve. {_seeds(rows)}, {_budget(reports)}, two CPU cores; "
         "— : no committed run. Generated by `python -m harness.report.summary` from the committed reports "
         "([reports/summary.md](reports/summary.md) says which); MPNet's networks trained only on generated "
-        "workspaces, never on MotionBenchMaker's problems. The clock is not the same for all: MPNet's loop calls "
-        "the collision kernels directly, while BIT*, RRT-Connect and MPNet-HR's RRT* (OMPL's) call back into "
+        "workspaces, never on MotionBenchMaker's problems. The clock is not the same for all: MPNet's loop and the "
+        "compiled RRT-Connect call the collision kernels directly, while BIT*, RRT-Connect and MPNet-HR's RRT* "
+        "(OMPL's) call back into "
         'Python for every check ([docs/arm.md](docs/arm.md), "A fair clock"; `python -m harness.perf` says what '
         "a check costs each); and the runs come from several sessions on two-core VMs of two CPU models "
         "(Intel Xeon, AMD EPYC): a time compares best with one measured beside it in the same report.",
@@ -217,12 +260,13 @@ def render(reports: Path) -> str:
     for src in SOURCES:
         cells = rows[src]
         lines.append(f"| {src.label} | " + " | ".join(_cell(cells.get(p)) for _, p in PLANNERS) + " |")
-    lines += ["", " ".join(sentences(rows)), ""]
+    marked = _marked(reports, rows)
+    lines += [""] + ([marked, ""] if marked else []) + [" ".join(sentences(rows)), ""]
     return "\n".join(lines)
 
 
 def summary_file(reports: Path, table: str) -> str:
-    folders = list(dict.fromkeys(s.folder for s in SOURCES))
+    folders = _folders()
     return "\n".join(
         [
             "# Summary",
