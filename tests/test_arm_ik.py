@@ -4,6 +4,7 @@ differences, and poses the arm can reach are reached within MBM-like tolerances.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
@@ -122,3 +123,15 @@ def test_a_restart_iterates_as_before_the_scratch():
         q, T2 = ik_kernels.dls(q0, aim_p, aim_R, LOWER, UPPER, origins, coords, kinds, axes, 100, 0.05)
         h.update(q.tobytes() + T2.tobytes())
     assert h.hexdigest()[:16] == "865156361e8cc190"
+
+
+def test_a_chain_whose_origin_is_not_rigid_is_refused():
+    """The kernels keep a pose's last row 0 0 0 1 without computing it: chain_arrays refuses a
+    frame origin that would change it, naming the link."""
+    import copy
+
+    model = copy.deepcopy(MODEL)
+    frame = model.kinematics.frames[model.kinematics.index("panda_link3")]
+    frame.origin[3, 0] = 1e-9
+    with pytest.raises(ValueError, match="panda_link8: a frame origin whose last row"):
+        chain_arrays(model, "panda_link8")

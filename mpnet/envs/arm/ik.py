@@ -91,8 +91,11 @@ def chain_arrays(model: ArmModel, link: str) -> tuple[np.ndarray, np.ndarray, np
     """The frames from the base to `link` as ik_kernels' arrays: origins (n x 4 x 4), driving
     coordinates (-1: none), kinds, axes (n x 3)."""
     frames = [model.kinematics.frames[i] for i in _path(model, link)]
+    origins = np.array([f.origin for f in frames], float)
+    if not (origins[:, 3] == [0.0, 0.0, 0.0, 1.0]).all():  # the kernels keep a pose's last row as is
+        raise ValueError(f"{link}: a frame origin whose last row is not 0 0 0 1")
     return (
-        np.array([f.origin for f in frames], float),
+        origins,
         np.array([f.coordinate for f in frames], np.int64),
         np.array([f.kind for f in frames], np.int64),
         np.array([f.axis for f in frames], float),

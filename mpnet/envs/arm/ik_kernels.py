@@ -106,12 +106,18 @@ def _copy4(src, out):
 
 @njit(cache=True, borrowed=True)
 def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m):
-    """chain_pose into T (tmp, m: 4 x 4 scratch)."""
+    """chain_pose into T (tmp, m: 4 x 4 scratch). T's rows 0-2 are multiplied in place: its
+    last row stays 0 0 0 1, as every origin's is (chain_arrays checks) and every joint's
+    transform is. A joint about z skips its rotation's zero terms: bit for bit the numbers
+    of the general product (as sphere_kernels.forward does); IK's time is mostly this."""
     _eye4(T)
     _eye4(m)
     for f in range(origins.shape[0]):
-        _mul4(T, origins[f], tmp)
-        _copy4(tmp, T)
+        o = origins[f]
+        for r in range(3):
+            t0, t1, t2, t3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
+            for c in range(4):
+                T[r, c] = t0 * o[0, c] + t1 * o[1, c] + t2 * o[2, c] + t3 * o[3, c]
         c = coords[f]
         if c < 0:
             continue
@@ -120,6 +126,15 @@ def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins,
             joint_axes[f, r] = T[r, 0] * x + T[r, 1] * y + T[r, 2] * z
             joint_origins[f, r] = T[r, 3]
         v = q[c]
+        if kinds[f] != PRISMATIC and x == 0.0 and y == 0.0 and z == 1.0:
+            co, si = math.cos(v), math.sin(v)
+            m22 = co + (1.0 - co)
+            for r in range(3):
+                t0, t1 = T[r, 0], T[r, 1]
+                T[r, 0] = t0 * co + t1 * si
+                T[r, 1] = t0 * -si + t1 * co
+                T[r, 2] = T[r, 2] * m22
+            continue
         if kinds[f] == PRISMATIC:
             for r in range(3):
                 for s in range(3):
@@ -132,8 +147,10 @@ def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins,
             m[1, 0], m[1, 1], m[1, 2] = y * x * C + z * si, co + y * y * C, y * z * C - x * si
             m[2, 0], m[2, 1], m[2, 2] = z * x * C - y * si, z * y * C + x * si, co + z * z * C
             m[0, 3], m[1, 3], m[2, 3] = 0.0, 0.0, 0.0
-        _mul4(T, m, tmp)
-        _copy4(tmp, T)
+        for r in range(3):
+            t0, t1, t2, t3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
+            for k in range(4):
+                T[r, k] = t0 * m[0, k] + t1 * m[1, k] + t2 * m[2, k] + t3 * m[3, k]
 
 
 @njit(cache=True, borrowed=True)
