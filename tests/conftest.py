@@ -17,7 +17,8 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the session's kernels compile
 KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles what it needs itself
 ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
-ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearance")  # in a test's id: it uses the arm's kernels
+# in a test's id: it uses the arm's kernels
+ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearance")
 
 
 def pytest_configure(config):
