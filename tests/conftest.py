@@ -15,6 +15,7 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the session's kernels compile
+PLANAR_LOCK = "MPNET_BENCH_TESTS_PLANAR_LOCK"  # held while the planar envs' kernels compile (they go first)
 KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles what it needs itself
 ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
 # in a test's id: it uses the arm's kernels
@@ -25,23 +26,44 @@ def pytest_configure(config):
     """The controller (not an xdist worker) compiles numba's kernels in the background
     (`python -m harness.compile_kernels`, the planar envs' first), while the workers run the
     tests: on a fresh clone, every process would otherwise compile them, an arm's for about a
-    minute, each of the first ones at once. The compile holds a lock that `run_cli` waits on
-    before a command on an arm (wait_for_kernels); a test planning in-process loads what is
-    compiled, or compiles what is not yet (at worst what it did before)."""
+    minute, each of the first ones at once. The compile holds two locks: the planar envs' until
+    their kernels are on disk (~40 s; every test waits for it: the first tests had compiled
+    them again beside it), the whole compile's until the arms' are too, which `run_cli` waits on
+    before a command on an arm (wait_for_kernels); a test planning in-process on an arm loads
+    what is compiled, or compiles what is not yet (at worst what it did before)."""
     if config.pluginmanager.hasplugin("xdist"):
         config.pluginmanager.register(WorkSteal(), "mpnet-bench-worksteal")
     if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly or "not slow" in config.option.markexpr:
         return  # the fast loop's few kernels compile in its own tests sooner
     fd, lock = tempfile.mkstemp(prefix="mpnet-bench-kernels-", suffix=".lock")
     fcntl.flock(fd, fcntl.LOCK_EX)  # held by the compile's copy of fd until it exits
+    planar_fd, planar = tempfile.mkstemp(prefix="mpnet-bench-planar-", suffix=".lock")
+    fcntl.flock(planar_fd, fcntl.LOCK_EX)  # held by the compile's copy until it closes it
     log = Path(lock).with_suffix(".log")
     with log.open("w") as out:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "harness.compile_kernels"], cwd=REPO_ROOT, pass_fds=(fd,), stdout=out, stderr=out
+            [sys.executable, "-c", COMPILE, str(planar_fd), ",".join(ARM_ENVS)],
+            cwd=REPO_ROOT,
+            pass_fds=(fd, planar_fd),
+            stdout=out,
+            stderr=out,
         )
     os.close(fd)
+    os.close(planar_fd)
     config._kernels = (proc, log)
-    os.environ[KERNELS_LOCK] = lock  # the workers inherit it
+    os.environ[KERNELS_LOCK] = lock  # the workers inherit them
+    os.environ[PLANAR_LOCK] = planar
+
+
+# harness.compile_kernels for the planar envs, their lock released (argv[1]: its fd), then the arms
+COMPILE = """import os, sys
+from harness.compile_kernels import main
+from mpnet.envs.specs import SPECS
+arms = sys.argv[2].split(",")
+rc = main([e for e in SPECS if e not in arms])
+os.close(int(sys.argv[1]))
+sys.exit(rc or main([e for e in SPECS if e in arms]))
+"""
 
 
 def pytest_unconfigure(config):
@@ -62,12 +84,13 @@ def pytest_unconfigure(config):
             print(text, file=sys.stderr)
     log.unlink(missing_ok=True)
     Path(os.environ.pop(KERNELS_LOCK)).unlink(missing_ok=True)
+    Path(os.environ.pop(PLANAR_LOCK)).unlink(missing_ok=True)
 
 
-def wait_for_kernels(timeout_s: float = KERNELS_WAIT_S) -> None:
+def wait_for_kernels(timeout_s: float = KERNELS_WAIT_S, which: str = KERNELS_LOCK) -> None:
     """Until the session's background compile has finished (at once when there is none), or
-    timeout_s."""
-    lock = os.environ.get(KERNELS_LOCK)
+    timeout_s; which=PLANAR_LOCK: until the planar envs' kernels are compiled."""
+    lock = os.environ.get(which)
     if not lock or not Path(lock).exists():
         return
     fd, deadline = os.open(lock, os.O_RDONLY), time.monotonic() + timeout_s
@@ -116,6 +139,13 @@ def pytest_collection_modifyitems(config, items):
     before they start (none waits, none compiles them again); dealt to the workers (deal)."""
     ordered = sorted(items, key=lambda i: (i.get_closest_marker("slow") is None, any(w in i.nodeid for w in ARM_TESTS)))
     items[:] = deal(ordered, getattr(config, "workerinput", {}).get("workercount", 1))
+
+
+@pytest.fixture(autouse=True)
+def _planar_kernels():
+    """Every test starts once the planar envs' kernels are on disk (the session's first ~40 s):
+    the first tests had compiled them again beside the background compile."""
+    wait_for_kernels(which=PLANAR_LOCK)
 
 
 @pytest.fixture(scope="session")
@@ -168,6 +198,8 @@ def run_cli(workdir):
     def run(*args, cwd=None, check=True, timeout=600, env=None):
         if any(e in a for a in args for e in ARM_ENVS):
             wait_for_kernels()
+        else:
+            wait_for_kernels(which=PLANAR_LOCK)
         env = {**os.environ, "HYDRA_FULL_ERROR": "0", **(env or {})}
         p = subprocess.run(
             [sys.executable, "-m", *args], cwd=cwd or workdir, capture_output=True, text=True, timeout=timeout, env=env
