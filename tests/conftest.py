@@ -196,10 +196,8 @@ def run_cli(workdir):
     session's workdir); raises with its output when it fails and check is true."""
 
     def run(*args, cwd=None, check=True, timeout=600, env=None):
-        if any(e in a for a in args for e in ARM_ENVS):
+        if any(e in a for a in args for e in ARM_ENVS):  # the planar ones: every test waited (_planar_kernels)
             wait_for_kernels()
-        else:
-            wait_for_kernels(which=PLANAR_LOCK)
         env = {**os.environ, "HYDRA_FULL_ERROR": "0", **(env or {})}
         p = subprocess.run(
             [sys.executable, "-m", *args], cwd=cwd or workdir, capture_output=True, text=True, timeout=timeout, env=env

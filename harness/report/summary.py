@@ -91,19 +91,29 @@ def _invalid(failures: str) -> int:
     return int(m.group(1)) if m else 0
 
 
-def read_rows(reports: Path) -> dict[Source, dict[str, Cell]]:
+def read_tables(reports: Path) -> dict[str, list[dict]]:
+    """Every report's results.csv rows the summary reads, by folder (_folders)."""
+    tables = {}
+    for folder in _folders():
+        with open(reports / folder / "results.csv", newline="") as f:
+            tables[folder] = list(csv.DictReader(f))
+    return tables
+
+
+def _rows_of(table: list[dict], src: Source) -> list[dict]:
+    return [r for r in table if r["env"] == src.env and r["split"] == src.split]
+
+
+def read_rows(reports: Path, tables: dict[str, list[dict]] | None = None) -> dict[Source, dict[str, Cell]]:
     """Each source's cells by planner (a planner without a row in its reports is absent): from
     the row's own report, then from its extra ones for the planners it lacks."""
+    tables = read_tables(reports) if tables is None else tables
     out: dict[Source, dict[str, Cell]] = {}
-    tables: dict[str, list[dict]] = {}
     for src in SOURCES:
         cells: dict[str, Cell] = {}
         for folder in (src.folder, *src.extra):
-            if folder not in tables:
-                with open(reports / folder / "results.csv", newline="") as f:
-                    tables[folder] = list(csv.DictReader(f))
-            for row in tables[folder]:
-                if row["env"] != src.env or row["split"] != src.split or row["planner"] in cells:
+            for row in _rows_of(tables[folder], src):
+                if row["planner"] in cells:
                     continue
                 valid = int(row["queries"]) - _invalid(row.get("failures", ""))
                 cost = 1.0 if row["planner"] == "bit_star" else _float(row.get("cost_over_bit_star_median"))
@@ -127,18 +137,13 @@ def _cell(c: Cell | None) -> str:
     return f"{pct(c.rate)} · {time} · {cost}" + (" †" if c.extra else "")
 
 
-def _marked(reports: Path, rows: dict[Source, dict[str, Cell]]) -> str:
+def _marked(tables: dict[str, list[dict]], rows: dict[Source, dict[str, Cell]]) -> str:
     """What † means: the reports the marked cells come from, and MPNet-NR's median time in each
     (the time measured beside them)."""
     beside = []
     for src in SOURCES:
         for folder in sorted({c.extra for c in rows[src].values() if c.extra}):
-            with open(reports / folder / "results.csv", newline="") as f:
-                nr = [
-                    r
-                    for r in csv.DictReader(f)
-                    if (r["env"], r["split"], r["planner"]) == (src.env, src.split, "mpnet_nr")
-                ]
+            nr = [r for r in _rows_of(tables[folder], src) if r["planner"] == "mpnet_nr"]
             time = _float(nr[0]["time_median_s"]) if nr else None
             said = f"MPNet-NR there {time * 1e3:.2g} ms" if time is not None else "no MPNet-NR there"
             beside.append(f"[{folder}/](reports/{folder}/README.md) for {src.env} ({said})")
@@ -238,7 +243,8 @@ def _budget(reports: Path) -> str:
 
 
 def render(reports: Path) -> str:
-    rows = read_rows(reports)
+    tables = read_tables(reports)
+    rows = read_rows(reports, tables)
     head = "| env | " + " | ".join(name for name, _ in PLANNERS) + " |"
     lines = [
         "## Where MPNet stands",
@@ -260,7 +266,7 @@ def render(reports: Path) -> str:
     for src in SOURCES:
         cells = rows[src]
         lines.append(f"| {src.label} | " + " | ".join(_cell(cells.get(p)) for _, p in PLANNERS) + " |")
-    marked = _marked(reports, rows)
+    marked = _marked(tables, rows)
     lines += [""] + ([marked, ""] if marked else []) + [" ".join(sentences(rows)), ""]
     return "\n".join(lines)
 

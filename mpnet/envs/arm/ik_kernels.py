@@ -73,12 +73,14 @@ def _rotvec_into(R, q, out):
         out[i] = scale * q[i]
 
 
-@njit(cache=True, borrowed=True)
-def _mul4(A, B, out):
-    """out = A @ B for 4 x 4 (out distinct from both)."""
-    for r in range(4):
+@njit(cache=True, borrowed=True, inline="always")
+def _times(T, B):
+    """T = T @ B for 4 x 4 transforms, rows 0-2 in place (the last row of both is 0 0 0 1,
+    so T's stays so)."""
+    for r in range(3):
+        t0, t1, t2, t3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
         for c in range(4):
-            out[r, c] = A[r, 0] * B[0, c] + A[r, 1] * B[1, c] + A[r, 2] * B[2, c] + A[r, 3] * B[3, c]
+            T[r, c] = t0 * B[0, c] + t1 * B[1, c] + t2 * B[2, c] + t3 * B[3, c]
 
 
 @njit(cache=True)
@@ -86,7 +88,7 @@ def chain_pose(q, origins, coords, kinds, axes, joint_axes, joint_origins) -> np
     """The tip's 4 x 4 pose at q; fills each driven frame's world axis and origin (rows in
     chain order, the rest untouched)."""
     T = np.empty((4, 4))
-    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, np.empty((4, 4)), np.empty((4, 4)))
+    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, np.empty((4, 4)))
     return T
 
 
@@ -98,26 +100,15 @@ def _eye4(m):
 
 
 @njit(cache=True, borrowed=True)
-def _copy4(src, out):
-    for r in range(4):
-        for c in range(4):
-            out[r, c] = src[r, c]
-
-
-@njit(cache=True, borrowed=True)
-def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m):
-    """chain_pose into T (tmp, m: 4 x 4 scratch). T's rows 0-2 are multiplied in place: its
-    last row stays 0 0 0 1, as every origin's is (chain_arrays checks) and every joint's
-    transform is. A joint about z skips its rotation's zero terms: bit for bit the numbers
-    of the general product (as sphere_kernels.forward does): a pose 564 -> 254 ns."""
+def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, m):
+    """chain_pose into T (m: 4 x 4 scratch), multiplied in place (_times: every origin's last
+    row is 0 0 0 1, chain_arrays checks, and every joint's transform's is). A joint about z
+    skips its rotation's zero terms: bit for bit the numbers of the general product (as
+    sphere_kernels.forward does): a pose 564 -> 254 ns."""
     _eye4(T)
     _eye4(m)
     for f in range(origins.shape[0]):
-        o = origins[f]
-        for r in range(3):
-            t0, t1, t2, t3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
-            for c in range(4):
-                T[r, c] = t0 * o[0, c] + t1 * o[1, c] + t2 * o[2, c] + t3 * o[3, c]
+        _times(T, origins[f])
         c = coords[f]
         if c < 0:
             continue
@@ -147,10 +138,7 @@ def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins,
             m[1, 0], m[1, 1], m[1, 2] = y * x * C + z * si, co + y * y * C, y * z * C - x * si
             m[2, 0], m[2, 1], m[2, 2] = z * x * C - y * si, z * y * C + x * si, co + z * z * C
             m[0, 3], m[1, 3], m[2, 3] = 0.0, 0.0, 0.0
-        for r in range(3):
-            t0, t1, t2, t3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
-            for k in range(4):
-                T[r, k] = t0 * m[0, k] + t1 * m[1, k] + t2 * m[2, k] + t3 * m[3, k]
+        _times(T, m)
 
 
 @njit(cache=True, borrowed=True)
@@ -185,20 +173,20 @@ def dls(q0, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations
     T = np.empty((4, 4))
     _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping, T,
               np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((6, q.shape[0])), np.empty(6), np.empty((6, 6)),
-              np.zeros((6, 6)), np.empty(6), np.empty((3, 3)), np.empty((4, 4)), np.empty((4, 4)), np.empty(4),
+              np.zeros((6, 6)), np.empty(6), np.empty((3, 3)), np.empty((4, 4)), np.empty(4),
               np.empty(3))  # fmt: skip
     return q, T
 
 
 @njit(cache=True, borrowed=True)
 def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping, T,
-              joint_axes, joint_origins, J, e, A, L, y, R, tmp, m, quat, rv):  # fmt: skip
+              joint_axes, joint_origins, J, e, A, L, y, R, m, quat, rv):  # fmt: skip
     """dls's iterations on q in place, the tip's pose into T; the rest: scratch (allocated
     once a restart by dls, so the iterations allocate nothing and count no references)."""
     dof = q.shape[0]
     n = origins.shape[0]
     lam = damping * damping
-    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m)
+    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, m)
     for _ in range(iterations):
         for i in range(3):
             e[i] = aim_p[i] - T[i, 3]
@@ -239,7 +227,7 @@ def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, itera
             for i in range(6):
                 s += J[i, k] * e[i]
             q[k] = min(max(q[k] + s, lower[k]), upper[k])
-        _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, tmp, m)
+        _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, m)
 
 
 @njit(cache=True)
