@@ -1,6 +1,7 @@
 """The data stage: expert paths, the dataset on disk, the artifact cache."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -278,3 +279,38 @@ def test_the_compiled_expert_plans_the_arm_as_the_recipe_says_whatever_ompls_see
     assert np.all(a.cost <= a.raw_cost + 1e-9)
     c = chunk_worker((spec, [(0, ws)], 3, 0, 0, options))
     assert np.array_equal(c.states, a.states)
+
+
+def _pid(_args) -> int:
+    return os.getpid()
+
+
+@pytest.mark.slow  # four spawned processes
+def test_fresh_processes_are_one_per_task_and_workers_otherwise():
+    """in_fresh_processes: a fresh process per task (an expert seeding OMPL's process-wide RNG per
+    chunk needs one), or, fresh=False, workers that run task after task."""
+    from mpnet.data.expert import in_fresh_processes
+
+    for fresh, pids in ((True, 3), (False, 1)):
+        got: dict[int, int] = {}
+        in_fresh_processes(_pid, {k: () for k in range(3)}, 1, got.__setitem__, fresh)
+        assert sorted(got) == [0, 1, 2] and len(set(got.values())) == pids and os.getpid() not in got.values()
+
+
+@pytest.mark.slow  # a spawned expert process
+def test_the_compiled_experts_chunks_share_a_worker_and_plan_what_each_plans_alone():
+    """The compiled expert draws nothing from OMPL's process-wide RNG (PROCESS_SEEDED): its chunks
+    run one after another in one long-lived worker and give the paths each chunk gives alone."""
+    from mpnet.data.expert import chunk_worker
+    from mpnet.data.expert_planners import PROCESS_SEEDED
+
+    assert "rrt_connect_compiled" not in PROCESS_SEEDED and "rrt_connect" in PROCESS_SEEDED
+    spec = get_spec("s2d")
+    wss = [(i, make_workspace(spec, i, "train")) for i in range(3)]
+    options = {"iterations": 2, "max_seconds": 1.0, "contract": True, "planner": "rrt_connect_compiled",
+               "run_iterations": 2000}  # fmt: skip
+    kw = {k: v for k, v in options.items() if k not in ("iterations", "max_seconds")}
+    pooled = expert_paths(spec, wss, 3, seed=4, iterations=2, max_seconds=1.0, jobs=1, chunk_size=1, **kw)
+    alone = [chunk_worker((spec, [w], 3, 4, k, options)) for k, w in enumerate(reversed(wss))][::-1]
+    assert len(pooled) == sum(map(len, alone)) > 0
+    assert np.array_equal(pooled.states, np.concatenate([a.states for a in alone]))

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.data.expert_planners import EXPERTS, dedupe
+from mpnet.data.expert_planners import EXPERTS, PROCESS_SEEDED, dedupe
 from mpnet.envs.spec import EnvSpec, random_pairs
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import lazy_states_contraction, path_cost, verify_path
@@ -181,13 +181,14 @@ def workspace_paths(
 
 
 def chunk_worker(args: tuple) -> ExpertPaths:
-    """One chunk of workspaces in a fresh process: seeds OMPL, then plans every path
-    (workspace_paths' options by name)."""
+    """One chunk of workspaces: seeds OMPL (an expert that draws on its RNG runs each chunk in a
+    fresh process: PROCESS_SEEDED), then plans every path (workspace_paths' options by name)."""
     spec, workspaces, count, seed, chunk, options = args
     from ompl import util as ou
 
     ou.setLogLevel(ou.LOG_WARN)
-    ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
+    if options.get("planner", EXPERT.planner) in PROCESS_SEEDED:
+        ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
     return ExpertPaths.concat(
         [workspace_paths(spec, ws, idx, count, seed, **options) for idx, ws in workspaces],
         spec.state_dim,
@@ -233,7 +234,10 @@ def expert_paths(
     check: str = EXPERT.check,
     run_iterations: int | None = None,
 ) -> ExpertPaths:
-    """Expert paths for every (index, workspace), in fresh processes, one chunk each.
+    """Expert paths for every (index, workspace), in worker processes: a fresh one per chunk
+    where the expert draws on OMPL's process-wide RNG (PROCESS_SEEDED), else long-lived ones
+    (a process start, ~2 s of imports and kernels loaded, was a third of the compiled expert's
+    build); the same paths either way.
 
     `progress(n)` is called with the number of workspaces each finished chunk held.
     resume_dir: each finished chunk is saved there, and chunks found there are not planned
@@ -267,21 +271,21 @@ def expert_paths(
         if progress is not None:
             progress(len(chunks[k]))
 
-    in_fresh_processes(chunk_worker, {k: tasks[k] for k in todo}, jobs, done)
+    in_fresh_processes(chunk_worker, {k: tasks[k] for k in todo}, jobs, done, fresh=planner in PROCESS_SEEDED)
     return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
 
 
-def in_fresh_processes(worker, tasks: dict, jobs: int, done) -> None:
+def in_fresh_processes(worker, tasks: dict, jobs: int, done, fresh: bool = True) -> None:
     """worker(tasks[k]) for every k, each in a fresh spawned process (OMPL's RNG is seeded per
-    task, and a process start costs less than state left behind), at most `jobs` at a time;
-    done(k, result) as each finishes."""
+    task, and a process start costs less than state left behind; fresh=False: spawned workers
+    that run task after task), at most `jobs` at a time; done(k, result) as each finishes."""
     from concurrent.futures import as_completed
 
     from mpnet.workers import process_pool
 
     if not tasks:
         return
-    with process_pool(min(jobs, len(tasks)), max_tasks_per_child=1) as pool:
+    with process_pool(min(jobs, len(tasks)), max_tasks_per_child=1 if fresh else None) as pool:
         futures = {pool.submit(worker, args): k for k, args in tasks.items()}
         for fut in as_completed(futures):
             done(futures[fut], fut.result())

@@ -196,6 +196,10 @@ EXPERTS = {
 }
 # the experts that plan with the env's planner_range and take a budget in rounds (run_iterations)
 TREE_EXPERTS = ("rrt_connect", "rrt_connect_compiled")
+# the experts whose paths draw on OMPL's process-wide RNG (seeded once per process): each chunk of
+# their workspaces needs a fresh process. The compiled expert's stream is each query's own
+# (_query_stream) and OMPL's rope shortcut draws nothing: its chunks share long-lived workers.
+PROCESS_SEEDED = ("rrt_star", "rrt_connect")
 
 
 def dedupe(path: list) -> list:
