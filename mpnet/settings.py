@@ -30,6 +30,7 @@ class NeuralSettings:
     encoding: str = "cloud"
     dropout: bool = True
     replanning: str = "original"
+    anytime: bool = False  # the paper's loop restarted (fresh dropout, fresh proposals) until the budget ends
 
     def shared(self) -> dict:
         """These settings by name (a subclass's own left out): what MPNetPlanner takes."""
@@ -85,6 +86,7 @@ def _unless(paper) -> Callable[[object], str | None]:
 VARIANTS = (
     Variant("proposal", _unless(PAPER.proposal), True),
     Variant("replanning", _unless(PAPER.replanning), True),
+    Variant("anytime", lambda v: "anytime" if v is True else None, True),
     Variant("encoding", lambda v: "zeros" if v == "zeros" else None, True),
     Variant("dropout", lambda v: "nodropout" if v is False else None, True),
     Variant("clip", lambda v: "clip" if v is True else None, True),

@@ -363,6 +363,7 @@ VARIANTS = [
     "mpnet_nr_zeros",  # ablations: the code, the proposal, replanning (every ablation against
     "mpnet_hr_random_any",  # the numpy loop, in-process: tests/test_compiled_planner.py)
     "mpnet_hr_forgiving",
+    "mpnet_nr_anytime",  # the paper's loop restarted until the budget ends
 ]
 
 

@@ -376,3 +376,42 @@ def test_clipped_proposals_stay_in_the_joint_bounds():
         MPNetSettings(name="mpnet_nr_clip", clip="yes")
     with pytest.raises(ValueError, match="planner.name"):
         MPNetSettings(name="mpnet_nr", clip=True)
+
+
+def stuck_at_first(calls: int):
+    """Proposals stuck at the tree's end for the first `calls` calls, then random valid states."""
+    count, go = [0], random_free(S2D, WALL)
+
+    def step(z, x, goal, rng):
+        count[0] += 1
+        return x if count[0] <= calls else go(z, x, goal, rng)
+
+    return step
+
+
+def anytime(step, budget_s, **settings):
+    planner = MPNetPlanner("mpnet_nr_anytime", lambda cloud: np.zeros(4), step, CLOUD, anytime=True, **settings)
+    return planner.solve(wall_problem(), budget_s)
+
+
+def test_anytime_restarts_the_papers_loop_until_it_succeeds():
+    """The paper's NR gives up when its first run does not connect; anytime runs the loop again
+    (its proposals no longer stuck) until a run solves it."""
+    p = wall_problem()
+    assert not make(stuck_at_first(80), False).solve(p, 5.0).solved
+    res = anytime(stuck_at_first(80), 5.0)
+    assert res.solved and res.stats["restarts"] >= 1 and verify_path(S2D, WALL, res.path, p.start, p.goal) is None
+    assert res.stats["pnet_calls"] > 80  # every run counted
+
+
+def test_anytime_stops_at_the_budget():
+    res = anytime(stuck, 0.3)
+    assert not res.solved and res.status == "timeout" and res.stats["restarts"] >= 2
+    assert 80 * res.stats["restarts"] < res.stats["pnet_calls"] <= 80 * (res.stats["restarts"] + 1)
+
+
+def test_anytime_is_a_named_variant():
+    with pytest.raises(ValueError, match="anytime=true"):
+        MPNetPlanner("mpnet_nr", None, None, None, anytime=True)
+    with pytest.raises(ValueError, match="planner.anytime"):
+        MPNetPlanner("x", None, None, None, anytime="yes")

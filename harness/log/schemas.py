@@ -178,6 +178,7 @@ QUERY_SCHEMA = {
         "motion_checks": {"type": ["integer", "null"]},
         "pnet_calls": {"type": ["integer", "null"]},
         "replans": {"type": ["integer", "null"]},
+        "restarts": {"type": ["integer", "null"], "description": "MPNet anytime: the paper's loop restarted"},
         "fallback_used": {"type": ["boolean", "null"]},
         "reference_cost": {"type": ["number", "null"], "description": "the test set's reference path cost"},
         "target_planner": {"type": ["string", "null"], "description": "time to equal quality: the target's planner"},

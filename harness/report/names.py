@@ -51,6 +51,7 @@ ABLATIONS = {
     "random": "a uniformly random valid state instead of Pnet's proposal",
     "random_any": "a uniformly random state (valid or not, as Pnet's) instead of Pnet's proposal",
     "forgiving": "CMPNet's forgiving replanning (a failed first run or segment is retried, not a failure)",
+    "anytime": "the paper's loop restarted (fresh dropout and proposals) until the budget ends (planner.anytime)",
     "straight": "a fixed-length step toward the other tree's end instead of Pnet's proposal",
     "zeros": "Pnet given a zero workspace code",
     "nodropout": "Pnet deterministic (no dropout) at planning time",

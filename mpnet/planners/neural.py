@@ -105,6 +105,7 @@ class MPNetPlanner:
         self.encoding = s.encoding
         self.dropout = s.dropout
         self.replanning = s.replanning
+        self.anytime = s.anytime
         self.trace: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.codes: dict[str, np.ndarray] = {}
         self.last_code = None
@@ -141,6 +142,18 @@ class MPNetPlanner:
         z = self.last_code = code
         raw = problem.checker  # HR's classical planner checks on it directly
         problem = replace(problem, checker=MotionMemo(raw))
+        if self.anytime:
+            stats["restarts"] = 0
+        while True:
+            result = self._attempt(problem, raw, z, stats, deadline, first)
+            if result.path is not None or not self.anytime or time.perf_counter() > deadline:
+                return result
+            stats["restarts"] += 1  # anytime: the paper's loop again, its draws (dropout, proposals) fresh
+            first = None
+
+    def _attempt(self, problem: Problem, raw, z, stats: dict, deadline: float, first: Callable | None) -> Result:
+        """One run of the paper's loop (Algorithm 1; HR's fallback at its end): the first
+        NeuralPlanner run, its contraction, replanning rounds until the path is feasible."""
         checker = problem.checker
         forgiving = self.replanning == "forgiving"
         start, goal = problem.start.astype(float), problem.goal.astype(float)
@@ -156,11 +169,13 @@ class MPNetPlanner:
         else:
             path = self.contract(checker, path, step, stats)
         ok = self.feasible(checker, path, stats)
-        while not ok and stats["replans"] < self.replan_rounds:
+        rounds = 0
+        while not ok and rounds < self.replan_rounds:
             if time.perf_counter() > deadline:
                 return self.failed(deadline, stats, path)
+            rounds += 1
             stats["replans"] += 1
-            step = self.steer_step(stats["replans"])
+            step = self.steer_step(rounds)
             t, inner = time.perf_counter(), stats["pnet_s"] + stats["steer_s"]
             path, stuck = self.replan(problem, z, path, stats, deadline, step)
             stats["replan_s"] += time.perf_counter() - t - (stats["pnet_s"] + stats["steer_s"] - inner)
@@ -174,7 +189,7 @@ class MPNetPlanner:
             stats["fallback_used"] = True
             t, handed = time.perf_counter(), path
             path = self.classical_replan(problem, path, deadline, stats, raw)
-            stats["fallback_s"] = time.perf_counter() - t
+            stats["fallback_s"] += time.perf_counter() - t
             if path is not None:
                 path = self.contract(checker, path, None, stats)
                 ok = self.feasible(checker, path, stats)
@@ -353,6 +368,7 @@ def check_settings(
     encoding,
     dropout,
     replanning="original",
+    anytime=False,
     clip=False,
 ) -> None:
     """Every MPNet setting, checked once: ValueError naming the config key."""
@@ -385,7 +401,11 @@ def check_settings(
         raise ValueError(f"config key planner.replanning: expected one of {', '.join(REPLANNING)}, got {replanning!r}")
     if not isinstance(clip, bool):
         raise ValueError(f"config key planner.clip: expected true or false, got {clip!r}")
-    ablated = ablation_of(proposal=proposal, encoding=encoding, dropout=dropout, replanning=replanning, clip=clip)
+    if not isinstance(anytime, bool):
+        raise ValueError(f"config key planner.anytime: expected true or false, got {anytime!r}")
+    ablated = ablation_of(
+        proposal=proposal, encoding=encoding, dropout=dropout, replanning=replanning, anytime=anytime, clip=clip
+    )
     if ablated and name in BASE_NAMES:
         raise ValueError(
             f"config key planner.name: an ablation ({ablated}) is logged under its own name, "
