@@ -91,6 +91,8 @@ VARIANTS = (
     Variant("dropout", lambda v: "nodropout" if v is False else None, True),
     Variant("clip", lambda v: "clip" if v is True else None, True),
     Variant("compiled", lambda v: "numpy" if v is False else None, False),  # the numpy reference: the same method
+    # another number of replanning rounds (the paper's 10): tagged, so that its runs never read as the paper's
+    Variant("replan_rounds", lambda v: None if v in (PAPER.replan_rounds, None) else f"rounds{v}", False),
 )
 
 

@@ -18,6 +18,8 @@ def old_facts_variant(p: dict) -> str | None:
     variant = [] if p.get("proposal", "pnet") in ("pnet", None) else [str(p["proposal"])]
     if p.get("replanning", "forgiving") != "original":
         variant.append(str(p.get("replanning", "forgiving")))
+    if p.get("anytime") is True:  # tags added since (issue 65): anytime, rounds<N>
+        variant.append("anytime")
     if p.get("encoding") == "zeros":
         variant.append("zeros")
     if p.get("dropout") is False:
@@ -26,6 +28,8 @@ def old_facts_variant(p: dict) -> str | None:
         variant.append("clip")
     if p.get("compiled") is False:
         variant.append("numpy")
+    if p.get("replan_rounds", 10) != 10:
+        variant.append(f"rounds{p['replan_rounds']}")
     variant += network_variant(p.get("networks"))
     fallback = p.get("fallback", "rrt_star")
     if p["hybrid"] is True and fallback != "rrt_star":
@@ -82,3 +86,14 @@ def test_every_combination_of_ablations_is_named_as_before():
     for mask in range(1 << len(ablated)):
         given = {k: v for i, (k, v) in enumerate(ablated.items()) if mask >> i & 1}
         assert sorted(ablation_of(**given).split(", ")) == sorted(old_ablation_of(**given).split(", ")), given
+
+
+def test_another_number_of_rounds_and_anytime_are_tagged_and_described():
+    from harness.report.names import describe_variant
+
+    p = {"hybrid": False, "replanning": "original", "proposal": "random", "replan_rounds": 100, "anytime": True}
+    assert planner_facts(p)["variant"] == "random+anytime+rounds100"
+    assert planner_facts({**p, "replan_rounds": 10, "proposal": "pnet", "anytime": False})["variant"] is None
+    words = describe_variant("random+anytime+rounds100").split("; ")
+    assert words[0].startswith("a uniformly random valid state") and words[1].startswith("the paper's loop restarted")
+    assert words[2] == "100 replanning rounds, not the paper's 10 (planner.replan_rounds)"

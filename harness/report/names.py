@@ -64,6 +64,20 @@ ABLATIONS = {
     "numpy": "the planning loop in numpy (planner.compiled=false), the reference the compiled default is tested "
     "against: the same method and answers, its time compared",
 }
+
+
+def describe_variant(variant: str) -> str:
+    """A variant's change in words: each of its tags (joined by '+') as ABLATIONS says it;
+    rounds<N>, N replanning rounds in place of the paper's 10."""
+    words = []
+    for tag in variant.split("+"):
+        if tag.startswith("rounds") and tag[6:].isdigit():
+            words.append(f"{tag[6:]} replanning rounds, not the paper's 10 (planner.replan_rounds)")
+        else:
+            words.append(ABLATIONS.get(tag, tag))
+    return "; ".join(words)
+
+
 # The mark of a difference that is not significant.
 APPROX = "≈"
 

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from harness.report.facts import Facts
-from harness.report.names import ABLATIONS, KEYS, PAPER_PLANNERS, RATIO_COL, env_rank, labelled, split_rank
+from harness.report.names import KEYS, PAPER_PLANNERS, RATIO_COL, describe_variant, env_rank, labelled, split_rank
 from harness.report.stats import (
     ALPHA,
     bit_star_pairs,
@@ -389,7 +389,7 @@ def ablation_table(res: pd.DataFrame, facts: Facts) -> pd.DataFrame:
             for p in ([base] if base in by else []) + abl:
                 r = dict(by[p])
                 variant = facts.ablation(p)[1] if p != base else ""
-                r.update(base=base, variant=variant, change=ABLATIONS.get(variant, variant) if variant else "")
+                r.update(base=base, variant=variant, change=describe_variant(variant) if variant else "")
                 if p == base:
                     r.update({c: None for c in _VS_COLS})
                 rows.append(r)
