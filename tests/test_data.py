@@ -287,13 +287,13 @@ def _pid(_args) -> int:
 
 @pytest.mark.slow  # four spawned processes
 def test_fresh_processes_are_one_per_task_and_workers_otherwise():
-    """in_fresh_processes: a fresh process per task (an expert seeding OMPL's process-wide RNG per
+    """in_processes: a fresh process per task (an expert seeding OMPL's process-wide RNG per
     chunk needs one), or, fresh=False, workers that run task after task."""
-    from mpnet.data.expert import in_fresh_processes
+    from mpnet.data.expert import in_processes
 
     for fresh, pids in ((True, 3), (False, 1)):
         got: dict[int, int] = {}
-        in_fresh_processes(_pid, {k: () for k in range(3)}, 1, got.__setitem__, fresh)
+        in_processes(_pid, {k: () for k in range(3)}, 1, got.__setitem__, fresh)
         assert sorted(got) == [0, 1, 2] and len(set(got.values())) == pids and os.getpid() not in got.values()
 
 

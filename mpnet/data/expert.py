@@ -271,11 +271,11 @@ def expert_paths(
         if progress is not None:
             progress(len(chunks[k]))
 
-    in_fresh_processes(chunk_worker, {k: tasks[k] for k in todo}, jobs, done, fresh=planner in PROCESS_SEEDED)
+    in_processes(chunk_worker, {k: tasks[k] for k in todo}, jobs, done, fresh=planner in PROCESS_SEEDED)
     return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
 
 
-def in_fresh_processes(worker, tasks: dict, jobs: int, done, fresh: bool = True) -> None:
+def in_processes(worker, tasks: dict, jobs: int, done, fresh: bool = True) -> None:
     """worker(tasks[k]) for every k, each in a fresh spawned process (OMPL's RNG is seeded per
     task, and a process start costs less than state left behind; fresh=False: spawned workers
     that run task after task), at most `jobs` at a time; done(k, result) as each finishes."""

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.data.expert import CHECKS, EXPERTS, ExpertPaths, dedupe, in_fresh_processes
+from mpnet.data.expert import CHECKS, EXPERTS, ExpertPaths, dedupe, in_processes
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import path_cost
@@ -125,5 +125,5 @@ def dagger_paths(
             progress(len(chunks[k]))
 
     tasks = {k: (spec, str(models_dir), cloud, c, p, seed, k) for k, c in enumerate(chunks)}
-    in_fresh_processes(chunk_worker, tasks, jobs, done)
+    in_processes(chunk_worker, tasks, jobs, done)
     return ExpertPaths.concat([results[k] for k in sorted(results)], spec.state_dim)
