@@ -291,16 +291,25 @@ def test_every_recipe_option_is_checked_against_its_schema_entry():
     from harness.core.schema import OPTIONS
 
     good = {bool: True, int: 4, float: 0.5, list: [64, 32]}
-    bad = {bool: 1, int: 1.5, float: "x", list: [64, 0]}
+    bad = {bool: 1, int: 1.5, float: "x", list: [64, 0], str: "bogus"}
     for f in OPTIONS:
         kind, name = f.metadata["kind"], f"env.networks.{f.name}"
-        ok = _networks(OmegaConf.create({f.name: good[kind]}), "env.networks")
-        assert ok == {f.name: good[kind]} and type(ok[f.name]) is kind, f.name
+        value = f.metadata["choices"][-1] if f.metadata["choices"] else good[kind]
+        ok = _networks(OmegaConf.create({f.name: value}), "env.networks")
+        assert ok == {f.name: value} and type(ok[f.name]) is kind, f.name
         for value in (bad[kind], *((f.metadata["minimum"] - 1,) if f.metadata["minimum"] is not None else ())):
             with pytest.raises(UsageError, match=f"^config key {name}: expected"):
                 _networks(OmegaConf.create({f.name: value}), "env.networks")
     docs = (Path(__file__).resolve().parents[1] / "docs" / "mpnet.md").read_text(encoding="utf-8")
     assert [f.name for f in OPTIONS if f"`{f.name}`" not in docs and f"`{f.name}:" not in docs] == []
+
+
+def test_the_goal_pairs_choices_are_the_librarys():
+    """The recipe's goal_pairs takes what mpnet.models.datamodule.waypoint_pairs does."""
+    from harness.core.schema import OPTIONS
+    from mpnet.models.datamodule import GOALS
+
+    assert next(f for f in OPTIONS if f.name == "goal_pairs").metadata["choices"] == GOALS
 
 
 def test_every_env_knob_is_checked_against_its_schema_entry(compose_config):

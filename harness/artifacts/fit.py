@@ -409,6 +409,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         space=spec.space,
         waypoint_step=params.get("waypoint_step"),
         min_waypoints=params.get("min_waypoints"),
+        goals=params.get("goal_pairs") or "end",
     )
     epochs = params["pnet_epochs"]
     if params.get("equal_steps"):  # as many gradient steps as the scale's networks take on the plain pairs
@@ -454,6 +455,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         params["seed"],
         groups=pairs.path_id,
         features=kind,
+        scenes_per_batch=params.get("scenes_per_batch"),
     )
     bar = _bar(progress, "Pnet" if frozen else "Enet+Pnet", epochs, 2 if frozen else 1, 2 if frozen else 1)
     work = resume or folder

@@ -334,6 +334,9 @@ def model_params(cfg: DictConfig) -> dict:
         params["end_to_end"] = True
     if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
         params["limit_batches"] = int(f.limit_batches)
+    if f.get("scenes_per_batch") is not None:  # Pnet's batches from a few scenes each (absent: the keys stay)
+        integer("scale.fit.scenes_per_batch", f.scenes_per_batch, 1)
+        params["scenes_per_batch"] = int(f.scenes_per_batch)
     params |= networks_params(cfg)  # a planner's own networks (absent: the keys stay)
     if params.get("voxels") and not params.get("end_to_end"):
         raise UsageError(

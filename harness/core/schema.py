@@ -136,6 +136,12 @@ class Recipe:
     bidirectional: bool | None = _option(
         bool, "false: each path forward only (the public code's pairs); true adds the reversed path"
     )
+    goal_pairs: str | None = _option(
+        str,
+        "Pnet's goal inputs: end (each path's end, the paper's) or all (every later waypoint: the intermediate goals "
+        "bidirectional planning asks for)",
+        choices=("end", "all"),
+    )
     dropout: float | None = _option(
         float, "Pnet's dropout rate (the scale's model.dropout otherwise), at training and planning", minimum=0, below=1
     )

@@ -79,9 +79,9 @@ def planner_facts(p) -> dict | None:
 
 def network_variant(networks) -> list[str]:
     """The tags of a planner's own networks (its `networks:` recipe options): dense (resampled
-    expert paths), bounded, forward (no reversed paths), dropout<rate>, noise<sd>,
-    collision<weight> (a collision loss), sized
-    (other network sizes), paper_recipe (the scale's recipe, not the env's), voxels<cells>
+    expert paths), bounded, forward (no reversed paths), allgoals (every later waypoint a goal
+    input), dropout<rate>, noise<sd>, collision<weight> (a collision loss), sized (other
+    network sizes), paper_recipe (the scale's recipe, not the env's), voxels<cells>
     (Enet reads a voxel grid of the cloud)."""
     if not isinstance(networks, dict):
         return []
@@ -92,6 +92,8 @@ def network_variant(networks) -> list[str]:
         out.append("bounded")
     if networks.get("bidirectional") is False:
         out.append("forward")
+    if networks.get("goal_pairs") == "all":
+        out.append("allgoals")
     if networks.get("dropout") is not None:
         out.append(f"dropout{float(networks['dropout']):g}")
     if networks.get("input_noise"):

@@ -60,6 +60,8 @@ ABLATIONS = {
     "dense": "networks trained on the expert paths resampled at a fixed step (planner.networks.waypoint_step)",
     "bounded": "Pnet's output bounded inside the state bounds by a softsign (planner.networks.bounded)",
     "forward": "Pnet trained on each expert path forward only (planner.networks.bidirectional=false)",
+    "allgoals": "Pnet trained toward every later waypoint of each expert path, not its end alone "
+    "(planner.networks.goal_pairs=all)",
     "paper_recipe": "the networks of the paper's recipe, not the env's (planner.networks.recipe=paper)",
     "numpy": "the planning loop in numpy (planner.compiled=false), the reference the compiled default is tested "
     "against: the same method and answers, its time compared",

@@ -88,12 +88,16 @@ class Clearance:
 
     def penetration(self, q: torch.Tensor, ws: torch.Tensor) -> torch.Tensor:
         """(N,): the summed depth (metres) of every sphere inside every obstacle of its
-        workspace (ws (N,), rows of the arrays' workspaces), radius and margin included."""
+        workspace (ws (N,), rows of the arrays' workspaces), radius and margin included. Only
+        the spheres of groups that touch an obstacle are posed, each group by its one frame
+        (a group's spheres share their link's), gathered with index_select: its gradient is
+        a plain index_add, where advanced indexing's accumulating scatter cost most of a step."""
         rot, pos = self._frames(q)
-        centres = _posed(rot, pos, self.frame, self.local)  # (N, S, 3)
+        frames = rot.shape[1]
+        flat_rot, flat_pos = rot.reshape(-1, 3, 3), pos.reshape(-1, 3)
         with torch.no_grad():
             groups = _posed(rot, pos, self.group_frame, self.group_local).unsqueeze(2)  # (N, G, 1, 3)
-        depth = 0.0 * centres[:, 0, 0]  # zeros, on the graph even where nothing touches
+        depth = (q * 0.0).sum(-1)  # zeros, on the graph even where nothing touches
         for obstacles, distance in (
             (self.boxes, _box_distance),
             (self.cylinders, _cylinder_distance),
@@ -105,8 +109,11 @@ class Clearance:
             n, g, o = near.nonzero(as_tuple=True)
             if not len(n):
                 continue
+            at = n * frames + self.group_frame[g]  # each touching group's frame at its state
+            r, t = flat_rot.index_select(0, at), flat_pos.index_select(0, at)  # (T, 3, 3), (T, 3)
             members = self.members[g]  # (T, M): the spheres of each touching group
-            d = distance(centres[n.unsqueeze(1), members], mine[n, o].unsqueeze(1))  # (T, M)
+            centres = self.local[members] @ r.transpose(1, 2) + t.unsqueeze(1)  # (T, M, 3)
+            d = distance(centres, mine[n, o].unsqueeze(1))  # (T, M)
             pen = torch.relu(self.radius[members] - d) * self.member_ok[g]
             depth = depth.index_add(0, n, pen.sum(1))
         return depth

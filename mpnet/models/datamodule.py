@@ -21,7 +21,7 @@ from typing import NamedTuple
 import lightning as L
 import numpy as np
 import torch
-from torch.utils.data import DataLoader, Dataset
+from torch.utils.data import DataLoader, Dataset, Sampler
 
 
 def _identity(batch):
@@ -89,6 +89,34 @@ class PairDataset(Dataset):
         return self.__getitems__([i])
 
 
+class SceneBatches(Sampler):
+    """Training batches that each draw on about ``scenes`` workspaces (a recipe-free training
+    knob, ``scale.fit.scenes_per_batch``): each epoch the workspaces are shuffled into groups of
+    ``scenes``, each group's samples shuffled together, and the concatenation cut into batches
+    of ``batch_size``, so a batch spans one group (two at a boundary) where a group holds more
+    samples than a batch (e.g. 10 arm scenes of ~230 samples, batches of 100). An end-to-end Enet then
+    encodes a few clouds a batch instead of about one a sample; the epoch still sees every
+    sample once. Draws one seed per epoch from torch's generator, when iteration starts (as
+    torch's RandomSampler does, so a resumed fit draws what one run straight through does)."""
+
+    def __init__(self, workspace: np.ndarray, batch_size: int, scenes: int):
+        if scenes < 1:
+            raise ValueError(f"scenes_per_batch must be a positive integer, got {scenes}")
+        self.batch_size, self.scenes = int(batch_size), int(scenes)
+        self.uniq, self.scene_of = np.unique(np.asarray(workspace), return_inverse=True)
+
+    def __len__(self) -> int:
+        return -(-len(self.scene_of) // self.batch_size)
+
+    def __iter__(self):
+        seed = int(torch.empty((), dtype=torch.int64).random_().item())
+        rng = np.random.default_rng(seed)
+        group = rng.permutation(len(self.uniq)) // self.scenes  # each workspace's group
+        order = np.argsort(group[self.scene_of] + rng.random(len(self.scene_of)), kind="stable")
+        for i in range(0, len(order), self.batch_size):
+            yield order[i : i + self.batch_size].tolist()
+
+
 class CloudDataset(Dataset):
     def __init__(self, clouds: torch.Tensor, rows: np.ndarray):
         self.clouds = clouds
@@ -126,6 +154,15 @@ class _Base(L.LightningDataModule):
         self.val_set: Dataset | None = None
 
     def _loader(self, ds: Dataset, shuffle: bool) -> DataLoader:
+        sampler = self.batch_sampler(ds) if shuffle else None
+        if sampler is not None:
+            return DataLoader(
+                ds,
+                batch_sampler=sampler,
+                collate_fn=_identity,
+                num_workers=self.num_workers,
+                persistent_workers=self.num_workers > 0,
+            )
         return DataLoader(
             ds,
             batch_size=self.batch_size,
@@ -134,6 +171,10 @@ class _Base(L.LightningDataModule):
             num_workers=self.num_workers,
             persistent_workers=self.num_workers > 0,
         )
+
+    def batch_sampler(self, ds: Dataset) -> Sampler | None:
+        """The training batches' sampler; None: torch's shuffle."""
+        return None
 
     def train_dataloader(self) -> DataLoader:
         if self.train_set is None:
@@ -156,7 +197,9 @@ class MPNetDataModule(_Base):
     ``features="codes"``: ``clouds`` holds each workspace's Enet code instead (a frozen
     encoder's codes never change, so encoding them once saves most of Pnet's training time
     when batches span many workspaces); ``features="grids"``: each workspace's voxel occupancy
-    (a voxel Enet's input, computed once: ``PnetModule.grids``)."""
+    (a voxel Enet's input, computed once: ``PnetModule.grids``). ``scenes_per_batch``: each
+    training batch drawn from about that many workspaces (:class:`SceneBatches`); None: shuffled
+    over all samples, the public code's batches."""
 
     def __init__(
         self,
@@ -171,8 +214,12 @@ class MPNetDataModule(_Base):
         num_workers: int = 0,
         groups: np.ndarray | None = None,
         features: str = "clouds",
+        scenes_per_batch: int | None = None,
     ):
         super().__init__(batch_size, val_fraction, seed, num_workers)
+        if scenes_per_batch is not None and (isinstance(scenes_per_batch, bool) or int(scenes_per_batch) < 1):
+            raise ValueError(f"scenes_per_batch must be a positive integer, got {scenes_per_batch!r}")
+        self.scenes_per_batch = None if scenes_per_batch is None else int(scenes_per_batch)
         if features not in ("clouds", "codes", "grids"):
             raise ValueError(f"features must be 'clouds', 'codes' or 'grids', got {features!r}")
         self.features = features
@@ -193,6 +240,11 @@ class MPNetDataModule(_Base):
         if n == 0:
             raise ValueError("no samples")
         self.train_indices, self.val_indices = split_indices(n, self.val_fraction, self.seed, groups)
+
+    def batch_sampler(self, ds: Dataset) -> Sampler | None:
+        if self.scenes_per_batch is None:
+            return None
+        return SceneBatches(self.ws[ds.rows].numpy(), self.batch_size, self.scenes_per_batch)
 
     @property
     def state_dim(self) -> int:
@@ -276,6 +328,18 @@ def _resample_step(path: np.ndarray, space, waypoint_step: float | None, min_way
     return step if waypoint_step is None else min(step, waypoint_step)
 
 
+GOALS = ("end", "all")  # waypoint_pairs' goal inputs: the path's end (the paper's), or every later waypoint
+
+
+def _goal_pairs(n: int, goals: str) -> tuple[np.ndarray, np.ndarray]:
+    """(j, goal index) of a path of n states: (j, n - 1) for each j < n - 1, or every (j, k), k > j."""
+    if goals == "all":
+        j, k = np.triu_indices(n, k=1)
+        return j, k
+    j = np.arange(n - 1)
+    return j, np.full(n - 1, n - 1)
+
+
 def waypoint_pairs(
     paths: Sequence[np.ndarray],
     ws_index: Sequence[int],
@@ -283,6 +347,7 @@ def waypoint_pairs(
     space=None,
     waypoint_step: float | None = None,
     min_waypoints: int | None = None,
+    goals: str = "end",
 ) -> Pairs:
     """Expert paths -> Pnet samples, as the public code: for a path ``x_0..x_T`` every
     ``(x_j, x_T) -> x_{j+1}``; with ``bidirectional`` also the reversed path (the planner grows
@@ -295,7 +360,14 @@ def waypoint_pairs(
 
     With ``waypoint_step``, each path is first resampled (:func:`resample_path`); with
     ``min_waypoints`` too, at a step short enough to give it at least that many states (as
-    MoveIt interpolates a planned path to at least 10: the paper's Baxter expert paths)."""
+    MoveIt interpolates a planned path to at least 10: the paper's Baxter expert paths).
+
+    ``goals="all"`` (a named recipe option, issue 65): every ``(x_j, x_k) -> x_{j+1}`` for
+    ``k > j``, the goal input any later waypoint, not the path's end alone: bidirectional
+    planning asks Pnet to step toward the other tree's newest state, an intermediate point of
+    some path, and a Pnet trained on path ends alone errs there nearly twice as far."""
+    if goals not in GOALS:
+        raise ValueError(f"goals must be one of {', '.join(GOALS)}, got {goals!r}")
     if len(paths) != len(ws_index):
         raise ValueError(f"{len(paths)} paths but {len(ws_index)} workspace indices")
     cols: dict[str, list] = {"ws": [], "x_t": [], "x_goal": [], "x_next": [], "pid": []}
@@ -313,14 +385,15 @@ def waypoint_pairs(
         if step is not None:
             path = resample_path(path, step, space)
         for p in (path, path[::-1]) if bidirectional else (path,):
-            k = len(p) - 1
-            x_t, x_next, goal = p[:-1], p[1:], p[-1:]
+            j, g = _goal_pairs(len(p), goals)
+            k = len(j)
+            x_t, x_next, goal = p[j], p[j + 1], p[g]
             if space is not None:
                 x_t, goal = space.wrap(x_t), space.wrap(goal)
                 x_next = x_t + space.difference(x_t, x_next)
             cols["x_t"].append(x_t)
             cols["x_next"].append(x_next)
-            cols["x_goal"].append(np.repeat(goal, k, axis=0))
+            cols["x_goal"].append(goal)
             cols["ws"].append(np.full(k, int(w), dtype=np.int64))
             cols["pid"].append(np.full(k, pid, dtype=np.int64))
     if not cols["x_t"]:
@@ -335,9 +408,11 @@ __all__ = [
     "MPNetDataModule",
     "CloudDataModule",
     "PairDataset",
+    "SceneBatches",
     "CloudDataset",
     "split_indices",
     "waypoint_pairs",
     "resample_path",
     "Pairs",
+    "GOALS",
 ]
