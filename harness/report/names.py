@@ -56,6 +56,8 @@ ABLATIONS = {
     "zeros": "Pnet given a zero workspace code",
     "nodropout": "Pnet deterministic (no dropout) at planning time",
     "rrtc": "RRT-Connect instead of the paper's RRT* as hybrid replanning's classical planner",
+    "fallback_aorrtc": "OMPL's AORRTC (asymptotically optimal, bidirectional) instead of the paper's RRT* as hybrid "
+    "replanning's classical planner",
     "clip": "Pnet's proposal clipped into the joint bounds (planner.clip)",
     "dense": "networks trained on the expert paths resampled at a fixed step (planner.networks.waypoint_step)",
     "bounded": "Pnet's output bounded inside the state bounds by a softsign (planner.networks.bounded)",

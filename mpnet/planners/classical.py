@@ -27,8 +27,9 @@ ALGORITHMS = {
     "bit_star": og.BITstar,
     "rrt_star": og.RRTstar,
     "rrt_connect": og.RRTConnect,
+    "aorrtc": og.AORRTC,  # asymptotically optimal RRT-Connect (OMPL 2.0): MPNet-HR's optimal, bidirectional gap closer
 }
-OPTIMIZING = {"informed_rrt_star", "bit_star", "rrt_star"}
+OPTIMIZING = {"informed_rrt_star", "bit_star", "rrt_star", "aorrtc"}
 # stop=time leaves the larger of this share of the budget and these seconds to hand the path back
 # within the budget (OMPL stops an iteration past its time; a loaded machine may preempt it then).
 TIME_STOP_MARGIN = (0.02, 0.05)
@@ -124,6 +125,8 @@ class OmplPlanner:
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
             stats["progress"] = watch.seen(cost, time.perf_counter() - t0)
+        if watch is not None:  # AORRTC keeps the termination condition, which holds the watch: the cycle broken
+            watch.planner = None
         del planner, pdef, si, keep
         if path is not None and target is not None and path_cost(problem.spec, path) > target * (1 + 1e-9):
             # stop=cost claims a solution only at the target: a longer path is not one
