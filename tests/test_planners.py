@@ -3,8 +3,8 @@ endpoints fail fast, budgets and cost targets are honoured."""
 
 import math
 import time
-from pathlib import Path
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
