@@ -140,7 +140,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m harness.bench_checkers", description=__doc__.splitlines()[0])
     ap.add_argument("envs", nargs="*", default=sorted(SPECS))
     ap.add_argument("--workspaces", type=int, default=3)
-    ap.add_argument("--out", type=Path, help="also write OUT/README.md and OUT/checkers.json (e.g. reports/checkers)")
+    ap.add_argument(
+        "--out", type=Path, help="also write OUT/README.md and OUT/checkers.json (e.g. reports/perf/checkers)"
+    )
     args = ap.parse_args(argv)
     try:
         specs = [get_spec(e) for e in args.envs]

@@ -53,7 +53,7 @@ TESTED = {
         "tests/test_report_labels.py::test_labelled_report_from_tiny_runs"
     ),
     "python -m harness -m +experiment=table1": TABLE1,
-    "python -m harness.report <the sweeps of reports/> --paper --out reports": TABLE1,
+    "python -m harness.report <the sweeps of reports/table1/> --paper --out reports/table1": TABLE1,
     "python -m harness.report.summary": SUMMARY,
     (
         "PYTHONPATH=$E python -m harness +env=s2d +planner=batch_prm scale=tiny "
@@ -115,7 +115,7 @@ TESTED = {
     "python -m harness.train +env=s2d [scale=S]": (
         "tests/test_artifact_integrity.py::test_damaged_checkpoint_and_dataset_are_rebuilt_end_to_end"
     ),
-    "python -m harness.report multirun/<date>/<time-1> multirun/<date>/<time-2> --paper --out reports": TABLE1,
+    "python -m harness.report multirun/<date>/<time-1> multirun/<date>/<time-2> --paper --out reports/table1": TABLE1,
     "python -m harness.report.learning_curve multirun/<date>/<time> --out reports/learning_curve": (
         CLI + "test_learning_curve_cli"
     ),
@@ -134,7 +134,7 @@ TESTED = {
     "python -m harness.perf perf=tiny out=/tmp/p": PERF,
     "python -m harness.overhead +env=s2d +planner=bit_star": CLI + "test_overhead_benchmark",
     "python -m harness.bench_checkers arm7 rigid": CLI + "test_bench_checkers",
-    "python -m harness.bench_checkers --out reports/checkers": CLI + "test_bench_checkers",
+    "python -m harness.bench_checkers --out reports/perf/checkers": CLI + "test_bench_checkers",
     # docs/reports.md
     "python -m harness +env=s2d +planner=bit_star scale=tiny hydra.run.dir=outputs/tiny": NOTEBOOK,
     "MPNET_FIGURE=outputs/tiny/query.png jupyter execute examples/explore_a_run.ipynb": NOTEBOOK,

@@ -665,7 +665,7 @@ def test_benchmark_db_keeps_variants_apart(tmp_path):
     assert con.execute("SELECT runcount FROM experiments").fetchall() == [(8,)]  # 4 queries x 2 seeds
     con.close()
     # the tables keep them apart by the same names: results.csv once pooled both checkers' runs
-    # in one row of 1,400 queries (reports/arm7_mbm, with only a warning)
+    # in one row of 1,400 queries (reports/archive/arm7_mbm, with only a warning)
     res = pd.read_csv(out / "results.csv").set_index("planner")["queries"].to_dict()
     assert res == {
         "rrt_connect [env.collision=spheres, problems=aaaaaaaa]": 8,

@@ -1,10 +1,10 @@
 """Issue 45, item 3: how long docs/arm.md's first MotionBenchMaker commands take on this
 machine, as a new user meets them: the first from a cold compile cache and an empty artifact
 cache (the shipped panda_mbm networks), the rest after it (kernels compiled once, kept on
-disk). Writes reports/arm_first_commands/README.md.
+disk). Writes reports/perf/arm_first_commands/README.md.
 
     python docs/research/arm_first_commands.py RUNS_DIR [--mbm data/mbm/problems] [--full-hr]
-        [--out reports/arm_first_commands]
+        [--out reports/perf/arm_first_commands]
 
 --mbm adds the commands on MotionBenchMaker's 700 (`python -m harness.fetch_mbm data/mbm`):
 the first 5 of each set, then all of them with MPNet-NR; --full-hr adds MPNet-HR on all 700
@@ -75,7 +75,7 @@ def main() -> None:
     ap.add_argument("runs", type=Path)
     ap.add_argument("--mbm", default=None, help="MotionBenchMaker's problems folder (harness.fetch_mbm)")
     ap.add_argument("--full-hr", action="store_true", help="also MPNet-HR on all 700 (about an hour)")
-    ap.add_argument("--out", type=Path, default=Path("reports/arm_first_commands"))
+    ap.add_argument("--out", type=Path, default=Path("reports/perf/arm_first_commands"))
     args = ap.parse_args()
     env = dict(os.environ)
     env["NUMBA_CACHE_DIR"] = str(args.runs / "numba_cache")  # cold for the first command, then kept

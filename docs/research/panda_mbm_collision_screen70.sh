@@ -8,11 +8,11 @@
 # by the mbm_* runs). One run at a time; a finished run leaves DONE in its folder and is skipped.
 #
 #   RUNS=/work/runs/coll70 bash docs/research/panda_mbm_collision_screen70.sh [NAME ...]
-#   SCENES=735 CACHE=... RUNS=... OUT=reports/panda_mbm_collision bash ... collision0.01 env ...  (the chosen weight, all 735)
+#   SCENES=735 CACHE=... RUNS=... OUT=reports/archive/panda_mbm_collision bash ... collision0.01 env ...  (the chosen weight, all 735)
 #
 # NAME: a variant below, or mbm_NAME, or report (default: all, in order).
 set -euo pipefail
-OUT=${OUT:-reports/panda_mbm_collision70}
+OUT=${OUT:-reports/archive/panda_mbm_collision70}
 # shellcheck source=docs/research/screen_runs.sh
 source "$(dirname "$0")/screen_runs.sh"
 

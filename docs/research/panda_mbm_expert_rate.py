@@ -3,7 +3,7 @@ imports (run it with PYTHONPATH=<a checkout> to measure another revision). Build
 scenes 0..N-1 and their expert paths in this one process, as one expert chunk does (15 MBM
 queries per scene, the best of 3 RRT-Connect runs of --run-iterations iterations, contracted,
 kept by env.expert.check),
-after a warm-up that compiles the kernels; appends a row to reports/panda_mbm_expert_rate/
+after a warm-up that compiles the kernels; appends a row to reports/perf/panda_mbm_expert_rate/
 README.md. Run it alone on an idle machine.
 
     PYTHONPATH=<checkout> python docs/research/panda_mbm_expert_rate.py [--scenes 14] [--check planner]
@@ -50,7 +50,7 @@ def main() -> None:
         choices=["rrt_connect", "rrt_connect_compiled"],
         help="the expert (env.expert.planner): OMPL's RRT-Connect, or the same recipe with its search compiled",
     )
-    ap.add_argument("--out", type=Path, default=Path("reports/panda_mbm_expert_rate"))
+    ap.add_argument("--out", type=Path, default=Path("reports/perf/panda_mbm_expert_rate"))
     ap.add_argument(
         "--run-iterations", type=int, default=20000, help="an RRT-Connect run's budget (env.expert.run_iterations)"
     )

@@ -6,7 +6,7 @@ is it from the expert's next waypoint (rad). Where NR loses to random proposals 
 table_under_pick) this says whether Pnet's first step already fails on the scenes it was trained on.
 
     PYTHONPATH=<checkout> python docs/research/panda_mbm_first_step.py DATA_DIR [--nets SET_OR_CKPT]
-        [--out reports/panda_mbm_first_step]
+        [--out reports/archive/panda_mbm_first_step]
 
 DATA_DIR: a panda_mbm dataset folder (cache_dir/data/<key>, data.npz and manifest.json); --nets:
 the networks (a shipped set folder or a pnet checkpoint; default: the shipped panda_mbm-quick set).
@@ -74,7 +74,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("data_dir", type=Path)
     ap.add_argument("--nets", type=Path, default=SHIPPED / "panda_mbm-quick")
-    ap.add_argument("--out", type=Path, default=Path("reports/panda_mbm_first_step"))
+    ap.add_argument("--out", type=Path, default=Path("reports/archive/panda_mbm_first_step"))
     args = ap.parse_args()
     df = first_steps(args.data_dir, args.nets)
     table = (

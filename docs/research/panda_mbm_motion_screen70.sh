@@ -11,13 +11,13 @@
 #
 #   RUNS=/work/runs/motion70 bash docs/research/panda_mbm_motion_screen70.sh [NAME ...]
 #
-# Its winner at the full 735 scenes (reports/panda_mbm_motion/; chosen, it became the env's recipe):
-#   SCENES=735 OUT=reports/panda_mbm_motion RUNS=... bash docs/research/panda_mbm_motion_screen70.sh \
+# Its winner at the full 735 scenes (reports/archive/panda_mbm_motion/; chosen, it became the env's recipe):
+#   SCENES=735 OUT=reports/archive/panda_mbm_motion RUNS=... bash docs/research/panda_mbm_motion_screen70.sh \
 #     env motion4w0.04 mbm_env mbm_motion4w0.04 report
 #
 # NAME: a variant below, or mbm_NAME, or report (default: all, in order).
 set -euo pipefail
-OUT=${OUT:-reports/panda_mbm_motion70}
+OUT=${OUT:-reports/archive/panda_mbm_motion70}
 # shellcheck source=docs/research/screen_runs.sh
 source "$(dirname "$0")/screen_runs.sh"
 

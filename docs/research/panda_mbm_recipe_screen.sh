@@ -5,7 +5,7 @@
 # split (68 seen + 70 unseen MBM-style queries; MotionBenchMaker's problems are not read), then
 # the report. One run at a time; a finished run leaves DONE in its folder and is skipped.
 # Run at a revision with issue 42's order-free scene code (branch issue42-order and its
-# descendants until the shipped networks are retrained): reports/panda_mbm_recipes/ was made at
+# descendants until the shipped networks are retrained): reports/archive/panda_mbm_recipes/ was made at
 # cd42f39 (branch issue42-recipe).
 #
 #   RUNS=/work/runs/screen bash docs/research/panda_mbm_recipe_screen.sh [NAME ...]
@@ -14,7 +14,7 @@
 # all, in order).
 set -euo pipefail
 RUNS=${RUNS:?RUNS=folder for the logs}
-OUT=${OUT:-reports/panda_mbm_recipes}
+OUT=${OUT:-reports/archive/panda_mbm_recipes}
 mkdir -p "$RUNS"
 COMMON=(+env=panda_mbm scale=quick scale.train.workspaces=210 +planner=mpnet_nr progress=false)
 B=+planner.networks.bounded=true

@@ -16,7 +16,7 @@
 #
 # NAME: a variant below, or mbm_NAME, or report (default: all, in order).
 set -euo pipefail
-OUT=${OUT:-reports/panda_mbm_recipes70}
+OUT=${OUT:-reports/archive/panda_mbm_recipes70}
 # shellcheck source=docs/research/screen_runs.sh
 source "$(dirname "$0")/screen_runs.sh"
 

@@ -1,7 +1,7 @@
 """Which figures moved when the shipped networks were retrained (issue 42, item 1): each
 report folder's results.csv at a revision before, against the working tree's.
 
-    python docs/research/retrain_moved.py BEFORE_REV FOLDER [FOLDER ...] --out reports/retrain_moved.md
+    python docs/research/retrain_moved.py BEFORE_REV FOLDER [FOLDER ...] --out reports/archive/retrain_moved.md
 
 FOLDER is under reports/ (e.g. stats arm7 panda_mbm_mbm; `.`: the top-level report). Per env x split x planner that both
 have: success of the valid queries before and after (MotionBenchMaker's `invalid_query` left

@@ -1,7 +1,7 @@
 """Issue 43's thread bar: s2d MPNet-NR and BIT* on the seen split, quiet and beside four
-CPU-burning processes, one run at a time; writes reports/threads_under_load/README.md.
+CPU-burning processes, one run at a time; writes reports/perf/threads_under_load/README.md.
 
-    python docs/research/threads_under_load.py RUNS_DIR [--out reports/threads_under_load]
+    python docs/research/threads_under_load.py RUNS_DIR [--out reports/perf/threads_under_load]
 
 Each run is `python -m harness +env=s2d +planner=P splits=[seen]` (the shipped quick networks
 and test set). Loaded: four `python -c 'while 1: pass'` processes run beside it. The figures:
@@ -62,7 +62,7 @@ def median(xs) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("runs", type=Path)
-    ap.add_argument("--out", type=Path, default=Path("reports/threads_under_load"))
+    ap.add_argument("--out", type=Path, default=Path("reports/perf/threads_under_load"))
     args = ap.parse_args()
     for load in ("quiet", "loaded"):
         for planner in PLANNERS:

@@ -114,7 +114,7 @@ ENTRIES = {
         (
             "python -m harness.perf perf=tiny out=/tmp/perf",
             "python -m harness.perf perf.envs=[s2d,c2d] perf.planners=[mpnet_nr,bit_star]",
-            "python -m harness.perf perf.budget_s=5 out=reports",
+            "python -m harness.perf perf.budget_s=5 out=reports/perf",
         ),
     ),
 }

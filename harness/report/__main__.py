@@ -12,8 +12,8 @@ from harness.report.build import MARKER, OutputTaken, default_out, write_report
 EPILOG = f"""\
 The report goes to DIR/report/ (the first DIR's) unless --out names another folder. It never
 writes into an existing folder that it did not make (a folder it made holds a {MARKER} file, so
-running it again into its own output is fine) unless --force is given. The committed reports/
-is regenerated only by naming it: --out reports.
+running it again into its own output is fine) unless --force is given. The committed top-level
+report is regenerated only by naming it: --out reports/table1.
 """
 
 

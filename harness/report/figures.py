@@ -258,7 +258,7 @@ def write_figures(
     """Every figure the data allows, as PNG and SVG; a figure without data is left out, one
     whose data is malformed is left out with a warning line. The PNG and SVG files of an
     earlier report in out are removed first, so none outlives the data it was drawn from; other
-    tools' figures there (reports/figures/perf_*.png) are kept."""
+    tools' figures there (the screenshots in reports/table1/figures/) are kept."""
     out.mkdir(parents=True, exist_ok=True)
     for old in out.iterdir():
         ours = old.stem in REPORT_FIGURES or old.stem.startswith("example_")
