@@ -42,12 +42,12 @@ SOURCES = (
     Source("Complex 3D, unseen workspaces", "stats", "c3d", "unseen"),
     Source("Rigid body (SE(2)), unseen workspaces", "stats", "rigid", "unseen"),
     Source("7-DOF Panda, our shelf scenes (arm7), unseen", "arm7", "arm7", "unseen", ("rrt_connect_compiled/arm7",)),
-    Source(
+    Source(  # MPNet's cells from the shipped networks (issue 65's recipe), the classical planners' beside
         "7-DOF Panda, MotionBenchMaker's 700 (panda_mbm)",
-        "panda_mbm_mbm",
+        "panda_mbm_mbm/shipped",
         "panda_mbm",
         "file",
-        ("rrt_connect_compiled/beside_nr",),
+        ("panda_mbm_mbm", "rrt_connect_compiled/beside_nr"),
     ),
 )
 PLANNERS = (
