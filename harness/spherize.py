@@ -19,7 +19,7 @@ from mpnet.envs.arm.spherize import spherize
 
 SPACING = 0.0015  # m: every point of a hull lies this close to a covered sample
 # Bullet tests a mesh's hull with a collision margin of about a millimetre: the pad covers
-# both the sample gap and that margin (tests/test_spheres.py checks against pybullet).
+# both the sample gap and that margin (tests/mpnet/envs/checkers/test_spheres.py checks against pybullet).
 PAD = 0.0025
 # How far a sphere may reach beyond its link's hull (m): tighter at the wrist, hand and
 # fingers, which go closest to the objects they grasp and to links 5 and 7 (a pair that is

@@ -18,7 +18,7 @@ from typing import NamedTuple
 class NeuralSettings:
     """MPNetPlanner's settings (mpnet.planners.neural) and their defaults: MPNetSettings, what a
     config makes, extends them; conf/planner/mpnet_nr.yaml spells them out for the logs
-    (tests/test_configs.py holds it to these)."""
+    (tests/harness/core/test_configs.py holds it to these)."""
 
     max_steps: int = 80
     replan_steps: int = 50

@@ -18,7 +18,7 @@ KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the session's kern
 PLANAR_LOCK = "MPNET_BENCH_TESTS_PLANAR_LOCK"  # held while the planar envs' kernels compile (they go first)
 KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles what it needs itself
 ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
-# in a test's id: it uses the arm's kernels
+# in a test's id, its folders aside (uses_arm): it uses the arm's kernels
 ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearance")
 
 
@@ -137,8 +137,15 @@ def pytest_collection_modifyitems(config, items):
     """The slow tests first and the short ones after, to fill the workers' ends; in each, the
     arms' tests after the others, so that the background compile has their kernels on disk
     before they start (none waits, none compiles them again); dealt to the workers (deal)."""
-    ordered = sorted(items, key=lambda i: (i.get_closest_marker("slow") is None, any(w in i.nodeid for w in ARM_TESTS)))
+    ordered = sorted(items, key=lambda i: (i.get_closest_marker("slow") is None, uses_arm(i.nodeid)))
     items[:] = deal(ordered, getattr(config, "workerinput", {}).get("workercount", 1))
+
+
+def uses_arm(nodeid: str) -> bool:
+    """Whether a test uses the arm's kernels, by ARM_TESTS in its id from its file's name on
+    (tests/mpnet/envs/checkers/ holds the planar robots' checkers' tests too)."""
+    path, sep, rest = nodeid.partition("::")
+    return any(w in path.rsplit("/", 1)[-1] + sep + rest for w in ARM_TESTS)
 
 
 @pytest.fixture(autouse=True)

@@ -3,40 +3,37 @@
 A command is a line of a fenced code block (```bash or a bare ```) that runs `python -m ...`,
 `pip install ...` or `jupyter ...` (after environment assignments such as `PYTHONPATH=$E ` or
 a launcher prefix such as `srun -p cpu -c 32 `); comments are stripped, backslash-continued
-lines joined, and `a && b` is two commands. docs/research/ is not read.
+lines joined, and `a && b` is two commands. docs/research/ is not read. (The reading is
+tests/doc_commands.py's.)
 
 Each command is in TESTED, naming the test that runs it (at tiny scale, with a test's paths
 for the page's placeholders), or in UNTESTED, saying why no test can run it and what is run in
 its stead. A new command fails here until it is given a test or dropped; a test renamed, or one
 that no longer names the command's module and overrides, fails here too. The folders the
-commands write are ignored by git, and no page or comment cites a file a clone lacks.
+commands write are ignored by git, and no page or comment cites a file a clone lacks
+(tests/test_docs_files.py).
 """
 
 from __future__ import annotations
 
-import ast
-import functools
 import re
-import shlex
-import shutil
-import subprocess
 import tomllib
-from pathlib import Path
 
-import pytest
+from tests.doc_commands import REPO, commands_in, documented_commands, required_mentions, source_of_test
 
-REPO = Path(__file__).resolve().parent.parent
-CLI = "tests/test_cli.py::"
-TABLE1 = CLI + "test_table1_experiment_and_report"
+CLI = "tests/harness/test_cli.py::"
+CLI_CONFIGS = "tests/harness/test_cli_configs.py::"
+CLI_EXPERIMENTS = "tests/harness/test_cli_experiments.py::"
+TABLE1 = CLI_EXPERIMENTS + "test_table1_experiment_and_report"
 OWN_PLANNER = CLI + "test_a_planner_of_ones_own_runs_beside_bit_star_and_in_the_report"
 MBM_RUN = CLI + "test_mbm_problems_run_named_by_scene"
-NOTEBOOK = "tests/test_notebook.py::test_notebook_runs_on_a_tiny_run"
-PERF = "tests/test_perf.py::test_perf_writes_every_section"
-SHARDS = "tests/test_cluster.py::test_sharded_data_build_merges_into_the_unsharded_dataset"
-EXPERIMENTS = CLI + "test_the_findings_equal_quality_and_arm7_experiments_run"
-PANDA_MBM = CLI + "test_panda_mbm_variants_run_as_the_arm_page_shows"
-ARM_FIRST = CLI + "test_the_arm_in_two_minutes"
-SUMMARY = "tests/test_summary.py::test_command_writes_both_files_and_refuses_a_readme_without_markers"
+NOTEBOOK = "tests/harness/report/test_notebook.py::test_notebook_runs_on_a_tiny_run"
+PERF = "tests/harness/test_perf.py::test_perf_writes_every_section"
+SHARDS = "tests/harness/test_cluster.py::test_sharded_data_build_merges_into_the_unsharded_dataset"
+EXPERIMENTS = CLI_EXPERIMENTS + "test_the_findings_equal_quality_and_arm7_experiments_run"
+PANDA_MBM = CLI_EXPERIMENTS + "test_panda_mbm_variants_run_as_the_arm_page_shows"
+ARM_FIRST = CLI_EXPERIMENTS + "test_the_arm_in_two_minutes"
+SUMMARY = "tests/harness/report/test_summary.py::test_command_writes_both_files_and_refuses_a_readme_without_markers"
 
 # documented command (as documented_commands() normalises it) -> the test that runs it
 TESTED = {
@@ -44,13 +41,14 @@ TESTED = {
     "python -m harness +env=s2d +planner=bit_star": CLI + "test_bench_tiny_s2d",
     "python -m harness +env=rigid +planner=rrt_connect -m seed=0,1,2,3,4": CLI + "test_used_by_form_multirun",
     "python -m harness +env=ENV +planner=PLANNER [seed=N] [scale=S] [problems=FILE] [budget_s=T]": (
-        CLI + "test_every_env_and_planner_config_runs"
+        CLI_CONFIGS + "test_every_env_and_planner_config_runs"
     ),
     "python -m harness -m +env=s2d,c2d,c3d,rigid +planner=bit_star,informed_rrt_star": TABLE1,
-    "python -m harness.screenshot outputs/<date>/<time>/trials.rrd shot.png": CLI + "test_screenshot_of_a_recording",
+    "python -m harness.screenshot outputs/<date>/<time>/trials.rrd shot.png": CLI_EXPERIMENTS
+    + "test_screenshot_of_a_recording",
     "python -m harness.report multirun/<date>/<time> [more dirs...] [--paper]": TABLE1,
     "python -m harness.report --label old=runs/a --label new=runs/b": (
-        "tests/test_report_labels.py::test_labelled_report_from_tiny_runs"
+        "tests/harness/report/test_report_labels.py::test_labelled_report_from_tiny_runs"
     ),
     "python -m harness -m +experiment=table1": TABLE1,
     "python -m harness.report <the sweeps of reports/table1/> --paper --out reports/table1": TABLE1,
@@ -64,21 +62,23 @@ TESTED = {
     # docs/arm.md
     "python -m harness +env=arm7 +planner=rrt_connect problems=tests/data/mbm": MBM_RUN,
     "python -m harness +env=arm7 +planner=mpnet_hr problems=path/to/problems/box_panda": (
-        CLI + "test_paper_scale_dry_run"
+        CLI_CONFIGS + "test_paper_scale_dry_run"
     ),
-    "python -m harness.fetch_mbm data/mbm": "tests/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist",
+    "python -m harness.fetch_mbm data/mbm": (
+        "tests/mpnet/envs/arm/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist"
+    ),
     "python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems": MBM_RUN,
     "python -m harness.perf.crossing --out reports/rrt_connect_compiled/crossing": (
-        "tests/test_perf.py::test_crossing_command_writes_its_table"
+        "tests/harness/test_perf.py::test_crossing_command_writes_its_table"
     ),
     "python -m harness +env=panda_mbm +planner=rrt_connect_compiled problems=data/mbm/problems": (
-        "tests/test_rrt_connect_compiled.py::test_rrt_connect_compiled_runs_mbm_problems_from_the_command_line"
+        "tests/mpnet/planners/compiled/test_rrt_connect_compiled.py::test_rrt_connect_compiled_runs_mbm_problems_from_the_command_line"
     ),
     (
         "python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000 "
         "--out reports/sphere_audit"
-    ): ("tests/test_spheres.py::test_sphere_audit_cli"),
-    "python -m harness.bench_checkers arm7": CLI + "test_bench_checkers",
+    ): ("tests/mpnet/envs/checkers/test_spheres.py::test_sphere_audit_cli"),
+    "python -m harness.bench_checkers arm7": CLI_EXPERIMENTS + "test_bench_checkers",
     "python -m harness +experiment=arm7": EXPERIMENTS,
     "python -m harness +env=panda_mbm +planner=mpnet_nr problems=tests/data/mbm": ARM_FIRST,
     "python -m harness +env=panda_mbm +planner=mpnet_hr problems=tests/data/mbm budget_s=2": ARM_FIRST,
@@ -92,54 +92,57 @@ TESTED = {
     "python -m harness +env=panda_mbm +planner=mpnet_nr_dense_clip problems=data/mbm/problems": PANDA_MBM,
     "python -m harness +env=panda_mbm +planner=mpnet_hr_rrtc_clip problems=data/mbm/problems": PANDA_MBM,
     "python -m harness -m +experiment=panda_mbm_mbm problems=data/mbm/problems": (
-        CLI + "test_the_mbm_experiment_runs_the_planners_it_names"
+        CLI_EXPERIMENTS + "test_the_mbm_experiment_runs_the_planners_it_names"
     ),
     (
         "python -m harness +env=panda_mbm +planner=mpnet_nr +planner.networks.bounded=true "
         "+planner.networks.dagger_rounds=1"
-    ): "tests/test_dagger.py::test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts",
+    ): "tests/mpnet/planners/test_dagger.py::test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts",
     # docs/cluster.md
     "python -m harness.train scale=tiny hydra/launcher=local -m +env=s2d,c2d": (
-        "tests/test_cluster.py::test_a_training_sweep_on_the_local_launcher"
+        "tests/harness/test_cluster.py::test_a_training_sweep_on_the_local_launcher"
     ),
     "python -m harness.report multirun/<date>/<time>": TABLE1,
     "python -m harness.data +env=s2d scale=tiny shards=3 hydra/launcher=local -m 'shard=range(0,3)'": SHARDS,
     "python -m harness.data +env=s2d scale=tiny shards=3 merge=true": SHARDS,
     "python -m harness +env=s2d +planner=rrt_connect,mpnet_nr scale=tiny hydra/launcher=local -m seed=0,1": (
-        "tests/test_cluster.py::test_sweep_of_two_seeds_on_a_launcher"
+        "tests/harness/test_cluster.py::test_sweep_of_two_seeds_on_a_launcher"
     ),
     # docs/mpnet.md
     "python -m harness +env=s2d +planner=mpnet_nr": TABLE1,
-    "python -m harness.compile_kernels": "tests/test_compile_kernels.py::test_compile_kernels_cli",
-    "python -m harness.data +env=s2d [scale=S]": "tests/test_data.py::test_data_cli_builds_once_under_concurrency",
+    "python -m harness.compile_kernels": "tests/harness/test_compile_kernels.py::test_compile_kernels_cli",
+    "python -m harness.data +env=s2d [scale=S]": (
+        "tests/mpnet/data/test_data.py::test_data_cli_builds_once_under_concurrency"
+    ),
     "python -m harness.train +env=s2d [scale=S]": (
-        "tests/test_artifact_integrity.py::test_damaged_checkpoint_and_dataset_are_rebuilt_end_to_end"
+        "tests/harness/artifacts/test_artifact_integrity.py::test_damaged_checkpoint_and_dataset_are_rebuilt_end_to_end"
     ),
     "python -m harness.report multirun/<date>/<time-1> multirun/<date>/<time-2> --paper --out reports/table1": TABLE1,
     "python -m harness.report.learning_curve multirun/<date>/<time> --out reports/learning_curve": (
-        CLI + "test_learning_curve_cli"
+        CLI_EXPERIMENTS + "test_learning_curve_cli"
     ),
-    "python -m harness +env=rigid +planner=mpnet_hr -m seed=0,1,2,3,4": CLI + "test_mpnet_sweep_builds_artifacts_once",
+    "python -m harness +env=rigid +planner=mpnet_hr -m seed=0,1,2,3,4": CLI_CONFIGS
+    + "test_mpnet_sweep_builds_artifacts_once",
     "python -m harness -m +experiment=findings": EXPERIMENTS,
     "python -m harness -m +experiment=equal_quality": EXPERIMENTS,
     "python -m harness.export_weights -m +env=s2d,c2d,c3d,rigid,arm7,panda_mbm scale=quick": (
-        "tests/test_pretrained.py::test_exported_set_plans_as_its_checkpoint"
+        "tests/mpnet/models/test_pretrained.py::test_exported_set_plans_as_its_checkpoint"
     ),
     "python -m harness.export_weights +env=panda_mbm +planner=mpnet_nr_paper scale=quick": (
-        "tests/test_pretrained.py::test_exported_set_plans_as_its_checkpoint"
+        "tests/mpnet/models/test_pretrained.py::test_exported_set_plans_as_its_checkpoint"
     ),
-    "python -m harness -m +experiment=learning_curve": CLI + "test_learning_curve_cli",
+    "python -m harness -m +experiment=learning_curve": CLI_EXPERIMENTS + "test_learning_curve_cli",
     # docs/performance.md
     "python -m harness.perf": PERF,
     "python -m harness.perf perf=tiny out=/tmp/p": PERF,
     "python -m harness.overhead +env=s2d +planner=bit_star": CLI + "test_overhead_benchmark",
-    "python -m harness.bench_checkers arm7 rigid": CLI + "test_bench_checkers",
-    "python -m harness.bench_checkers --out reports/perf/checkers": CLI + "test_bench_checkers",
+    "python -m harness.bench_checkers arm7 rigid": CLI_EXPERIMENTS + "test_bench_checkers",
+    "python -m harness.bench_checkers --out reports/perf/checkers": CLI_EXPERIMENTS + "test_bench_checkers",
     # docs/reports.md
     "python -m harness +env=s2d +planner=bit_star scale=tiny hydra.run.dir=outputs/tiny": NOTEBOOK,
     "MPNET_FIGURE=outputs/tiny/query.png jupyter execute examples/explore_a_run.ipynb": NOTEBOOK,
     "python -m harness.recheck outputs/<date>/<time> [more paths...] [--step 0.001] [--out DIR] [--jobs 2]": (
-        "tests/test_recheck.py::test_files_rechecked_in_parallel_report_as_one_by_one"
+        "tests/harness/test_recheck.py::test_files_rechecked_in_parallel_report_as_one_by_one"
     ),
 }
 
@@ -187,157 +190,6 @@ UNTESTED = {
     "pip install notebook": ("installs from the network, for the interactive notebook only", HEADLESS_NOTEBOOK),
     "jupyter notebook examples/explore_a_run.ipynb": ("interactive: a browser session", HEADLESS_NOTEBOOK),
 }
-
-DOC_FILES = ("README.md", "docs/*.md")  # docs/research/ is not read: it quotes others' values
-SHELL_FENCES = {"", "bash", "sh", "shell", "console"}
-COMMAND = re.compile(
-    r"^(?:[A-Za-z_]\w*=\S*\s+)*"  # environment assignments: PYTHONPATH=$E
-    r"(?:srun\s(?:.*?\s)?)?"  # a launcher prefix: srun -p cpu -c 32
-    r"(?:python -m |pip install |jupyter )"
-)
-
-
-def commands_in(markdown: str) -> list[str]:
-    """The commands of `markdown`'s shell code blocks, normalised (see the module docstring)."""
-    found, fence, pending = [], None, ""
-    for line in markdown.splitlines():
-        stripped = line.strip()
-        if stripped.startswith("```"):
-            fence = stripped[3:].strip().lower() if fence is None else None
-            pending = ""
-            continue
-        if fence not in SHELL_FENCES:
-            continue
-        text = pending + stripped
-        if text.endswith("\\"):
-            pending = text[:-1].rstrip() + " "
-            continue
-        pending = ""
-        text = re.sub(r"(?:^|\s)#.*$", "", text).strip()
-        for part in re.split(r"\s*&&\s*", text):
-            part = " ".join(part.split())
-            if COMMAND.match(part):
-                found.append(part)
-    return found
-
-
-def documented_commands() -> list[tuple[str, str]]:
-    """(file, command) for every command of README.md and docs/*.md, in page order."""
-    files = [p for pattern in DOC_FILES for p in sorted(REPO.glob(pattern))]
-    return [(p.relative_to(REPO).as_posix(), c) for p in files for c in commands_in(p.read_text())]
-
-
-def parse(command: str) -> tuple[list[str], list[str], str | None, list[str]]:
-    """(environment names, program words, module of `python -m` or None, arguments) of a
-    command, its placeholders `<...>` made one word and its optional `[...]` groups dropped."""
-    text = re.sub(r"<[^>]*>", "PLACEHOLDER", command)
-    text = re.sub(r"(?:^|(?<=\s))\[[^\]]*\]", "", text)
-    words = shlex.split(text)
-    env = []
-    while words and re.match(r"^[A-Za-z_]\w*=", words[0]):
-        env.append(words.pop(0).split("=", 1)[0])
-    while words and words[0] not in ("python", "pip", "jupyter"):  # srun and its options
-        words.pop(0)
-    if words[:2] == ["python", "-m"]:
-        return env, words[:2], words[2], words[3:]
-    return env, words[:2], None, words[2:]
-
-
-# Keys whose values a test substitutes: sizes, seeds, paths, caches and run folders.
-FREE_KEYS = {
-    "scale",
-    "seed",
-    "shard",
-    "jobs",
-    "budget_s",
-    "progress",
-    "cache_dir",
-    "problems",
-    "problems_per_set",
-    "out",
-    "export_dir",
-    "hydra.run.dir",
-    "hydra.sweep.dir",
-}
-
-
-def _placeholder(value: str) -> bool:
-    return bool(re.search(r"[$<]|PLACEHOLDER|path/to", value)) or bool(re.fullmatch(r"[A-Z_]+", value))
-
-
-def _word(value: str) -> str:
-    return r"(?<!\w)" + re.escape(value) + r"(?!\w)"
-
-
-def _sweep(value: str) -> list[str]:
-    """A swept value's choices (`s2d,c2d`), or [] for one value (lists and calls are one)."""
-    return value.split(",") if "," in value and not re.search(r"[\[\]{}()]", value) else []
-
-
-def required_mentions(command: str) -> list[tuple[str, list[str]]]:
-    """What the text of a test that runs `command` must mention: (what, regexes any one of
-    which must match). The rules:
-
-    - the module of `python -m M` (`"harness"`, `harness.report`), as a whole dotted name;
-    - each environment variable the command sets (`PYTHONPATH`, `MPNET_FIGURE`);
-    - `-m` (or `--multirun`) when the command sweeps, as a quoted argument;
-    - each option (`--paper`, `--label`); an option's value is not checked;
-    - each `key=value` / `+key=value` override, unless its key is one a test substitutes
-      (FREE_KEYS: scale, seed, paths, caches, run folders, jobs): `key=value` as written, or
-      `key=` with the value as a word (a parametrised `f"+env={env}"`); a swept value
-      (`+env=s2d,c2d`) needs `key=` and any one of its choices, since a test sweeps a few; a
-      placeholder value (`ENV`, `$CACHE`, `<date>`) needs `key=` only;
-    - positional arguments (run folders, files) and optional `[...]` groups are not checked.
-    """
-    env, _, module, args = parse(command)
-    needs = [(f"module {module}", [r"(?<![\w.])" + re.escape(module) + r"(?![\w.])"])] if module else []
-    needs += [(f"environment variable {name}", [re.escape(name)]) for name in env]
-    after_option = False
-    for arg in args:
-        if arg in ("-m", "--multirun"):
-            needs.append(("-m (a sweep)", [r"""["'](?:-m|--multirun)["']"""]))
-        elif arg.startswith("-"):
-            needs.append((arg.split("=")[0], [re.escape(arg.split("=")[0])]))
-            after_option = arg.startswith("--") and "=" not in arg
-            continue
-        elif "=" in arg and not after_option:
-            key, value = arg.split("=", 1)
-            if key.lstrip("+") in FREE_KEYS or _placeholder(key):
-                pass
-            elif _placeholder(value):
-                needs.append((f"{key}=", [re.escape(key + "=")]))
-            elif choices := _sweep(value):
-                needs.append((f"{key}=", [re.escape(key + "=")]))
-                needs.append((f"one of {key}={value}", [_word(c) for c in choices]))
-            else:
-                either = [re.escape(arg)]
-                if re.fullmatch(r"[A-Za-z_][\w.]*", value) and value not in ("true", "false", "null"):
-                    either.append(f"(?s){re.escape(key + '=')}.*{_word(value)}|{_word(value)}.*{re.escape(key + '=')}")
-                needs.append((arg, either))
-        after_option = False
-    return list(dict(needs).items())  # each once, in order
-
-
-@functools.cache
-def _functions(test_file: str) -> dict[str, str]:
-    """name -> source text (decorators included) of a test file's top-level functions."""
-    path = REPO / test_file
-    if not path.is_file():
-        return {}
-    source = path.read_text()
-    lines = source.splitlines()
-    out = {}
-    for node in ast.parse(source).body:
-        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-            start = min([node.lineno, *(d.lineno for d in node.decorator_list)])
-            out[node.name] = "\n".join(lines[start - 1 : node.end_lineno])
-    return out
-
-
-def source_of_test(test_id: str) -> str | None:
-    """The text of the test `tests/file.py::name`, or None where there is no such test."""
-    file, _, name = test_id.partition("::")
-    return _functions(file).get(name)
 
 
 def test_commands_are_read_as_written():
@@ -443,60 +295,3 @@ def test_the_cluster_extra_is_in_the_dev_extra():
     """`pip install -e ".[cluster]"` installs nothing the suite (installed with dev) lacks."""
     extras = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert set(extras["cluster"]) <= set(extras["dev"])
-
-
-# Where the harness writes whatever a command names (Hydra's run and sweep folders, the cache),
-# and the keys and options by which a command names another folder.
-DEFAULT_OUTPUTS = ("outputs", "multirun", ".cache")
-OUTPUT_KEYS = ("hydra.run.dir", "hydra.sweep.dir", "out", "export_dir", "cache_dir")
-
-
-def written_folders() -> set[str]:
-    """The repository's top folders that the documented commands write into: the defaults, the
-    output keys' and `--out` values, harness.fetch_mbm's destination; `reports` (committed,
-    written only when named) aside."""
-    out = set(DEFAULT_OUTPUTS)
-    for _, command in documented_commands():
-        _, _, module, args = parse(command)
-        paths = [a.split("=", 1)[1] for a in args if a.split("=", 1)[0].lstrip("+") in OUTPUT_KEYS and "=" in a]
-        paths += [b for a, b in zip(args, args[1:]) if a == "--out"]
-        if module == "harness.fetch_mbm":
-            paths += [a for a in args if not a.startswith("-")][:1]
-        out |= {Path(p).parts[0] for p in paths if p and not p.startswith("/") and not _placeholder(Path(p).parts[0])}
-    return out - {"reports"}
-
-
-def _git(*args: str) -> subprocess.CompletedProcess:
-    if shutil.which("git") is None or not (REPO / ".git").exists():
-        pytest.skip("not a git checkout")
-    return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True)
-
-
-def test_folders_the_documented_commands_write_are_ignored_by_git():
-    folders = written_folders()
-    assert {"data", "runs"} <= folders  # harness.fetch_mbm data/mbm, hydra.run.dir=runs/prm
-    ignored = {f for f in folders if _git("check-ignore", "--no-index", "-q", f"{f}/probe").returncode == 0}
-    assert ignored == folders, f"not in .gitignore: {sorted(folders - ignored)}"
-    for tracked in ("mpnet/data/probe", "tests/data/probe"):  # the root's data/ only
-        assert _git("check-ignore", "--no-index", "-q", tracked).returncode == 1, tracked
-
-
-# A citation of design notes kept outside the repository: it points at nothing in a clone.
-ELSEWHERE = re.compile(r"\bDESIGN\b|\.\./shared|§")
-
-
-def test_docs_and_code_cite_only_files_a_clone_has():
-    """Code, docs, tests and configs (not reports/, generated; not docs/research/, whose § are
-    its own sections) cite files of the repository, never notes kept beside it."""
-    listed = _git("ls-files", "--cached", "--others", "--exclude-standard").stdout.splitlines()
-    bad = []
-    for name in listed:
-        path = REPO / name
-        if name.startswith(("reports/", "docs/research/")) or path == Path(__file__) or not path.is_file():
-            continue
-        try:
-            text = path.read_text()
-        except UnicodeDecodeError:  # weights, logs
-            continue
-        bad += [f"{name}:{i}: {line.strip()}" for i, line in enumerate(text.splitlines(), 1) if ELSEWHERE.search(line)]
-    assert not bad, "\n".join(bad)

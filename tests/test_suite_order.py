@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from conftest import deal
 from hypothesis import given
 from hypothesis import strategies as st
+
+from tests.conftest import deal
 
 
 def worksteal_shares(items: list, n: int) -> list[list]:

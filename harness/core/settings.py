@@ -5,7 +5,7 @@ bench, data, training, export) takes these, never the DictConfig.
 
 The cache keys (data, models, test set) are computed here from the config exactly as they
 always were (harness.core.config), so that a settings change can never move an artifact's key
-without a test seeing it (tests/test_settings.py pins them to the keys the config gave).
+without a test seeing it (tests/harness/core/test_settings.py pins them to the keys the config gave).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ RRT-Connect, the compiled RRT-Connect and random proposals in MPNet's loop) and 
 of what it means, read from the committed reports' `results.csv` files (SOURCES: a row's own
 report, then its `extra` reports for the planners it lacks, their cells marked) and written into
 reports/summary.md and between the README's markers. Nothing is typed by hand: a changed
-report changes the summary, and tests/test_summary.py fails while the README's copy is stale.
+report changes the summary, and tests/harness/report/test_summary.py fails while the README's copy is stale.
 
 Success is of the valid queries (MotionBenchMaker's starts or goals that collide with our
 sphere model are `invalid_query` and left out, as VAMP counts them); time is the median over

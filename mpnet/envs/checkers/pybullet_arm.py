@@ -130,7 +130,7 @@ class ArmWorld:
         """A penetrating contact point, measured afresh for that pair of links. Bullet keeps
         contact manifolds between calls, and a point from the previous configuration can
         survive a refresh with a negative distance: one free state in ~125,000 read as colliding
-        right after a colliding one (tests/test_spheres.py), so every hit is re-measured."""
+        right after a colliding one (tests/mpnet/envs/checkers/test_spheres.py), so every hit is re-measured."""
         pts = self.pb.getClosestPoints(
             self.robot, body, 0.0, linkIndexA=link_a, linkIndexB=link_b, physicsClientId=self.client
         )

@@ -4,7 +4,7 @@ set (a covering of its collision meshes, mpnet.envs.arm.spherize) tested in comp
 against the links it may not touch.
 
 Because the spheres cover pybullet's meshes, a configuration this checker calls free is
-free for pybullet too (tests/test_spheres.py measures it); because motions are certified
+free for pybullet too (tests/mpnet/envs/checkers/test_spheres.py measures it); because motions are certified
 (a bound on how far each sphere moves per radian of each joint), a motion it calls free
 has no sphere touching anything anywhere along it, at any resolution.
 """

@@ -4,7 +4,6 @@ endpoints fail fast, budgets and cost targets are honoured."""
 import math
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +14,7 @@ from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import path_cost, verify_path
 from mpnet.planners import EXACT, INVALID_QUERY, TIMEOUT, Planner, Problem
 from mpnet.planners.classical import ALGORITHMS, OmplPlanner
+from tests.conftest import REPO_ROOT
 
 ou.setLogLevel(ou.LOG_WARN)
 
@@ -265,12 +265,12 @@ def test_an_optimizing_planner_is_freed_after_its_solve():
     import sys
 
     code = (
-        "from tests.test_planners import WALL, problem\n"
+        "from tests.mpnet.planners.test_planners import WALL, problem\n"
         "from mpnet.planners.classical import OmplPlanner\n"
         "for a in ('aorrtc', 'rrt_star'):\n"
         "    assert OmplPlanner(a, a).solve(problem('s2d', WALL, (-10.0, 0.0), (10.0, 0.0)), 2.0).solved\n"
     )
-    root = Path(__file__).resolve().parents[1]
+    root = REPO_ROOT
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=root)
     assert p.returncode == 0, p.stderr
     assert "leaked" not in p.stderr, p.stderr[-2000:]

@@ -13,7 +13,7 @@ from harness.report.facts import planner_facts
 from harness.report.load import load, queries_frame
 from harness.report.render import render_equal_quality, render_table1
 from harness.report.tables import load_paper, main_planners, results_table, table1
-from tests.test_report import Q, eq_config, write_log
+from tests.harness.report._helpers import Q, eq_config, write_log
 
 PAPER_BLOCK = [("time", p) for p in ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")] + [("ratio", None)]
 
@@ -195,7 +195,7 @@ def test_a_run_of_its_own_recipe_is_one_row_of_the_ablations_beside_the_plain_on
 
     from harness.log.facts import facts_from_config
     from harness.report.tables import ablation_table
-    from tests.test_report import planner_config
+    from tests.harness.report._helpers import planner_config
 
     qs = [Q("seen", "0", i, i % 2 == 0, 0.1) for i in range(4)]
     write_log(tmp_path / "plain", "s2d", "mpnet_nr", 0, qs)

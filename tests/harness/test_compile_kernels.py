@@ -8,12 +8,12 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import wait_for_kernels
 
 from harness.compile_kernels import network_depths, untrained_networks
 from mpnet.envs.specs import get_spec
 from mpnet.models.pnet_kernel import PnetKernel
 from mpnet.models.pretrained import SHIPPED, read_meta
+from tests.conftest import wait_for_kernels
 
 
 @pytest.mark.slow  # ~60 compositions of the config

@@ -12,7 +12,7 @@ from harness.report.diagnostics import diagnostics_table, render_diagnostics
 from harness.report.learning_curve import learning_curve_table, main, train_size
 from harness.report.load import load
 from harness.report.stats import wilson
-from tests.test_report import Q, planner_section, write_log
+from tests.harness.report._helpers import Q, planner_section, write_log
 
 
 def diag(props, first=0, replan=None, bad=0, out=0, reach=0, first_valid=True, shift=None, spread=1.0):

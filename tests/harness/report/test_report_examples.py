@@ -10,7 +10,7 @@ from harness.log import painter_for
 from harness.report.facts import planner_facts
 from harness.report.figures import fig_example
 from harness.report.load import load, queries_frame
-from tests.test_report import Q, write_log
+from tests.harness.report._helpers import Q, write_log
 
 
 def example(tmp_path, env: str, path: list) -> tuple:

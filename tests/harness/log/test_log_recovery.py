@@ -9,13 +9,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
-from test_trial_log import make_rec, make_run, make_ws
 
 from harness.log import ResumeRefused, TrialLog, read_log
 from harness.log.recover import scan_log
 from harness.repair import main as repair_main
 from harness.repair import repair_file
 from mpnet.envs.specs import SPECS
+from tests.harness.log._helpers import make_rec, make_run, make_ws
 
 N = 40
 SETTINGS = {"budget_s": 10.0, "planner.stop": "first", "scale.name": "quick", "problems": None}

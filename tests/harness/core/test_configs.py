@@ -6,7 +6,6 @@ from __future__ import annotations
 import copy
 import dataclasses
 import itertools
-from pathlib import Path
 
 import pytest
 from omegaconf import open_dict
@@ -19,6 +18,7 @@ from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner
 from mpnet.planners.compiled.planner import supports
 from mpnet.planners.mpnet import MPNetSettings
+from tests.conftest import REPO_ROOT
 
 ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "scale", "experiment"))
 
@@ -300,7 +300,7 @@ def test_every_recipe_option_is_checked_against_its_schema_entry():
         for value in (bad[kind], *((f.metadata["minimum"] - 1,) if f.metadata["minimum"] is not None else ())):
             with pytest.raises(UsageError, match=f"^config key {name}: expected"):
                 _networks(OmegaConf.create({f.name: value}), "env.networks")
-    docs = (Path(__file__).resolve().parents[1] / "docs" / "mpnet.md").read_text(encoding="utf-8")
+    docs = (REPO_ROOT / "docs" / "mpnet.md").read_text(encoding="utf-8")
     assert [f.name for f in OPTIONS if f"`{f.name}`" not in docs and f"`{f.name}:" not in docs] == []
 
 

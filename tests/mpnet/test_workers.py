@@ -11,14 +11,12 @@ import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import pytest
 
 from mpnet.workers import process_pool
-from tests.test_sweep_stop import alive
-
-REPO = Path(__file__).resolve().parents[1]
+from tests.conftest import REPO_ROOT as REPO
+from tests.harness.bench.test_sweep_stop import alive
 
 PARENT = """
 import os, sys, time

@@ -20,8 +20,9 @@ from mpnet.envs.spec import TestSet as TSet  # not "Test*": pytest would try to 
 from mpnet.envs.specs import SPECS
 from mpnet.envs.workspace import Query, Workspace
 from mpnet.problems import FORMAT, FORMAT_2, ProblemFileError, dump_problems, load_problems
+from tests.conftest import REPO_ROOT
 
-DATA = Path(__file__).parent / "data" / "problems"
+DATA = REPO_ROOT / "tests" / "data" / "problems"
 
 # file -> (env chosen on the command line, substrings the one-line message must hold)
 WS = "workspace 'narrow-gap' (#1)"

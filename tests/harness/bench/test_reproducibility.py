@@ -10,10 +10,10 @@ import sys
 import time
 
 import pytest
-from test_log_recovery import stock_queries
 
 from harness.log import read_log
 from mpnet.planners.base import sub_seed
+from tests.harness.log.test_log_recovery import stock_queries
 
 pytestmark = pytest.mark.slow  # every test here runs the CLI in a subprocess
 

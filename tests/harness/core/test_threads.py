@@ -9,9 +9,9 @@ import subprocess
 import sys
 
 import pytest
-from test_cli import read_mcap
 
 from harness.core.threads import extra_threads
+from tests.harness._cli import read_mcap
 
 PROBE = """
 import json, os
