@@ -78,6 +78,13 @@ def test_no_module_past_the_size_limit(repo):
     assert long == {}
 
 
+def test_no_test_module_past_the_size_limit(repo):
+    """The tests keep the code's rule (issue 66): a module past ~500 lines does two jobs."""
+    tests = sorted((repo / "tests").rglob("*.py"))
+    long = {str(p.relative_to(repo)): n for p in tests if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert tests and long == {}
+
+
 def test_the_robot_kind_is_asked_only_of_its_classes(repo):
     pattern = re.compile(r"""is_se2|spec\.name\s*==|robot\.kind|robot\.get\(["']kind|robot\[["']kind|\brobot\s*==""")
     hits = [
