@@ -20,16 +20,13 @@ def step_errors(spec, data, params: dict, pnet_path) -> dict:
     """Mean and median step error toward path ends and intermediate waypoints, on the validation
     paths of a fit with `params` (the split is by path, seeded: every recipe holds out the same)."""
     from mpnet.models.checkpoint import load_pnet_numpy
-    from mpnet.models.datamodule import _resample_step, resample_path, split_indices, waypoint_pairs
+    from mpnet.models.datamodule import resampled, split_indices, waypoint_pairs
 
     paths, ws = data.paths.paths(), np.asarray(data.paths.workspace)
     long = [i for i, p in enumerate(paths) if len(p) >= 2]
     _, val = split_indices(len(long), params["val_fraction"], params["seed"], np.asarray(long))
     held = [long[i] for i in val]
-    dense = []
-    for i in held:
-        step = _resample_step(paths[i], spec.space, params.get("waypoint_step"), params.get("min_waypoints"))
-        dense.append(paths[i] if step is None else resample_path(paths[i], step, spec.space))
+    dense = [resampled(paths[i], spec.space, params.get("waypoint_step"), params.get("min_waypoints")) for i in held]
     end = waypoint_pairs(dense, ws[held], space=spec.space)
     # intermediate goals: every (j, k) with k short of the end, both directions
     inner_paths = [p[:-1] for p in dense] + [p[1:][::-1] for p in dense]

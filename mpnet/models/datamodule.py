@@ -340,6 +340,13 @@ def _goal_pairs(n: int, goals: str) -> tuple[np.ndarray, np.ndarray]:
     return j, np.full(n - 1, n - 1)
 
 
+def resampled(path: np.ndarray, space, waypoint_step: float | None, min_waypoints: int | None) -> np.ndarray:
+    """The path as waypoint_pairs trains on it: resampled at the recipe's step (the path as it
+    is where the recipe sets neither option)."""
+    step = _resample_step(path, space, waypoint_step, min_waypoints)
+    return path if step is None else resample_path(path, step, space)
+
+
 def waypoint_pairs(
     paths: Sequence[np.ndarray],
     ws_index: Sequence[int],
@@ -381,9 +388,7 @@ def waypoint_pairs(
             raise ValueError(f"path {pid} has state_dim {path.shape[1]}, expected {dim}")
         if len(path) < 2:
             continue
-        step = _resample_step(path, space, waypoint_step, min_waypoints)
-        if step is not None:
-            path = resample_path(path, step, space)
+        path = resampled(path, space, waypoint_step, min_waypoints)
         for p in (path, path[::-1]) if bidirectional else (path,):
             j, g = _goal_pairs(len(p), goals)
             k = len(j)
@@ -413,6 +418,7 @@ __all__ = [
     "split_indices",
     "waypoint_pairs",
     "resample_path",
+    "resampled",
     "Pairs",
     "GOALS",
 ]
