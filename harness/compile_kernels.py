@@ -1,5 +1,6 @@
-"""`python -m harness.compile_kernels [ENV ...]`: numba's kernels compiled once, into numba's
-on-disk cache (the `__pycache__` folders beside the package's sources), before runs need them.
+"""`python -m harness.compile_kernels [ENV ...] [--cache-dir DIR]`: numba's kernels compiled once,
+into the on-disk kernel cache runs read (`DIR/kernels`, the runs' `cache_dir`, or `NUMBA_CACHE_DIR`
+if set: harness.core.kernels), before runs need them.
 
 A process that finds the cache cold compiles what it calls: about a minute for the arm's
 checker and compiled MPNet loop, seconds for the planar envs. The processes of a parallel
@@ -22,6 +23,7 @@ import time
 import numpy as np
 
 from harness.core.cli import CONF_DIR
+from harness.core.kernels import use_kernel_cache
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.specs import SPECS, get_spec
 from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet, PnetArrays
@@ -96,7 +98,9 @@ def compile_env(spec: EnvSpec, depths: list[tuple[int, int]]) -> None:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m harness.compile_kernels", description=__doc__.split("\n\n")[0])
     ap.add_argument("envs", nargs="*", metavar="ENV", help=f"envs (default: all): {', '.join(SPECS)}")
+    ap.add_argument("--cache-dir", default=".cache/mpnet-bench", help="the runs' cache_dir (default: %(default)s)")
     args = ap.parse_args(argv)
+    use_kernel_cache(args.cache_dir)
     try:
         specs = [get_spec(e) for e in args.envs or SPECS]
     except KeyError as e:

@@ -71,9 +71,11 @@ def _build(run: RunSettings) -> None:
 @hydra.main(version_base="1.3", config_path="../conf", config_name="data")
 @user_errors
 def main(cfg: DictConfig) -> None:
+    from harness.core.kernels import use_kernel_cache
     from harness.core.settings import settings_of
 
     run = settings_of(cfg)
+    use_kernel_cache(run.cache_dir)  # before the first kernel runs (harness.core.kernels)
     if run.shard is not None:
         _shard(run)
     else:

@@ -49,11 +49,13 @@ def step_errors(spec, data, params: dict, pnet_path) -> dict:
 @user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts.ensure import ensure_dataset, ensure_models
+    from harness.core.kernels import use_kernel_cache
     from harness.core.settings import settings_of
     from mpnet.data.dataset import load_dataset
     from mpnet.planners.mpnet import PNET_FILE
 
     run = settings_of(cfg)
+    use_kernel_cache(run.cache_dir)  # before the first kernel runs (harness.core.kernels)
     models, _, _ = ensure_models(run, progress=run.progress, planning=True)
     folder, manifest, _ = ensure_dataset(run, run.progress)
     result = step_errors(run.env.spec, load_dataset(folder, manifest), run.models, models / PNET_FILE)

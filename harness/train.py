@@ -15,9 +15,11 @@ from harness.core.cli import run_hydra, user_errors
 @user_errors
 def main(cfg: DictConfig) -> None:
     from harness.artifacts.ensure import ensure_models
+    from harness.core.kernels import use_kernel_cache
     from harness.core.settings import settings_of
 
     run = settings_of(cfg)
+    use_kernel_cache(run.cache_dir)  # before the first kernel runs (harness.core.kernels)
     folder, manifest, built = ensure_models(run, progress=run.progress)
     print(f"{'trained' if built else 'cached'}: {folder}")
     print(json.dumps(manifest["fit"], indent=2))

@@ -10,8 +10,11 @@ function-level imports alike, read from the source, so nothing is imported to fi
 package's `__init__` only where a name is imported from it): an
 edit anywhere a kernel reaches recompiles that kernel, and only the kernels that reach it.
 
-The cache stays where numba keeps it (`NUMBA_CACHE_DIR` if set, else the `__pycache__`
-beside the source, else the user-wide cache); only the freshness stamp differs.
+Where: `NUMBA_CACHE_DIR` (numba's setting) if set when a kernel is first compiled or
+loaded, else numba's user-wide cache; never the source tree's `__pycache__` (a checkout stays
+what git holds; the app puts kernels under its artifact cache: harness.core.kernels). The
+place is settled at a kernel's first use, not at import, so a caller may set it after
+importing the kernels' modules.
 """
 
 from __future__ import annotations
@@ -26,7 +29,6 @@ import numba
 from numba.core.caching import (
     CompileResultCacheImpl,
     FunctionCache,
-    InTreeCacheLocator,
     UserProvidedCacheLocator,
     UserWideCacheLocator,
 )
@@ -106,16 +108,12 @@ class _UserProvided(_ReachStamp, UserProvidedCacheLocator):
     pass
 
 
-class _InTree(_ReachStamp, InTreeCacheLocator):
-    pass
-
-
 class _UserWide(_ReachStamp, UserWideCacheLocator):
     pass
 
 
 class _ReachCacheImpl(CompileResultCacheImpl):
-    _locator_classes = [_UserProvided, _InTree, _UserWide]  # numba's order, same places
+    _locator_classes = [_UserProvided, _UserWide]  # numba's order, less the source tree
 
 
 class ReachCache(FunctionCache):
@@ -133,6 +131,19 @@ class BorrowedReachCache(ReachCache):
     """ReachCache under other file names: a function compiled both ways keeps two caches."""
 
     _impl_class = _BorrowedCacheImpl
+
+
+class _FirstUse:
+    """A dispatcher's cache, made at its first use (numba makes it at decoration): the place
+    is read then (see the module)."""
+
+    def __init__(self, make):
+        self._make, self._cache = make, None
+
+    def __getattr__(self, name):
+        if self._cache is None:
+            self._cache = self._make()
+        return getattr(self._cache, name)
 
 
 def njit(*args, cache: bool = False, borrowed: bool = False, **options):
@@ -154,7 +165,8 @@ def njit(*args, cache: bool = False, borrowed: bool = False, **options):
         dispatcher = numba.njit(**options)(func)
         if cache:
             # Dispatcher.enable_caching does exactly this with numba's FunctionCache
-            dispatcher._cache = (BorrowedReachCache if borrowed else ReachCache)(dispatcher.py_func)
+            kind = BorrowedReachCache if borrowed else ReachCache
+            dispatcher._cache = _FirstUse(lambda: kind(dispatcher.py_func))
         return dispatcher
 
     if args and callable(args[0]):

@@ -14,6 +14,7 @@ from harness.artifacts.ensure import ensure_models, ensure_testset, training_pat
 from harness.bench.loop import CostTarget, QueryTiming, first_problem, run_bench, warm_up
 from harness.bench.summary import format_summary, summarize
 from harness.core.cli import RunRefused, UsageError, refuse, status_of
+from harness.core.kernels import use_kernel_cache
 from harness.core.provenance import run_info
 from harness.core.settings import RunSettings, settings_of
 from harness.core.threads import extra_threads, single_threaded, thread_pools
@@ -94,6 +95,7 @@ def bench(
     if "env" not in cfg or "planner" not in cfg:
         raise UsageError("choose an env and a planner with +env=NAME +planner=NAME")
     run = settings_of(cfg)
+    use_kernel_cache(run.cache_dir)  # before the first kernel runs (harness.core.kernels)
     seed_everything(run.seed)
     spec = run.env.spec
     used_networks = []

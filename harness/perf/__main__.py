@@ -39,6 +39,7 @@ def _step(name: str, t0: float) -> None:
 
 @hydra.main(version_base="1.3", config_path="../../conf", config_name="perf_main")
 def main(cfg: DictConfig) -> None:
+    from harness.core.kernels import use_kernel_cache
     from harness.core.provenance import machine_info
     from harness.core.settings import EnvSettings
     from harness.perf import render, sections
@@ -47,6 +48,7 @@ def main(cfg: DictConfig) -> None:
     from harness.perf.obstacles import obstacles
     from harness.perf.planners import planners
 
+    use_kernel_cache(cfg.cache_dir)  # the jobs it starts inherit the place (harness.core.kernels)
     p = cfg.perf
     t0 = time.perf_counter()
     common = [

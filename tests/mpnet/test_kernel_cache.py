@@ -45,9 +45,13 @@ print(outer(1), alone(1), outer.stats.cache_hits.get(outer.signatures[0], 0),
 """
 
 
-def _run(root: Path, code: str) -> str:
-    env = {**os.environ, "PYTHONPATH": str(root)}
-    env.pop("NUMBA_CACHE_DIR", None)  # numba's default place: beside the copy's sources
+def _run(root: Path, code: str, cache: str | None = "kernels") -> str:
+    """code run in a fresh interpreter on the copy at root, its kernels cached in root/cache
+    (None: no NUMBA_CACHE_DIR, numba's user-wide place under root/home)."""
+    env = {**os.environ, "PYTHONPATH": str(root), "HOME": str(root / "home"), "XDG_CACHE_HOME": str(root / "home")}
+    env.pop("NUMBA_CACHE_DIR", None)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(root / cache)
     code = f"import mpnet; assert mpnet.__file__.startswith({str(root)!r}), mpnet.__file__\n{code}"
     p = subprocess.run([sys.executable, "-c", code], cwd=root, env=env, capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
@@ -75,6 +79,22 @@ def test_an_edit_of_an_inlined_kernel_recompiles_its_caller(package):
     (package / "mpnet" / "callee.py").write_text(CALLEE.format(value=2))
     # numba's own stamp (caller.py's text) would load outer's old code here: 20, 1
     assert _run(package, PROBE) == ["30", "0", "0", "1"]  # outer recompiled; alone, which does not reach it, loaded
+
+
+def _cached(folder: Path) -> set[str]:
+    return {p.name.split(".")[0] for p in folder.rglob("*.nbi")}
+
+
+def test_the_cache_is_never_beside_the_sources(package):
+    """NUMBA_CACHE_DIR when set, numba's user-wide place when not: the checkout stays what git
+    holds (issue 66), and the place read at a kernel's first use, not at its import."""
+    _run(package, PROBE)
+    assert _cached(package / "kernels") == {"caller", "apart"} and not _cached(package / "mpnet")
+    _run(package, PROBE, cache=None)
+    assert _cached(package / "home") == {"caller", "apart"} and not _cached(package / "mpnet")
+    late = f"from mpnet.caller import outer\nimport numba\nnumba.config.CACHE_DIR = {str(package / 'late')!r}\n"
+    _run(package, late + "print(outer(1))")
+    assert _cached(package / "late") == {"caller"}
 
 
 def test_the_stamp_follows_imports(package):
