@@ -8,6 +8,11 @@ same sums) plus a few loops, and the compiled planner calls it without Python be
 
 The dropout masks are drawn from the query's own np.random.Generator inside the kernel
 (numba draws PCG64's stream as numpy does): one draw of all masks per step, as NumpyPnet.
+
+The layers travel as one flat array each (weights, dropout weights, biases) and a `layout`
+table, not a tuple of arrays: numba types a tuple by its length, so every network depth
+compiled the planner's loops again (about 20 s each for an arm); a layer is a contiguous view
+of its flat array, so np.dot takes the same BLAS call on the same numbers.
 """
 
 from __future__ import annotations
@@ -27,10 +32,11 @@ class PnetKernel:
             raise ValueError("the compiled step takes raw states: export the Pnet with its normaliser")
         if any(w.shape[1] == 1 for w in net.weights):  # numpy takes a dot product there: other sums
             raise ValueError("the compiled step needs every layer at least 2 wide (numpy sums a 1-wide one otherwise)")
+        self.layout = layout(net.weights)
         self.args = (
-            tuple(np.ascontiguousarray(w, np.float32) for w in net.weights),
-            tuple(np.ascontiguousarray(w, np.float32) for w in (net._dropout_weights if net._fold else net.weights)),
-            tuple(np.asarray(b, np.float32) for b in net.biases),
+            flat(net.weights),
+            flat(net._dropout_weights if net._fold else net.weights),
+            flat(net.biases),
             np.asarray(net.alphas, np.float32),
             np.float32(net.p),
             np.float32(1.0 if net._fold else net.keep_scale),  # the masks' scale (1: folded into weights)
@@ -41,9 +47,10 @@ class PnetKernel:
             np.asarray(net._out_off, np.float64),
             bool(net.bounded),
             bool(net._prelu_max),
+            self.layout,
         )
         self.zdim, self.state_dim = net._zdim, net.state_dim
-        self.buffers = scratch(self.args[0])  # the step's work arrays, reused by every call (and the planner)
+        self.buffers = scratch(self.layout)  # the step's work arrays, reused by every call (and the planner)
         self._off = np.random.default_rng(0)  # never drawn from: stands in for "no rng"
 
     def step(self, z, x, goal, rng: np.random.Generator | None = None) -> np.ndarray:
@@ -60,12 +67,35 @@ class PnetKernel:
     __call__ = step
 
 
-def scratch(weights) -> tuple:
-    """The step's buffers: the input and each layer's output (float32), and the masks."""
-    n_in = weights[0].shape[0]
-    layers = tuple(np.empty(w.shape[1], np.float32) for w in weights)
-    masks = np.empty(sum(w.shape[1] for w in weights[:-1]), np.float32)
-    return (np.empty(n_in, np.float32), layers, masks)
+ROWS, COLS, W_AT, B_AT = range(4)  # layout's columns: a layer's weight shape, where it starts in each flat array
+
+
+def flat(arrays) -> np.ndarray:
+    """The layers' arrays, each in C order, one after another (float32)."""
+    return np.concatenate([np.ascontiguousarray(a, np.float32).ravel() for a in arrays]).astype(np.float32)
+
+
+def layout(weights) -> np.ndarray:
+    """Per layer (in, out, its weights' start in the flat weights, its biases' and outputs' start)."""
+    shapes = np.array([w.shape for w in weights], np.int64)
+    sizes = shapes[:, 0] * shapes[:, 1]
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    outs = np.concatenate(([0], np.cumsum(shapes[:, 1])[:-1]))
+    return np.ascontiguousarray(np.column_stack([shapes, starts, outs]), np.int64)
+
+
+def scratch(lay: np.ndarray) -> tuple:
+    """The step's buffers: the input, every layer's output (float32, one flat array at the
+    layout's output starts), and the masks."""
+    cols = lay[:, COLS]
+    return (np.empty(lay[0, ROWS], np.float32), np.empty(cols.sum(), np.float32), np.empty(cols[:-1].sum(), np.float32))
+
+
+@njit(cache=True, inline="always")
+def _weights(flat_w, lay, k):
+    """Layer k's weights: a C-contiguous (in, out) view of the flat array."""
+    r, c, at = lay[k, ROWS], lay[k, COLS], lay[k, W_AT]
+    return flat_w[at : at + r * c].reshape((r, c))
 
 
 @njit(cache=True)
@@ -113,6 +143,7 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
     out_off,
     bounded,
     prelu_max,
+    lay,
     rng,
     dropout,
     buf,
@@ -135,11 +166,12 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
         u = rng.random(n_mask, dtype=np.float32)
         for i in range(n_mask):
             masks[i] = one if u[i] >= p else np.float32(0.0)
-    last = len(weights) - 1
+    last = lay.shape[0] - 1
     src = h
     for k in range(last + 1):
-        o = layers[k]
-        affine(src, weights[k], biases[k], o)
+        c, at = lay[k, COLS], lay[k, B_AT]
+        o = layers[at : at + c]
+        affine(src, _weights(weights, lay, k), biases[at : at + c], o)
         if k == last:
             break
         a = alphas[k]
@@ -150,21 +182,26 @@ def pnet_step(  # the net's arrays unpacked: a kernel takes no objects
             for j in range(o.shape[0]):
                 o[j] *= masks[base + j]
         src = o
-    o = layers[last]
+    o = layers[lay[last, B_AT] :]
     for i in range(d):
         out[i] = output(o[i], i, out_scale, out_off, bounded)
 
 
-def batch_scratch(weights, rows: int) -> tuple:
-    """pnet_rows' buffers for up to `rows` states: the inputs, each layer's outputs, the masks."""
-    n_mask = sum(w.shape[1] for w in weights[:-1])
-    layers = tuple(np.empty((rows, w.shape[1]), np.float32) for w in weights)
-    return (np.empty((rows, weights[0].shape[0]), np.float32), layers, np.empty((rows, n_mask), np.float32))
+def batch_scratch(lay: np.ndarray, rows: int) -> tuple:
+    """pnet_rows' buffers for up to `rows` states: the inputs, every layer's outputs (one flat
+    array, layer k's rows from rows x its output start), the masks."""
+    cols = lay[:, COLS]
+    n_in, n_mask = lay[0, ROWS], cols[:-1].sum()
+    return (
+        np.empty((rows, n_in), np.float32),
+        np.empty(rows * cols.sum(), np.float32),
+        np.empty((rows, n_mask), np.float32),
+    )
 
 
 @njit(cache=True)
 def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off,
-              bounded, prelu_max, rng, dropout, buf, out):  # fmt: skip
+              bounded, prelu_max, lay, rng, dropout, buf, out):  # fmt: skip
     """out[:m] = Pnet(z, X[r], T[r]) for the first m rows as one matrix product per layer (batched
     planning): pnet_step's operations on rows, each row its own dropout mask (one draw of all
     rows' masks per call), so a row's result is what pnet_step gives with that row's mask."""
@@ -186,12 +223,13 @@ def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets
         for r in range(m):
             for i in range(n_mask):
                 masks[r, i] = one if u[r, i] >= p else np.float32(0.0)
-    last = len(weights) - 1
+    last, cap = lay.shape[0] - 1, H.shape[0]
     src = H[:m]
     for k in range(last + 1):
-        o = layers[k][:m]
-        o[:, :] = np.dot(src, weights[k])
-        b = biases[k]
+        c, at = lay[k, COLS], lay[k, B_AT]
+        o = layers[cap * at : cap * at + m * c].reshape((m, c))
+        o[:, :] = np.dot(src, _weights(weights, lay, k))
+        b = biases[at : at + c]
         a = alphas[k] if k < last else np.float32(0.0)
         for r in range(m):
             for j in range(o.shape[1]):
@@ -202,7 +240,8 @@ def pnet_rows(z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets
                         v *= masks[r, offsets[k] + j]
                 o[r, j] = v
         src = o
-    o = layers[last]
+    c, at = lay[last, COLS], lay[last, B_AT]
+    o = layers[cap * at : cap * at + m * c].reshape((m, c))
     for r in range(m):
         for i in range(d):
             out[r, i] = output(o[r, i], i, out_scale, out_off, bounded)

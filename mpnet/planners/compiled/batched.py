@@ -37,7 +37,7 @@ class _Batch:
         cap = 1 << BATCH_MEMO_BITS
         self.memos = (np.empty((B, cap, 2 * d)), np.full((B, cap), -1, np.int8), np.zeros(B, np.int64))
         self.counts = np.zeros((B, 3), np.int64)
-        self.buf = batch_scratch(planner.kernel.args[0], B)
+        self.buf = batch_scratch(planner.kernel.layout, B)
         self.scratch = (np.empty((B, d)), np.empty((B, d)), np.empty((B, d)))
         self.trees = np.empty((B, 2, S + 1, d))
         self.n, self.steps = np.zeros((B, 2), np.int64), np.zeros(B, np.int64)

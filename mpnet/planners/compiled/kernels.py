@@ -187,10 +187,10 @@ def _propose(env, counts, prop, z, x, target, net, rng, dropout, buf, new):
     kind, clip, length, lower, upper, half = prop
     if kind == PNET:
         (plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off, bounded,
-         prelu_max) = net  # fmt: skip
+         prelu_max, lay) = net  # fmt: skip
         pnet_step(
             z, x, target, plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off,
-            bounded, prelu_max, rng, dropout, buf, new,
+            bounded, prelu_max, lay, rng, dropout, buf, new,
         )  # fmt: skip
         _settle(env, prop, new)
     elif kind == RANDOM:
@@ -247,7 +247,22 @@ def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, ne
     time, their proposals from one pnet_rows call per step. memos: (keys, verdicts, used) with a
     leading query axis; counts (B, 3); scratch: (X, T, Y) of (B, d); live: the queries to run
     (endpoints valid); out: n (B, 2) tree sizes, steps (B,), connected (B,), trace (B, S, 2, d)."""
-    plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off, bounded, prelu_max = net
+    (
+        plain,
+        dropped,
+        biases,
+        alphas,
+        p,
+        mask_scale,
+        offsets,
+        shift2,
+        inv2,
+        out_scale,
+        out_off,
+        bounded,
+        prelu_max,
+        lay,
+    ) = net
     keys, verdicts, used = memos
     X, T, Y = scratch
     B = starts.shape[0]
@@ -275,7 +290,7 @@ def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, ne
             break
         pnet_rows(
             z, X, T, m, plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off,
-            bounded, prelu_max, rng, dropout, buf, Y,
+            bounded, prelu_max, lay, rng, dropout, buf, Y,
         )  # fmt: skip
         for r in range(m):
             b = rows[r]

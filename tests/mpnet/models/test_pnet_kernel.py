@@ -113,7 +113,7 @@ def test_a_batch_of_rows_steps_as_one_state_does(tmp_path):
     z = rng.standard_normal(kernel.zdim).astype(np.float32)
     X, T = rng.uniform(-20, 20, (6, 2)), rng.uniform(-20, 20, (6, 2))
     out = np.empty((6, 2))
-    buf = batch_scratch(kernel.args[0], 6)
+    buf = batch_scratch(kernel.layout, 6)
     pnet_rows(z, X, T, 6, *kernel.args, rng, False, buf, out)
     one = np.array([kernel.step(z, x, t, None) for x, t in zip(X, T)])
     np.testing.assert_allclose(out, one, rtol=1e-5, atol=1e-5)
