@@ -10,8 +10,9 @@ compile the same kernels at once; run this first and each of them loads them in 
 For each env (all of them by default): its default checker's four checks, the judge's fine
 re-check, the workspace point cloud, the compiled RRT-Connect (`rrt_connect_compiled`), and
 the compiled MPNet loop (batched planning's too) for
-each network depth a scale gives the env (numba compiles the loop once per depth: the layers
-are a tuple), on untrained networks of that depth (their weights do not matter to the compiler).
+each network depth a scale gives the env, on untrained networks of that depth (their weights do
+not matter to the compiler; Pnet's layers travel flat, so the loop compiles once for every
+depth, and the other depths only load it: mpnet/models/pnet_kernel.py).
 """
 
 from __future__ import annotations
