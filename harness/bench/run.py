@@ -20,8 +20,8 @@ from harness.core.settings import RunSettings, settings_of
 from harness.core.threads import extra_threads, single_threaded, thread_pools
 from harness.log import MCAP_NAME, LogProcess, LogProcessDied, ResumeRefused, Tally
 from mpnet.envs.mbm.files import is_mbm, load_mbm
+from mpnet.envs.ompl_space import set_ompl_seed
 from mpnet.planners.base import sub_seed
-from mpnet.planners.classical import set_ompl_seed
 from mpnet.planners.reference import reference_costs
 from mpnet.problems import ProblemFileError, load_problems
 from mpnet.workers import sigterm_when_parent_ends

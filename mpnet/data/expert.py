@@ -184,11 +184,9 @@ def chunk_worker(args: tuple) -> ExpertPaths:
     """One chunk of workspaces: seeds OMPL (an expert that draws on its RNG runs each chunk in a
     fresh process: PROCESS_SEEDED), then plans every path (workspace_paths' options by name)."""
     spec, workspaces, count, seed, chunk, options = args
-    from ompl import util as ou
+    from mpnet.envs.ompl_space import seed_worker
 
-    ou.setLogLevel(ou.LOG_WARN)
-    if options.get("planner", EXPERT.planner) in PROCESS_SEEDED:
-        ou.RNG.setSeed(int(np.random.default_rng([seed, 11, chunk]).integers(1, 2**31 - 1)))
+    seed_worker(seed, 11, chunk, seeded=options.get("planner", EXPERT.planner) in PROCESS_SEEDED)
     return ExpertPaths.concat(
         [workspace_paths(spec, ws, idx, count, seed, **options) for idx, ws in workspaces],
         spec.state_dim,

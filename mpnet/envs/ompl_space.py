@@ -1,10 +1,13 @@
 """OMPL state spaces and checkers for an env: one fresh space per setup (a shared space
 crashed OMPL's Benchmark), validity through the shared counted checker, and an exact
-motion validator (OMPL's discrete motion checking cuts box corners)."""
+motion validator (OMPL's discrete motion checking cuts box corners); and OMPL's seeding, the
+one path every caller takes (a run's, a query's, a worker process's)."""
 
 from __future__ import annotations
 
+import numpy as np
 from ompl import base as ob
+from ompl import util as ou
 
 from mpnet.envs.checkers.collision import CollisionChecker
 from mpnet.envs.spec import EnvSpec
@@ -64,3 +67,24 @@ def is_solvable(spec: EnvSpec, checker: CollisionChecker, start, goal, seconds: 
     planner.setup()
     planner.solve(ob.timedPlannerTerminationCondition(seconds))
     return bool(pdef.hasExactSolution())
+
+
+def set_ompl_seed(value: int) -> None:
+    """OMPL's seed generator restarted at `value` (in [1, 2^31 - 1]). OMPL logs an
+    error when seeding after its first draw, since RNGs that already exist keep their streams;
+    the RNGs that matter are made after it (a query's planner, a run's own), so it is muted."""
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(int(value))
+    finally:
+        ou.setLogLevel(level)
+
+
+def seed_worker(seed: int, stream: int, chunk: int, seeded: bool = True) -> None:
+    """A worker process's OMPL, before its chunk of work: warnings and errors only, and (when
+    `seeded`) its seed generator started from numpy's first integer in [1, 2^31 - 1) of
+    (seed, stream, chunk), so a chunk's draws depend on its number alone, whatever process runs it."""
+    ou.setLogLevel(ou.LOG_WARN)
+    if seeded:
+        set_ompl_seed(int(np.random.default_rng([seed, stream, chunk]).integers(1, 2**31 - 1)))

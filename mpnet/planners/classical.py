@@ -7,9 +7,8 @@ import time
 
 from ompl import base as ob
 from ompl import geometric as og
-from ompl import util as ou
 
-from mpnet.envs.ompl_space import make_problem
+from mpnet.envs.ompl_space import make_problem, set_ompl_seed
 from mpnet.motion import path_cost
 from mpnet.planners.base import (
     APPROXIMATE,
@@ -169,18 +168,6 @@ def seed_ompl(seed: int) -> None:
     """Restart OMPL's seed generator from `seed`: every RNG made after this (the planner and
     samplers `solve` builds fresh per query) draws the same numbers whatever ran before."""
     set_ompl_seed(sub_seed(seed, 0))
-
-
-def set_ompl_seed(value: int) -> None:
-    """OMPL's seed generator restarted at `value` (in [1, 2^31 - 1]: sub_seed's). OMPL logs an
-    error when seeding after its first draw, since RNGs that already exist keep their streams;
-    the RNGs that matter are made after it (a query's planner, a run's own), so it is muted."""
-    level = ou.getLogLevel()
-    ou.setLogLevel(ou.LOG_NONE)
-    try:
-        ou.RNG.setSeed(int(value))
-    finally:
-        ou.setLogLevel(level)
 
 
 def snap_endpoints(path: list, problem: Problem) -> list:

@@ -78,10 +78,9 @@ def chunk_worker(args: tuple) -> ExpertPaths:
     items: [(row, workspace, [(start, goal), ...])], row the scene's row in the dataset;
     cloud: (points_per_block, data_seed), the clouds as the networks were trained on."""
     spec, models_dir, (per_block, data_seed), items, p, seed, chunk = args
-    from ompl import util as ou
+    from mpnet.envs.ompl_space import seed_worker
 
-    ou.setLogLevel(ou.LOG_WARN)
-    ou.RNG.setSeed(int(np.random.default_rng([seed, 13, chunk]).integers(1, 2**31 - 1)))
+    seed_worker(seed, 13, chunk)
 
     def cloud(ws):
         return spec.cloud(ws, per_block, data_seed)

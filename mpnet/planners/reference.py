@@ -140,10 +140,9 @@ def workspace_references(
 
 def _worker(args: tuple) -> list[float]:
     spec, ws, queries, iterations, expert_s, bit_star_s, seed, chunk, expert = args
-    from ompl import util as ou
+    from mpnet.envs.ompl_space import seed_worker
 
-    ou.setLogLevel(ou.LOG_WARN)
-    ou.RNG.setSeed(int(np.random.default_rng([seed, 13, chunk]).integers(1, 2**31 - 1)))
+    seed_worker(seed, 13, chunk)
     return workspace_references(spec, ws, queries, iterations, expert_s, bit_star_s, expert)
 
 

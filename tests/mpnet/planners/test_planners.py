@@ -257,6 +257,28 @@ def test_seeding_twice_in_one_process_restarts_ompls_draws():
     assert other != first[0]
 
 
+def test_a_workers_seeding_is_the_one_its_chunk_had():
+    """seed_worker (the data build's, DAgger's and the reference costs' workers) seeds OMPL as
+    their inlined seeding did, ou.RNG.setSeed of numpy's first draw of (seed, stream, chunk), and
+    leaves warnings on; unseeded, it leaves the seed generator where it was."""
+    from mpnet.envs.ompl_space import seed_worker, set_ompl_seed
+
+    level = ou.getLogLevel()
+    try:
+        ou.setLogLevel(ou.LOG_NONE)
+        ou.RNG.setSeed(int(np.random.default_rng([5, 13, 2]).integers(1, 2**31 - 1)))
+        before = [ou.RNG().uniform01() for _ in range(3)]
+        seed_worker(5, 13, 2)
+        assert [ou.RNG().uniform01() for _ in range(3)] == before and ou.getLogLevel() == ou.LOG_WARN
+        set_ompl_seed(9)
+        first = ou.RNG().uniform01()
+        set_ompl_seed(9)
+        seed_worker(5, 11, 2, seeded=False)
+        assert ou.RNG().uniform01() == first
+    finally:
+        ou.setLogLevel(level)
+
+
 def test_an_optimizing_planner_is_freed_after_its_solve():
     """AORRTC keeps its termination condition, which holds the best-cost watch, which held the
     planner: a cycle through C++ that nanobind reports at exit as leaked instances (and a run's
