@@ -126,7 +126,7 @@ def _posed(rot: torch.Tensor, pos: torch.Tensor, frame: torch.Tensor, local: tor
 
 def _rotation(axis: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
     """(N, 3, 3): rotations by `angle` (N,) about the unit `axis` (3,) (Rodrigues): torch's twin of
-    mpnet.envs.arm.model.joint_motion, batched and differentiable (the loss needs its gradient)."""
+    mpnet.envs.arm.kinematics.joint_rotation, batched and differentiable (the loss needs its gradient)."""
     x, y, z = axis
     c, s = torch.cos(angle), torch.sin(angle)
     k = 1 - c

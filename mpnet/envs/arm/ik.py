@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mpnet.envs.arm import ik_kernels
+from mpnet.envs.arm import kinematics
 from mpnet.envs.arm.ik_kernels import dls, meets_pose
-from mpnet.envs.arm.model import PRISMATIC, REVOLUTE, ArmModel
+from mpnet.envs.arm.model import FIXED, PRISMATIC, REVOLUTE, ArmModel
 
-assert (ik_kernels.REVOLUTE, ik_kernels.PRISMATIC) == (REVOLUTE, PRISMATIC)
+assert (kinematics.FIXED, kinematics.REVOLUTE, kinematics.PRISMATIC) == (FIXED, REVOLUTE, PRISMATIC)
 
 
 @dataclass(frozen=True)
@@ -87,18 +87,32 @@ def _path(model: ArmModel, link: str) -> list[int]:
     return out[::-1]
 
 
-def chain_arrays(model: ArmModel, link: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The frames from the base to `link` as ik_kernels' arrays: origins (n x 4 x 4), driving
-    coordinates (-1: none), kinds, axes (n x 3)."""
+def chain_arrays(model: ArmModel, link: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The frames from the base to `link` as ik_kernels' chain: kinematics.forward's arrays
+    (parent, origin (n x 3 x 4), kind, axis (n x 3), coordinate), each driven joint split into
+    its fixed origin and then its motion (about an identity origin), so that a pose is
+    (parent's pose times origin) times motion, the order IK's poses have always been
+    multiplied in (the sphere checker's, a whole tree's, is parent's times (origin times motion))."""
     frames = [model.kinematics.frames[i] for i in _path(model, link)]
-    origins = np.array([f.origin for f in frames], float)
-    if not (origins[:, 3] == [0.0, 0.0, 0.0, 1.0]).all():  # the kernels keep a pose's last row as is
+    if not all((f.origin[3] == [0.0, 0.0, 0.0, 1.0]).all() for f in frames):  # forward takes 3 x 4 origins
         raise ValueError(f"{link}: a frame origin whose last row is not 0 0 0 1")
+    parent, origin, kind, axis, coord = [], [], [], [], []
+    for f in frames:
+        parts = [(f.origin[:3], FIXED, np.zeros(3), -1)]
+        if f.coordinate >= 0:
+            parts.append((np.eye(4)[:3], f.kind, f.axis, f.coordinate))
+        for o, k, a, c in parts:
+            parent.append(len(parent) - 1)
+            origin.append(o)
+            kind.append(k)
+            axis.append(a)
+            coord.append(c)
     return (
-        origins,
-        np.array([f.coordinate for f in frames], np.int64),
-        np.array([f.kind for f in frames], np.int64),
-        np.array([f.axis for f in frames], float),
+        np.array(parent, np.int64),
+        np.ascontiguousarray(np.array(origin, float)),
+        np.array(kind, np.int64),
+        np.array(axis, float),
+        np.array(coord, np.int64),
     )
 
 
@@ -126,7 +140,7 @@ def solve(
 
     lower = np.array([b[0] for b in model.limits])
     upper = np.array([b[1] for b in model.limits])
-    origins, coords, kinds, axes = chain_arrays(model, target.link)
+    chain = chain_arrays(model, target.link)
     pose = np.ascontiguousarray(target.pose, float)
     ptol, otol = np.asarray(target.position_tol, float), np.asarray(target.orientation_tol, float)
     for first in (0, batch) if attempts > batch else (0,):
@@ -138,7 +152,7 @@ def solve(
         turn = Rotation.from_rotvec(rng.uniform(-1, 1, (B, 3)) * target.orientation_tol).as_matrix()
         aim_R = target.pose[:3, :3] @ turn
         for b in range(B):
-            q, T = dls(Q[b], aim_p[b], aim_R[b], lower, upper, origins, coords, kinds, axes, iterations, damping)
+            q, T = dls(Q[b], aim_p[b], aim_R[b], lower, upper, *chain, iterations, damping)
             if meets_pose(T, pose, ptol, otol) and (valid is None or valid(q)):
                 return q
     return None

@@ -9,9 +9,10 @@ update never read another's), up to floating-point rounding. A restart's iterati
 nothing and count no references (mpnet.jit's borrowed: the pose, rotation vector and solve
 write scratch that dls allocates once), the same arithmetic in the same order.
 
-A chain is arrays: per frame on the path from the base to the tip, its fixed origin (4 x 4),
-the planned coordinate that drives it (-1: none), its kind (arm_model's REVOLUTE/PRISMATIC)
-and its axis.
+A chain is mpnet.envs.arm.kinematics.forward's arrays for the frames on the path from the base
+to the tip, each driven joint as two frames: its fixed origin, then its motion (an identity
+origin): arm.ik.chain_arrays. The tip is the last frame; a driven joint's axis and origin in the
+base frame are read from its first frame's pose.
 """
 
 from __future__ import annotations
@@ -20,9 +21,8 @@ import math
 
 import numpy as np
 
+from mpnet.envs.arm.kinematics import PRISMATIC, forward
 from mpnet.jit import njit
-
-REVOLUTE, PRISMATIC = 1, 2  # arm.model's joint kinds (asserted equal in arm.ik)
 
 
 @njit(cache=True)
@@ -73,72 +73,23 @@ def _rotvec_into(R, q, out):
         out[i] = scale * q[i]
 
 
-@njit(cache=True, borrowed=True, inline="always")
-def _times(T, B):
-    """T = T @ B for 4 x 4 transforms, rows 0-2 in place (the last row of both is 0 0 0 1,
-    so T's stays so)."""
-    for r in range(3):
-        t0, t1, t2, t3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
-        for c in range(4):
-            T[r, c] = t0 * B[0, c] + t1 * B[1, c] + t2 * B[2, c] + t3 * B[3, c]
-
-
 @njit(cache=True)
-def chain_pose(q, origins, coords, kinds, axes, joint_axes, joint_origins) -> np.ndarray:
-    """The tip's 4 x 4 pose at q; fills each driven frame's world axis and origin (rows in
-    chain order, the rest untouched)."""
+def chain_pose(q, parent, origin, kind, axis, coord) -> np.ndarray:
+    """The tip's 4 x 4 pose at q (a chain's arrays: see the module)."""
+    pose = np.empty((parent.shape[0] + 1, 3, 4))
+    forward(q, parent, origin, kind, axis, coord, pose)
     T = np.empty((4, 4))
-    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, np.empty((4, 4)))
+    _tip(pose, parent.shape[0] - 1, T)
     return T
 
 
 @njit(cache=True, borrowed=True)
-def _eye4(m):
-    for r in range(4):
+def _tip(pose, tip, T):
+    """T (4 x 4) = frame tip's pose."""
+    for r in range(3):
         for c in range(4):
-            m[r, c] = 1.0 if r == c else 0.0
-
-
-@njit(cache=True, borrowed=True)
-def _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, m):
-    """chain_pose into T (m: 4 x 4 scratch), multiplied in place (_times: every origin's last
-    row is 0 0 0 1, chain_arrays checks, and every joint's transform's is). A joint about z
-    skips its rotation's zero terms: bit for bit the numbers of the general product (as
-    sphere_kernels.forward does): a pose 564 -> 254 ns."""
-    _eye4(T)
-    _eye4(m)
-    for f in range(origins.shape[0]):
-        _times(T, origins[f])
-        c = coords[f]
-        if c < 0:
-            continue
-        x, y, z = axes[f, 0], axes[f, 1], axes[f, 2]
-        for r in range(3):
-            joint_axes[f, r] = T[r, 0] * x + T[r, 1] * y + T[r, 2] * z
-            joint_origins[f, r] = T[r, 3]
-        v = q[c]
-        if kinds[f] != PRISMATIC and x == 0.0 and y == 0.0 and z == 1.0:
-            co, si = math.cos(v), math.sin(v)
-            m22 = co + (1.0 - co)
-            for r in range(3):
-                t0, t1 = T[r, 0], T[r, 1]
-                T[r, 0] = t0 * co + t1 * si
-                T[r, 1] = t0 * -si + t1 * co
-                T[r, 2] = T[r, 2] * m22
-            continue
-        if kinds[f] == PRISMATIC:
-            for r in range(3):
-                for s in range(3):
-                    m[r, s] = 1.0 if r == s else 0.0
-            m[0, 3], m[1, 3], m[2, 3] = v * x, v * y, v * z
-        else:
-            co, si = math.cos(v), math.sin(v)
-            C = 1.0 - co
-            m[0, 0], m[0, 1], m[0, 2] = co + x * x * C, x * y * C - z * si, x * z * C + y * si
-            m[1, 0], m[1, 1], m[1, 2] = y * x * C + z * si, co + y * y * C, y * z * C - x * si
-            m[2, 0], m[2, 1], m[2, 2] = z * x * C - y * si, z * y * C + x * si, co + z * z * C
-            m[0, 3], m[1, 3], m[2, 3] = 0.0, 0.0, 0.0
-        _times(T, m)
+            T[r, c] = pose[tip, r, c]
+    T[3, 0], T[3, 1], T[3, 2], T[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
 @njit(cache=True, borrowed=True)
@@ -164,35 +115,35 @@ def _spd_solve6(A, b, L, y):
 
 
 @njit(cache=True)
-def dls(q0, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping):
-    """One restart of damped least squares from q0 toward (aim_p, aim_R): up to `iterations`
-    steps dq = J^T (J J^T + damping^2 I)^-1 e, clipped to the limits, stopping once the
-    error's norm is under 1e-6. Returns (q, the tip's pose at q)."""
+def dls(q0, aim_p, aim_R, lower, upper, parent, origin, kind, axis, coord, iterations, damping):
+    """One restart of damped least squares from q0 toward (aim_p, aim_R) on a chain (see the
+    module): up to `iterations` steps dq = J^T (J J^T + damping^2 I)^-1 e, clipped to the
+    limits, stopping once the error's norm is under 1e-6. Returns (q, the tip's pose at q)."""
     q = q0.copy()
-    n = origins.shape[0]
+    n = parent.shape[0]
     T = np.empty((4, 4))
-    _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping, T,
-              np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((6, q.shape[0])), np.empty(6), np.empty((6, 6)),
-              np.zeros((6, 6)), np.empty(6), np.empty((3, 3)), np.empty((4, 4)), np.empty(4),
-              np.empty(3))  # fmt: skip
+    _dls_into(q, aim_p, aim_R, lower, upper, parent, origin, kind, axis, coord, iterations, damping, T,
+              np.zeros((n + 1, 3, 4)), np.zeros((6, q.shape[0])), np.empty(6), np.empty((6, 6)), np.zeros((6, 6)),
+              np.empty(6), np.empty((3, 3)), np.empty(4), np.empty(3))  # fmt: skip
     return q, T
 
 
 @njit(cache=True, borrowed=True)
-def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, iterations, damping, T,
-              joint_axes, joint_origins, J, e, A, L, y, R, m, quat, rv):  # fmt: skip
+def _dls_into(q, aim_p, aim_R, lower, upper, parent, origin, kind, axis, coord, iterations, damping, T,
+              pose, J, e, A, L, y, R, quat, rv):  # fmt: skip
     """dls's iterations on q in place, the tip's pose into T; the rest: scratch (allocated
     once a restart by dls, so the iterations allocate nothing and count no references)."""
     dof = q.shape[0]
-    n = origins.shape[0]
+    n = parent.shape[0]
+    tip = n - 1
     lam = damping * damping
-    _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, m)
+    forward(q, parent, origin, kind, axis, coord, pose)
     for _ in range(iterations):
         for i in range(3):
-            e[i] = aim_p[i] - T[i, 3]
+            e[i] = aim_p[i] - pose[tip, i, 3]
         for r in range(3):  # aim_R @ T_R^T
             for c in range(3):
-                R[r, c] = aim_R[r, 0] * T[c, 0] + aim_R[r, 1] * T[c, 1] + aim_R[r, 2] * T[c, 2]
+                R[r, c] = aim_R[r, 0] * pose[tip, c, 0] + aim_R[r, 1] * pose[tip, c, 1] + aim_R[r, 2] * pose[tip, c, 2]
         _rotvec_into(R, quat, rv)
         e[3], e[4], e[5] = rv[0], rv[1], rv[2]
         s = 0.0  # np.sum(e * e), term by term in the same order
@@ -202,14 +153,19 @@ def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, itera
             break
         J[:] = 0.0
         for f in range(n):
-            c = coords[f]
+            c = coord[f]
             if c < 0:
                 continue
-            a0, a1, a2 = joint_axes[f, 0], joint_axes[f, 1], joint_axes[f, 2]
-            if kinds[f] == PRISMATIC:
+            b, x, y_, z = parent[f], axis[f, 0], axis[f, 1], axis[f, 2]  # the joint's fixed frame, its axis
+            a0 = pose[b, 0, 0] * x + pose[b, 0, 1] * y_ + pose[b, 0, 2] * z
+            a1 = pose[b, 1, 0] * x + pose[b, 1, 1] * y_ + pose[b, 1, 2] * z
+            a2 = pose[b, 2, 0] * x + pose[b, 2, 1] * y_ + pose[b, 2, 2] * z
+            if kind[f] == PRISMATIC:
                 J[0, c], J[1, c], J[2, c] = a0, a1, a2
             else:
-                d0, d1, d2 = T[0, 3] - joint_origins[f, 0], T[1, 3] - joint_origins[f, 1], T[2, 3] - joint_origins[f, 2]
+                d0 = pose[tip, 0, 3] - pose[b, 0, 3]
+                d1 = pose[tip, 1, 3] - pose[b, 1, 3]
+                d2 = pose[tip, 2, 3] - pose[b, 2, 3]
                 J[0, c] = a1 * d2 - a2 * d1
                 J[1, c] = a2 * d0 - a0 * d2
                 J[2, c] = a0 * d1 - a1 * d0
@@ -227,7 +183,8 @@ def _dls_into(q, aim_p, aim_R, lower, upper, origins, coords, kinds, axes, itera
             for i in range(6):
                 s += J[i, k] * e[i]
             q[k] = min(max(q[k] + s, lower[k]), upper[k])
-        _chain_pose_into(q, origins, coords, kinds, axes, joint_axes, joint_origins, T, m)
+        forward(q, parent, origin, kind, axis, coord, pose)
+    _tip(pose, tip, T)
 
 
 @njit(cache=True)

@@ -17,7 +17,7 @@ import hashlib
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from importlib import resources
 from pathlib import Path
 
@@ -94,29 +94,45 @@ class Kinematics:
                 return i
         raise KeyError(link)
 
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The frames as mpnet.envs.arm.kinematics.forward's arrays (new ones each call): parent,
+        origin (F, 3, 4), joint kind, axis (F, 3), driving coordinate."""
+        frames = self.frames
+        return (
+            np.array([f.parent for f in frames], np.int64),
+            np.ascontiguousarray(np.array([f.origin[:3] for f in frames], float)),
+            np.array([f.kind for f in frames], np.int64),
+            np.array([f.axis for f in frames], float),
+            np.array([f.coordinate for f in frames], np.int64),
+        )
+
+    @cached_property
+    def _forward_arrays(self) -> tuple[np.ndarray, ...]:
+        return self.arrays()
+
     def link_transforms(self, q) -> np.ndarray:
-        """(n_frames, 4, 4): every link frame in the base frame at configuration q."""
-        out = np.empty((len(self.frames), 4, 4))
-        for i, f in enumerate(self.frames):
-            t = f.origin.copy()
-            if f.coordinate >= 0:
-                t = t @ joint_motion(f.kind, f.axis, float(q[f.coordinate]))
-            out[i] = t if f.parent < 0 else out[f.parent] @ t
+        """(n_frames, 4, 4): every link frame in the base frame at configuration q, the sphere
+        checker's poses (mpnet.envs.arm.kinematics.forward)."""
+        from mpnet.envs.arm.kinematics import forward  # numba: loaded where poses are asked for, not with a model
+
+        F = len(self.frames)
+        pose = np.zeros((F + 1, 3, 4))
+        forward(np.ascontiguousarray(q, float), *self._forward_arrays, pose)
+        out = np.zeros((F, 4, 4))
+        out[:, :3] = pose[:F]
+        out[:, 3, 3] = 1.0
         return out
 
 
 def joint_motion(kind: int, axis: np.ndarray, v: float) -> np.ndarray:
-    """The 4x4 motion of a revolute (angle v about axis) or prismatic (v along axis) joint."""
+    """The 4x4 motion of a revolute (angle v about axis: kinematics.joint_rotation) or
+    prismatic (v along axis) joint."""
     m = np.eye(4)
     if kind == REVOLUTE:
-        x, y, z = axis
-        c, s = math.cos(v), math.sin(v)
-        C = 1 - c
-        m[:3, :3] = [
-            [c + x * x * C, x * y * C - z * s, x * z * C + y * s],
-            [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
-            [z * x * C - y * s, z * y * C + x * s, c + z * z * C],
-        ]
+        from mpnet.envs.arm.kinematics import joint_rotation  # numba: loaded by a held revolute joint only
+
+        x, y, z = (float(a) for a in axis)
+        m[:3, :3] = np.reshape(joint_rotation(x, y, z, float(v)), (3, 3))
     elif kind == PRISMATIC:
         m[:3, 3] = axis * v
     return m

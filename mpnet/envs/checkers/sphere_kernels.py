@@ -1,6 +1,7 @@
-"""The compiled core of the sphere checker (numba): forward kinematics, spheres against
-oriented boxes, cylinders and spheres, self-collision sphere pairs, and a state's verdict
-(the checks of states and certified motions built on it: sphere_checks).
+"""The compiled core of the sphere checker (numba): spheres posed by the arm's forward
+kinematics (mpnet.envs.arm.kinematics) against oriented boxes, cylinders and spheres,
+self-collision sphere pairs, and a state's verdict (the checks of states and certified
+motions built on it: sphere_checks).
 
 Why numba: a sampling planner asks about one configuration at a time from Python, and a
 configuration is ~13 frame transforms and a few hundred sphere tests with early exits, which
@@ -26,6 +27,7 @@ import math
 
 import numpy as np
 
+from mpnet.envs.arm.kinematics import forward
 from mpnet.envs.checkers.sphere_layout import (
     AXDIR,
     AXIS,
@@ -97,56 +99,6 @@ def _obstacles(ob):
 
 unpack_obstacles = njit(cache=True, borrowed=True)(_obstacles)  # for borrowed kernels (mpnet.jit)
 obstacle_views = njit(cache=True)(_obstacles)  # the same, for Python and counting kernels
-
-
-@njit(cache=True, borrowed=True)
-def forward(q, parent, origin, kind, axis, coord, out):
-    """Every frame's pose (3 x 4, base frame) at joint vector q, into out[:F]; out[F] is
-    scratch. Scalar loops throughout: array slicing costs more than the arithmetic here."""
-    F = parent.shape[0]
-    m = out[F]
-    for f in range(F):
-        for i in range(3):
-            for j in range(4):
-                m[i, j] = origin[f, i, j]
-        c = coord[f]
-        if c >= 0:
-            v = q[c]
-            if kind[f] == 1:
-                x, y, z = axis[f, 0], axis[f, 1], axis[f, 2]
-                cs, sn = math.cos(v), math.sin(v)
-                C = 1.0 - cs
-                if x == 0.0 and y == 0.0 and z == 1.0:  # the product below less its zero terms: the same bits
-                    for i in range(3):
-                        a0, a1 = origin[f, i, 0], origin[f, i, 1]
-                        m[i, 0] = a0 * cs + a1 * sn
-                        m[i, 1] = a0 * -sn + a1 * cs
-                        m[i, 2] = origin[f, i, 2] * (cs + C)
-                else:
-                    r00, r01, r02 = cs + x * x * C, x * y * C - z * sn, x * z * C + y * sn
-                    r10, r11, r12 = y * x * C + z * sn, cs + y * y * C, y * z * C - x * sn
-                    r20, r21, r22 = z * x * C - y * sn, z * y * C + x * sn, cs + z * z * C
-                    for i in range(3):
-                        a0, a1, a2 = origin[f, i, 0], origin[f, i, 1], origin[f, i, 2]
-                        m[i, 0] = a0 * r00 + a1 * r10 + a2 * r20
-                        m[i, 1] = a0 * r01 + a1 * r11 + a2 * r21
-                        m[i, 2] = a0 * r02 + a1 * r12 + a2 * r22
-            else:
-                for i in range(3):
-                    m[i, 3] += v * (
-                        origin[f, i, 0] * axis[f, 0] + origin[f, i, 1] * axis[f, 1] + origin[f, i, 2] * axis[f, 2]
-                    )
-        p = parent[f]
-        if p < 0:
-            for i in range(3):
-                for j in range(4):
-                    out[f, i, j] = m[i, j]
-        else:
-            for i in range(3):
-                p0, p1, p2 = out[p, i, 0], out[p, i, 1], out[p, i, 2]
-                for j in range(3):
-                    out[f, i, j] = p0 * m[0, j] + p1 * m[1, j] + p2 * m[2, j]
-                out[f, i, 3] = p0 * m[0, 3] + p1 * m[1, 3] + p2 * m[2, 3] + out[p, i, 3]
 
 
 @njit(cache=True, borrowed=True)

@@ -17,6 +17,7 @@ from importlib import resources
 
 import numpy as np
 
+from mpnet.envs.arm.kinematics import forward
 from mpnet.envs.arm.model import PRISMATIC, ArmModel, load_arm_model
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
@@ -41,11 +42,7 @@ class SphereModel:
         doc = read_spheres(model)
         self.model = model
         frames = kin.frames
-        self.parent = np.array([f.parent for f in frames], np.int64)
-        self.origin = np.ascontiguousarray(np.array([f.origin[:3] for f in frames]))
-        self.kind = np.array([f.kind for f in frames], np.int64)
-        self.axis = np.array([f.axis for f in frames], float)
-        self.coord = np.array([f.coordinate for f in frames], np.int64)
+        self.parent, self.origin, self.kind, self.axis, self.coord = kin.arrays()
         links = [f.link for f in frames if f.link in doc["links"]]
         self.links = links
         self.link_frame = np.array([kin.index(name) for name in links], np.int64)
@@ -200,7 +197,7 @@ class SphereModel:
     def world_spheres(self, q) -> np.ndarray:
         """(S, 4): every sphere's centre in the base frame and its radius at q."""
         pose = np.zeros((len(self.parent) + 1, 3, 4))
-        K.forward(np.asarray(q, float), self.parent, self.origin, self.kind, self.axis, self.coord, pose)
+        forward(np.asarray(q, float), self.parent, self.origin, self.kind, self.axis, self.coord, pose)
         frame = self.sphere_frame
         centres = np.einsum("nij,nj->ni", pose[frame, :, :3], self.local) + pose[frame, :, 3]
         return np.column_stack([centres, self.radius])

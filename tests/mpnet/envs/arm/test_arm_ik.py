@@ -85,9 +85,7 @@ def test_compiled_chain_pose_and_tolerance_are_the_models(seed):
     """The kernel's tip pose is the model's link_transforms; its tolerance test is meets'."""
     rng = np.random.default_rng(seed)
     q = rng.uniform(LOWER, UPPER)
-    origins, coords, kinds, axes = chain_arrays(MODEL, "panda_link8")
-    n = len(origins)
-    T = ik_kernels.chain_pose(q, origins, coords, kinds, axes, np.zeros((n, 3)), np.zeros((n, 3)))
+    T = ik_kernels.chain_pose(q, *chain_arrays(MODEL, "panda_link8"))
     assert np.allclose(T, MODEL.link_transforms(q)[MODEL.kinematics.index("panda_link8")], atol=1e-12)
     pose = MODEL.link_transforms(rng.uniform(LOWER, UPPER))[MODEL.kinematics.index("panda_link8")]
     pose[:3, 3] = T[:3, 3] + rng.uniform(-0.01, 0.01, 3)
@@ -108,19 +106,20 @@ def test_the_first_restart_that_succeeds_is_returned_and_later_ones_are_not_solv
 
 
 def test_a_restart_iterates_as_before_the_scratch():
-    """dls's iterations write scratch instead of allocating (borrowed kernels): the same joint
-    vectors and poses, bit for bit, as the allocating kernel gave (recorded at 2424fa5)."""
+    """dls's iterations write scratch instead of allocating (borrowed kernels), and pose the chain
+    with the one forward kinematics (its joints split: chain_arrays): the same joint vectors and
+    poses, bit for bit, as the allocating kernel with a chain product of its own gave (recorded
+    at 2424fa5)."""
     import hashlib
 
-    origins, coords, kinds, axes = chain_arrays(MODEL, "panda_link8")
+    chain = chain_arrays(MODEL, "panda_link8")
     rng = np.random.default_rng(42)
     h = hashlib.sha256()
     for _ in range(200):
         qt, q0 = rng.uniform(LOWER, UPPER), rng.uniform(LOWER, UPPER)
-        z = np.zeros((len(origins), 3))
-        T = ik_kernels.chain_pose(qt, origins, coords, kinds, axes, z, z.copy())
+        T = ik_kernels.chain_pose(qt, *chain)
         aim_p, aim_R = T[:3, 3] + rng.uniform(-0.01, 0.01, 3), np.ascontiguousarray(T[:3, :3])
-        q, T2 = ik_kernels.dls(q0, aim_p, aim_R, LOWER, UPPER, origins, coords, kinds, axes, 100, 0.05)
+        q, T2 = ik_kernels.dls(q0, aim_p, aim_R, LOWER, UPPER, *chain, 100, 0.05)
         h.update(q.tobytes() + T2.tobytes())
     assert h.hexdigest()[:16] == "865156361e8cc190"
 

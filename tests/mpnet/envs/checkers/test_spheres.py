@@ -13,6 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mpnet.envs.arm.kinematics import forward
 from mpnet.envs.arm.model import ArmModelError, load_arm_model
 from mpnet.envs.arm.spherize import link_hull, spherize
 from mpnet.envs.checkers import sphere_checks as C
@@ -55,14 +56,17 @@ def test_spheres_cover_the_links_hull(link):
         assert d.min(axis=1).max() <= -0.001
 
 
-def test_kernel_kinematics_match_the_model():
+def test_the_checkers_kinematics_are_the_models():
+    """The sphere model's frames are the model's, posed by the one forward kinematics: its poses
+    are link_transforms' to the last bit."""
     m = sphere_model("panda")
     pose = np.zeros((len(m.parent) + 1, 3, 4))
     rng = np.random.default_rng(1)
     for _ in range(20):
         q = ARM.space.sample(rng)
-        K.forward(q, m.parent, m.origin, m.kind, m.axis, m.coord, pose)
-        assert np.allclose(pose[:-1], MODEL.link_transforms(q)[:, :3, :], atol=1e-12)
+        forward(q, m.parent, m.origin, m.kind, m.axis, m.coord, pose)
+        T = MODEL.link_transforms(q)
+        assert np.array_equal(pose[:-1], T[:, :3, :]) and (T[:, 3] == [0.0, 0.0, 0.0, 1.0]).all()
 
 
 def test_the_kernels_views_are_the_model_fields_the_layout_names():
