@@ -48,6 +48,38 @@ def point_motions_free(a, b, lo, hi, lower, upper, by_reciprocal=False) -> np.nd
     return inb & ~segments_hit_boxes(a, b, lo, hi, by_reciprocal).any(axis=1)
 
 
+def segments_visible(p, q, lo, hi, eps=1e-9) -> np.ndarray:
+    """(m, k): segment p_i -> q_j enters no box's open interior (mpnet.planners.reference.visible
+    as it was written in numpy: Liang-Barsky clipping, a piece longer than eps with its midpoint
+    inside by more than eps crosses)."""
+    if len(lo) == 0:
+        return np.ones((len(p), len(q)), bool)
+    a = p[:, None, None, :]
+    d = q[None, :, None, :] - a
+    flat = d == 0
+    inside = (a >= lo[None, None]) & (a <= hi[None, None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_lo = (lo[None, None] - a) / d
+        t_hi = (hi[None, None] - a) / d
+        enter = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t_lo, t_hi))
+        leave = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t_lo, t_hi))
+        t0 = np.maximum(enter.max(-1), 0.0)
+        t1 = np.minimum(leave.min(-1), 1.0)
+        mid = a + d * ((t0 + t1) / 2)[..., None]
+    strictly_in = ((mid > lo[None, None] + eps) & (mid < hi[None, None] - eps)).all(-1)
+    return ~((t1 - t0 > eps) & strictly_in).any(-1)
+
+
+def ray_box_entries(o, d, half) -> np.ndarray:
+    """Where rays o + t d (o (n, 3) or (3,), d (n, 3)) enter the box of half extents `half`
+    about the origin, inf where never or from inside (mpnet.envs.scenes.camera's, in numpy)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (-half - o) / d, (half - o) / d
+    near = np.nanmax(np.minimum(t1, t2), axis=1)
+    far = np.nanmin(np.maximum(t1, t2), axis=1)
+    return np.where((near <= far) & (near > 0), near, np.inf)
+
+
 def _gaps(hx, hy, x, y, th, boxes):
     """Per box: the separating-axis gaps along the world x and y axes and the overall gap (the
     largest of the four axes'), as arrays; math.cos and math.sin as the kernels call them."""

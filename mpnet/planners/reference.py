@@ -38,30 +38,20 @@ def describe(spec: EnvSpec, expert: str = EXPERT.planner) -> str:
 
 
 def visible(p: np.ndarray, q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """(m, m) bool: segment p_i -> q_j enters no box's open interior.
+    """(m, k) bool: segment p_i -> q_j enters no box's open interior.
 
-    Liang-Barsky clipping against each closed box; a clipped piece of positive length
-    whose midpoint lies strictly inside the box crosses it (a chord of a convex set lies
-    on its boundary or has its relative interior inside). p, q: (m, 2); lo, hi: (n, 2).
-    Hand-written: ten lines of numpy, where a polygon library would loop over pairs.
+    Liang-Barsky clipping against each closed box (mpnet.envs.geometry's slab test, the point
+    checker's); a clipped piece longer than EPS whose midpoint lies inside the box by more than
+    EPS crosses it (a chord of a convex set lies on its boundary or has its relative interior
+    inside). p, q: (m, 2), (k, 2); lo, hi: (n, 2).
     """
-    if len(lo) == 0:
-        return np.ones((len(p), len(q)), bool)
-    a = p[:, None, None, :]  # (m, 1, 1, 2)
-    d = q[None, :, None, :] - a  # (m, m, 1, 2)
-    flat = d == 0
-    inside = (a >= lo[None, None]) & (a <= hi[None, None])
-    with np.errstate(divide="ignore", invalid="ignore"):  # flat axes and empty clips: masked below
-        t_lo = (lo[None, None] - a) / d  # (m, m, n, 2)
-        t_hi = (hi[None, None] - a) / d
-        enter = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t_lo, t_hi))
-        leave = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t_lo, t_hi))
-        t0 = np.maximum(enter.max(-1), 0.0)
-        t1 = np.minimum(leave.min(-1), 1.0)
-        mid = a + d * ((t0 + t1) / 2)[..., None]
-    strictly_in = ((mid > lo[None, None] + EPS) & (mid < hi[None, None] - EPS)).all(-1)
-    crosses = (t1 - t0 > EPS) & strictly_in
-    return ~crosses.any(-1)
+    from mpnet.envs.geometry import segments_cross  # numba: loaded by the exact reference only
+
+    p, q = np.ascontiguousarray(p, float), np.ascontiguousarray(q, float)
+    lo, hi = (np.ascontiguousarray(v, float).reshape(-1, p.shape[1]) for v in (lo, hi))
+    crosses = np.empty((len(p), len(q)), np.bool_)
+    segments_cross(p, q, lo, hi, EPS, crosses)
+    return ~crosses
 
 
 def shortest_path_cost_2d(spec: EnvSpec, ws: Workspace, start, goal) -> float:

@@ -186,7 +186,6 @@ class PointChecker(CollisionChecker):
 
     def _motions_free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         out = np.empty(len(a), np.bool_)
-        self._k.motions_free(
-            np.ascontiguousarray(a), np.ascontiguousarray(b), self._lo, self._hi, self._lower, self._upper, out
-        )
+        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+        self._k.motions_free(a, b, self._lo, self._hi, self._lower, self._upper, self._scratch, out)
         return out

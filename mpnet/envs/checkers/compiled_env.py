@@ -111,7 +111,7 @@ def _motions_typed(env, counts, A, B, out):
     def boxes(env, counts, A, B, out):
         kind, ints, floats, lo, hi, lower, upper, scratch = env
         if kind == POINT:
-            P.motions_free(A, B, lo, hi, lower, upper, out)
+            P.motions_free(A, B, lo, hi, lower, upper, scratch, out)
         else:  # the rigid checker's batch is its one-motion test in a loop (CollisionChecker)
             for i in range(A.shape[0]):
                 out[i] = R.motion_free(A[i], B[i], lo, hi, floats, ints)

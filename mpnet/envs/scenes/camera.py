@@ -3,8 +3,9 @@ paper's arm cloud came from a Kinect). Rays through a pixel grid are cast agains
 primitives; each ray's nearest hit is a point. The surfaces facing away from the camera, and
 whatever another obstacle hides, are not in the cloud (the robot is not in the scene).
 
-Ray casting is written here in numpy (one array operation per primitive for all rays): a
-renderer or pybullet's rayTestBatch would need a world per cloud, for a few dozen shapes.
+Ray casting is written here in numpy (one array operation per primitive for all rays; a box's
+is the point checker's slab test, compiled: mpnet.envs.geometry): a renderer or pybullet's
+rayTestBatch would need a world per cloud, for a few dozen shapes.
 """
 
 from __future__ import annotations
@@ -38,11 +39,13 @@ def rays(position=POSITION, target=TARGET, fov_deg=FOV_DEG, pixels=PIXELS) -> np
 
 
 def _box(o, d, half) -> np.ndarray:
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1, t2 = (-half - o) / d, (half - o) / d
-    near = np.nanmax(np.minimum(t1, t2), axis=1)
-    far = np.nanmin(np.maximum(t1, t2), axis=1)
-    return np.where((near <= far) & (near > 0), near, np.inf)
+    """Where each ray from o (3,) along d (n, 3) enters the box of half extents `half` about the
+    origin (inf: never, or from inside): mpnet.envs.geometry's slab test."""
+    from mpnet.envs.geometry import ray_entries  # numba: loaded by a camera cloud only
+
+    out = np.empty(len(d))
+    ray_entries(np.ascontiguousarray(o, float), np.ascontiguousarray(d, float), -half[None], half[None], out)
+    return out
 
 
 def _sphere(o, d, r) -> np.ndarray:
@@ -72,11 +75,12 @@ def depth(primitives: list[Primitive], origin: np.ndarray, directions: np.ndarra
     best = np.full(len(directions), np.inf)
     for p in primitives:
         R = p.rotation()
-        o = np.broadcast_to((origin - np.asarray(p.center)) @ R, directions.shape)
+        at = (origin - np.asarray(p.center)) @ R
+        o = np.broadcast_to(at, directions.shape)
         d = directions @ R
         size = np.asarray(p.size)
         if p.type == "box":
-            t = _box(o, d, size / 2)
+            t = _box(at, d, size / 2)
         elif p.type == "sphere":
             t = _sphere(o, d, size[0] / 2)
         else:

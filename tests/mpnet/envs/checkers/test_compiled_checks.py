@@ -47,7 +47,7 @@ def test_the_kernels_answer_as_the_checker(env, index, seed):
         free = O.point_motion_free(x.tolist(), y.tolist(), *args)
         assert P.motion_free(x, y, *args, d) == checker.motion_valid(x.tolist(), y.tolist()) == free
     out = np.empty(len(a), np.bool_)
-    P.motions_free(a, b, *args, out)
+    P.motions_free(a, b, *args, d, out)
     assert np.array_equal(out, checker.motions_valid(a, b))
     assert np.array_equal(out, O.point_motions_free(a, b, *args))
     assert np.array_equal(checker.states_valid(a), [O.point_state_free(x, *args) for x in a])
@@ -64,7 +64,7 @@ def test_a_segment_along_a_face_and_a_point_on_a_corner_collide(env):
     end[0] = hi[0]
     assert not P.motion_free(lo.copy(), end, *args, np.empty(spec.state_dim))
     out = np.empty(1, np.bool_)
-    P.motions_free(lo[None], end[None], *args, out)
+    P.motions_free(lo[None], end[None], *args, np.empty(spec.state_dim), out)
     assert not out[0]
 
 
