@@ -131,6 +131,10 @@ def test_the_repository_kernels_reach_what_they_inline():
     assert "envs/checkers/sphere_layout.py" in reach("envs/checkers/sphere_checks.py")
     # a Python-side module does not recompile it
     assert "envs/checkers/spheres.py" not in reach("envs/checkers/sphere_checks.py")
+    # the geometry written once: the kinematics (checker and IK), the slab test (point checks)
+    assert "envs/arm/kinematics.py" in reach("envs/checkers/sphere_checks.py") & reach("envs/arm/ik_kernels.py")
+    assert "envs/geometry.py" in reach("planners/compiled/kernels.py")
+    assert "envs/arm/model.py" not in reach("envs/arm/kinematics.py")  # nor the Python-side model
 
 
 PLANNER_PROBE = textwrap.dedent(

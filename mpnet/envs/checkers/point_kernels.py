@@ -59,7 +59,7 @@ def motions_free(A, B, lo, hi, lower, upper, d, out):
         out[i] = _segment_free(A[i], B[i], lo, hi, lower, upper, d, False)
 
 
-@njit(cache=True, borrowed=True)
+@njit(cache=True, borrowed=True, inline="always")
 def _segment_free(a, b, lo, hi, lower, upper, d, reciprocal):
     """Both ends in bounds and the segment a -> b meets no closed box (mpnet.envs.geometry.clip)."""
     if not (in_bounds(a, lower, upper) and in_bounds(b, lower, upper)):
