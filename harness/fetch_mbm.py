@@ -1,6 +1,7 @@
-"""`python -m harness.fetch_mbm DEST`: MotionBenchMaker's Panda problems (7 scenes x 100
-scene/request YAML pairs) from the `vamp-planner` source distribution
-(`resources/panda/problems.tar.bz2`, Apache-2.0), into DEST/problems/<scene>_panda/.
+"""`python -m harness.fetch_mbm DEST`: MotionBenchMaker's problems (per robot, 7 scenes x 100
+scene/request YAML pairs) from the `vamp-planner` source distribution (Apache-2.0): the archives
+`mpnet/data_files/mbm/archives.yaml` lists (the Panda's `resources/panda/problems.tar.bz2`, into
+DEST/problems/<scene>_panda/).
 
 The source distribution is downloaded by pip (`pip download --no-deps --no-binary
 vamp-planner vamp-planner==0.6.4`), so the user's own index, mirror and proxy settings apply.
@@ -21,10 +22,14 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+from importlib import resources
 from pathlib import Path
 
+import yaml
+
 PACKAGE, VERSION = "vamp-planner", "0.6.4"
-MEMBER = "resources/panda/problems.tar.bz2"
+# the archives unpacked, each into DEST/<dest> (data: a robot's problem sets are a line there)
+ARCHIVES = yaml.safe_load((resources.files("mpnet") / "data_files" / "mbm" / "archives.yaml").read_text())
 
 
 def download_sdist(folder: Path, version: str = VERSION) -> Path:
@@ -40,14 +45,16 @@ def download_sdist(folder: Path, version: str = VERSION) -> Path:
 
 
 def extract(sdist: bytes, dest: Path) -> list[Path]:
-    """Unpack the Panda problems of a vamp-planner sdist into dest; returns the scene folders."""
+    """Unpack the problem archives (ARCHIVES) of a vamp-planner sdist into dest; returns the scene folders."""
     with tarfile.open(fileobj=io.BytesIO(sdist), mode="r:gz") as outer:
-        member = next((m for m in outer.getmembers() if m.name.endswith(MEMBER)), None)
-        if member is None:
-            raise ValueError(f"the source distribution has no {MEMBER}")
-        inner = outer.extractfile(member).read()
-    with tarfile.open(fileobj=io.BytesIO(inner), mode="r:bz2") as problems:
-        problems.extractall(dest, filter="data")
+        members = outer.getmembers()
+        for archive in ARCHIVES:
+            member = next((m for m in members if m.name.endswith(archive["member"])), None)
+            if member is None:
+                raise ValueError(f"the source distribution has no {archive['member']}")
+            inner = outer.extractfile(member).read()
+            with tarfile.open(fileobj=io.BytesIO(inner), mode="r:bz2") as problems:
+                problems.extractall(dest / archive["dest"], filter="data")
     return sorted(p.parent for p in dest.rglob("scene0001.yaml"))
 
 

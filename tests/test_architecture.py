@@ -4,6 +4,7 @@ pyproject.toml), no import cycle (function-level imports included), no module pa
 
 from __future__ import annotations
 
+import ast
 import re
 import subprocess
 import sys
@@ -95,6 +96,47 @@ def test_the_robot_kind_is_asked_only_of_its_classes(repo):
         if pattern.search(line)
     ]
     assert hits == []
+
+
+ROBOTS = {"panda", "franka", "ur5", "fetch", "baxter"}  # and every robot file's model name (below)
+COMMANDS = ("fetch_mbm",)  # names that hold a robot's name as a word and name none
+
+
+def _code_words(path) -> list[tuple[int, str]]:
+    """(line, text) of every identifier and string constant but docstrings."""
+    tree = ast.parse(path.read_text())
+    docs = {
+        id(n.body[0].value)
+        for n in ast.walk(tree)
+        if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+        and n.body
+        and isinstance(n.body[0], ast.Expr)
+        and isinstance(n.body[0].value, ast.Constant)
+    }
+    out = []
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in docs:
+            out.append((n.lineno, n.value))
+        for field in ("id", "attr", "name", "arg", "asname"):
+            if isinstance(getattr(n, field, None), str) and hasattr(n, "lineno"):
+                out.append((n.lineno, getattr(n, field)))
+    return out
+
+
+def test_no_code_names_a_robot(repo):
+    """Robot facts live in data files and configs (issue 66): no identifier or string in the
+    packages names a robot (comments and docstrings may)."""
+    models = {p.stem for p in (repo / "mpnet" / "data_files" / "robots").glob("*.yaml")}
+    found = []
+    for pkg in ("mpnet", "harness"):
+        for path in sorted((repo / pkg).rglob("*.py")):
+            for line, text in _code_words(path):
+                for command in COMMANDS:
+                    text = text.replace(command, "")
+                low = text.lower()
+                if ROBOTS & set(re.split(r"[^a-z0-9]+", low)) or models & set(re.split(r"[^a-z0-9_]+", low)):
+                    found.append(f"{path.relative_to(repo)}:{line}: {text[:60]!r}")
+    assert not found, "\n".join(found)
 
 
 def test_no_planner_names_a_checker_class_or_its_private_fields(repo):

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
+ENVS = sorted(p.stem for p in (CONF_DIR / "env").glob("*.yaml"))  # every env, for examples that name them all
 ADDED = ("env", "planner", "experiment")  # the groups without a default: +group=NAME
 
 
@@ -80,7 +81,7 @@ ENTRIES = {
         ("export_dir", "cache_dir"),
         (
             "python -m harness.export_weights +env=s2d scale=quick",
-            "python -m harness.export_weights -m +env=s2d,c2d,c3d,rigid,arm7,panda_mbm scale=quick",
+            f"python -m harness.export_weights -m +env={','.join(ENVS)} scale=quick",
             "python -m harness.export_weights +env=s2d scale=tiny export_dir=/tmp/sets",
         ),
     ),

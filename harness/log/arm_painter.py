@@ -28,7 +28,7 @@ GHOSTS = 6  # arm poses drawn along each path (start and goal included)
 
 
 @cache
-def link_boxes(model: str = "panda") -> list[tuple[int, np.ndarray, np.ndarray]]:
+def link_boxes(model: str) -> list[tuple[int, np.ndarray, np.ndarray]]:
     """(link index in the pose list, centre, size) of each link's collision mesh, as a box
     in the link's inertial frame (where getMeshData's vertices are)."""
     out = []
@@ -41,9 +41,7 @@ def link_boxes(model: str = "panda") -> list[tuple[int, np.ndarray, np.ndarray]]
     return out
 
 
-def arm_boxes(
-    q, model: str = "panda", world: ArmWorld | None = None
-) -> list[tuple[np.ndarray, list[float], np.ndarray]]:
+def arm_boxes(q, model: str, world: ArmWorld | None = None) -> list[tuple[np.ndarray, list[float], np.ndarray]]:
     """(centre, quaternion, size) of every link box at configuration q (in `world` when the
     caller holds one of the model: a painter's)."""
     if world is not None:
@@ -94,7 +92,7 @@ class ArmPainter(Painter):
 
     @property
     def model(self) -> str:
-        return logged_model_name(self.robot) if isinstance(self.robot, dict) else "panda"
+        return logged_model_name(self.robot if isinstance(self.robot, dict) else {})
 
     @cached_property
     def world(self) -> ArmWorld:

@@ -141,7 +141,7 @@ WORKSPACE_SCHEMA = {
         "robot": {
             "type": ["object", "string"],
             "description": '{"kind": "point"}, {"kind": "rectangle", "size": [w, h]} or '
-            '{"kind": "arm", "name": "panda", "urdf": ..., "fingers": ...}',
+            '{"kind": "arm", "name": <model>, "urdf": ..., "fingers": ...}',
         },
     },
     "required": ["workspace_id", "split", "bounds", "obstacles", "robot"],

@@ -4,16 +4,11 @@ from __future__ import annotations
 
 import re
 
-ENV_ORDER = ("s2d", "c2d", "c3d", "rigid", "arm7", "panda_mbm")
-# arm7 is the Franka Panda of pybullet_data: the paper's Baxter model is not installable.
-ENV_LABELS = {
-    "s2d": "Simple 2D",
-    "c2d": "Complex 2D",
-    "c3d": "Complex 3D",
-    "rigid": "Rigid body",
-    "arm7": "7-DOF arm (Panda, not the paper's Baxter)",
-    "panda_mbm": "7-DOF arm (Panda) in MotionBenchMaker-style scenes",
-}
+from mpnet.envs.specs import definitions
+
+# the env files' order and labels (mpnet/data_files/envs); a log's env without a file: its name
+ENV_ORDER = tuple(definitions())
+ENV_LABELS = {name: d.get("label", name) for name, d in definitions().items()}
 SPLIT_ORDER = ("seen", "unseen")
 PAPER_PLANNERS = ("mpnet_nr", "mpnet_hr", "informed_rrt_star", "bit_star")
 KNOWN_EXTRAS = ("rrt_star", "rrt_connect", "rrt_connect_compiled")

@@ -5,7 +5,10 @@ VAMP counts them: a query whose start or goal is invalid for our robot model
 
 from __future__ import annotations
 
+from importlib import resources
+
 import pandas as pd
+import yaml
 
 from harness.report.facts import Facts
 from harness.report.names import env_rank
@@ -29,24 +32,8 @@ COLS = [
 ]
 
 
-# Published figures on MotionBenchMaker's Panda problems, beside ours for orientation only:
-# other hardware, other collision models (VAMP: 59 spheres, cuRobo: 61), and for cuRobo
-# robometrics' 800-problem version of the benchmark. Neither publishes per-set figures.
-PUBLISHED = (
-    (
-        "VAMP, RRT-Connect (default settings)",
-        "699 / 699 / 700",
-        "planning time median 35 us, p95 343 us; one core of an AMD Ryzen 9 7950X",
-        "github.com/KavrakiLab/vamp, resources/README.md (Panda table)",
-    ),
-    (
-        "cuRobo v0.7.6",
-        "100% of 800 (robometrics' MotionBenchMaker)",
-        "plan time median 31 ms, p98 161 ms; NVIDIA RTX 6000 Ada",
-        "curobo.org/get_started/4_benchmarks.html (2024-11-22)",
-    ),
-)
-MBM_SUFFIX = "_panda"  # MotionBenchMaker's Panda problem sets: bookshelf_small_panda, ...
+# Published figures beside a report's problem sets, by the sets' name suffix (data: published.yaml)
+PUBLISHED = yaml.safe_load((resources.files("harness") / "report" / "published.yaml").read_text(encoding="utf-8"))
 
 
 def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:
@@ -102,18 +89,19 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
     ]
     note = (
         "Problem sets are the workspace-id prefixes of problem-file runs (MotionBenchMaker's scenes, e.g. "
-        "`box_panda`). Valid: start and goal are valid for our robot model (the others are logged "
+        f"`{df['problem_set'].iloc[0]}`). Valid: start and goal are valid for our robot model (the others are logged "
         "`invalid_query`, as VAMP counts them); solved: the path passed the fine re-check. Times are over the "
         "solved queries, all seeds together; the success interval is Wilson's 95%. Timed out: queries that ran out "
-        "of budget, with the share of a CPU they got (below 90%: a loaded machine, the rate a lower bound). "
-        "arm7's and panda_mbm's robot is the Franka "
-        "Panda as MotionBenchMaker models it (fingers held at 0.065 m, MoveIt's limits), not the paper's Baxter."
+        "of budget, with the share of a CPU they got (below 90%: a loaded machine, the rate a lower bound)."
     )
+    sets = df["problem_set"].astype(str)
+    shown = [p for suffix, p in PUBLISHED.items() if sets.str.endswith(suffix).any()]
+    note += "".join(f" {p['robot']}" for p in shown)
     text = f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"
-    if df["problem_set"].astype(str).str.endswith(MBM_SUFFIX).any():
-        published = _md_table(["Planner", "Solved / valid / total", "Time", "Source"], [list(p) for p in PUBLISHED])
+    for p in shown:
+        published = _md_table(["Planner", "Solved / valid / total", "Time", "Source"], [list(f) for f in p["figures"]])
         text += (
-            "\n## Published figures on MotionBenchMaker's Panda problems (other hardware)\n\n"
+            f"\n## {p['title']}\n\n"
             f"{published}\n\nPooled over the seven sets (neither publishes per-set figures); other machines, "
             "other collision models: for orientation, not a comparison on equal terms.\n"
         )

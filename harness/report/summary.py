@@ -3,7 +3,8 @@
 One short table (per env: success, median time and path cost of MPNet-NR, MPNet-HR, BIT*,
 RRT-Connect, the compiled RRT-Connect and random proposals in MPNet's loop) and three sentences
 of what it means, read from the committed reports' `results.csv` files (SOURCES: a row's own
-report, then its `extra` reports for the planners it lacks, their cells marked) and written into
+report, then its `extra` reports for the planners it lacks, their cells marked; the rows are
+harness/report/summary.yaml) and written into
 reports/summary.md and between the README's markers. Nothing is typed by hand: a changed
 report changes the summary, and tests/harness/report/test_summary.py fails while the README's copy is stale.
 
@@ -19,7 +20,10 @@ import csv
 import re
 import sys
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
+
+import yaml
 
 BEGIN, END = "<!-- summary:begin -->", "<!-- summary:end -->"
 
@@ -34,21 +38,16 @@ class Source:
     env: str
     split: str
     extra: tuple[str, ...] = ()
+    short: str = ""  # its name in the sentences (default: the label up to its comma)
+
+    @property
+    def name(self) -> str:
+        return self.short or self.label.split(",")[0]
 
 
-SOURCES = (
-    Source("Simple 2D, unseen workspaces", "stats", "s2d", "unseen"),
-    Source("Complex 2D, unseen workspaces", "stats", "c2d", "unseen"),
-    Source("Complex 3D, unseen workspaces", "stats", "c3d", "unseen"),
-    Source("Rigid body (SE(2)), unseen workspaces", "stats", "rigid", "unseen"),
-    Source("7-DOF Panda, our shelf scenes (arm7), unseen", "arm7", "arm7", "unseen", ("rrt_connect_compiled/arm7",)),
-    Source(  # MPNet's cells from the shipped networks (issue 65's recipe), the classical planners' beside
-        "7-DOF Panda, MotionBenchMaker's 700 (panda_mbm)",
-        "panda_mbm_mbm/shipped",
-        "panda_mbm",
-        "file",
-        ("panda_mbm_mbm", "rrt_connect_compiled/beside_nr"),
-    ),
+SOURCES = tuple(
+    Source(**{**row, "extra": tuple(row.get("extra", ()))})
+    for row in yaml.safe_load((resources.files("harness") / "report" / "summary.yaml").read_text(encoding="utf-8"))
 )
 PLANNERS = (
     ("MPNet-NR", "mpnet_nr"),
@@ -202,7 +201,7 @@ def sentences(rows: dict[Source, dict[str, Cell]]) -> list[str]:
     out.append("On the arm: " + "; ".join(words) + ".")
     ahead = [s for s in SOURCES if _beats(rows[s], "mpnet_nr_random", "mpnet_nr")]
     if ahead:
-        names = ", ".join(s.label.split(",")[0] + (" (MBM)" if s.env == "panda_mbm" else "") for s in ahead)
+        names = ", ".join(s.name for s in ahead)
         costs = [(rows[s]["mpnet_nr"].cost, rows[s]["mpnet_nr_random"].cost) for s in ahead]
         costs = [(a, b) for a, b in costs if a is not None and b is not None]
         tail = (

@@ -4,13 +4,17 @@ can check it (by backend name: `env.collision`)."""
 from __future__ import annotations
 
 import math
+from functools import cache
+from importlib import resources
+
+import yaml
 
 from mpnet.envs.arm.model import ArmModel, load_arm_model
 from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
 from mpnet.envs.checkers.pybullet_arm import PybulletArmChecker
 from mpnet.envs.checkers.rigid import FclRigidChecker, RigidChecker
 from mpnet.envs.checkers.spheres import SphereChecker, obstacle_arrays, sphere_model
-from mpnet.envs.spaces import EuclideanSpace
+from mpnet.envs.spaces import EuclideanSpace, SE2Space, StateSpace
 from mpnet.envs.workspace import Workspace
 
 
@@ -48,6 +52,10 @@ class Robot:
         moving body as spheres on its chain ("body") and each workspace's primitives
         ("obstacles", one dict a workspace); None: this robot offers none."""
         return None
+
+    def space(self, bounds) -> StateSpace:
+        """The robot's state space in a workspace of these bounds (an env file's `bounds`)."""
+        return EuclideanSpace(bounds)
 
     def make_checker(
         self, spec, ws: Workspace, margin: float = PLANNING_MARGIN, backend: str | None = None
@@ -87,6 +95,10 @@ class RectangleRobot(Robot):
 
     def to_json(self) -> dict:
         return {"kind": self.kind, "size": list(self.size)}
+
+    def space(self, bounds) -> StateSpace:
+        """(x, y, theta) over the bounds, theta weighted by the body's half-diagonal."""
+        return SE2Space(bounds, radius=self.radius)
 
 
 class ArmRobot(Robot):
@@ -140,6 +152,12 @@ class ArmRobot(Robot):
     def joint_space(self):
         return EuclideanSpace(self.model.limits)
 
+    def space(self, bounds=None) -> StateSpace:
+        """The joint space: the model's limits are its bounds (an env file gives none)."""
+        if bounds is not None:
+            raise ValueError("an arm's bounds are its joint limits: its env file gives no `bounds`")
+        return self.joint_space()
+
     def clearance_arrays(self, workspaces: list[Workspace]) -> dict:
         """The sphere model's moving spheres (the sphere checker's) and each workspace's primitives."""
         return {
@@ -148,9 +166,14 @@ class ArmRobot(Robot):
         }
 
 
+@cache
+def _older_logs() -> dict:
+    return yaml.safe_load((resources.files("mpnet") / "data_files" / "logged_robots.yaml").read_text())
+
+
 def logged_model_name(robot: dict) -> str:
-    """The arm model a log's robot description names. Logs written before arm models were
-    data ({"name": "panda", "fingers": 0.04}) used pybullet_data's Panda as shipped."""
+    """The arm model a log's robot description names (data_files/logged_robots.yaml: what
+    logs written before arm models were data, or naming none, name)."""
     if isinstance(robot.get("fingers"), (int, float)):
-        return "panda_pybullet_data"
-    return str(robot.get("name", "panda"))
+        return str(_older_logs()["numeric_fingers"])
+    return str(robot.get("name", _older_logs()["unnamed"]))

@@ -1,89 +1,113 @@
-"""The env registry: each env's space, robot, generator and cloud (docs/environments.md). A new
-kind of robot adds its space, robot and checker classes and an entry here.
+"""The env registry: each env is a file, `mpnet/data_files/envs/<name>.yaml` (docs/environments.md).
+A file names its robot and workspace generator by class (`{class: module.Class, args: [...]}`),
+its robot's state space by bounds (an arm's are its joint limits), and the fixed facts the
+stages share (EnvSpec's fields). A new env, or a new robot of an existing kind, is a new file;
+a new kind of robot adds its classes (robot, space, checker) and names them there.
 
-An env is built when first asked for, not on import: the arm's envs read the robot's
-description (URDF, limits) to make their joint space, which an s2d run never needs."""
+In a file, a string "$robot" is the env's robot and "$generator.pairs" an attribute of its
+generator (MotionBenchMaker's scenes draw their own queries). An env is built when first asked
+for, not on import: an arm's env reads the robot's description (URDF, limits) to make its joint
+space, which an s2d run never needs; envs naming the same robot share one robot object."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+import importlib
+from collections.abc import Iterator, Mapping
 from functools import cache
+from importlib import resources
+from typing import Any
 
-from mpnet.envs.mbm.generator import MBMScenes
-from mpnet.envs.robots import ArmRobot, PointRobot, RectangleRobot
-from mpnet.envs.scenes.arm_scenes import ArmScenes, arm_cloud
-from mpnet.envs.scenes.generators import C2D_SIZES, C3DLayouts, OriginalLayouts
-from mpnet.envs.spaces import EuclideanSpace, SE2Space
+import yaml
+
 from mpnet.envs.spec import EnvSpec
 
-_BOX = ((-20.0, 20.0),)
-_RIGID = RectangleRobot((2.0, 5.0))
+ENVS = resources.files("mpnet") / "data_files" / "envs"
+# EnvSpec's fields an env file may give beyond its robot, bounds and generator
+FIELDS = ("workspace_dim", "blocks", "validation_step", "exact_reference", "sample_cloud", "motion_step",
+          "planning_margin", "planner_range", "cloud_scale", "pairs")  # fmt: skip
+
+
+def _imported(path: str) -> Any:
+    """module.name -> the object (a class, a function)."""
+    module, _, name = path.rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
+def _frozen(value):
+    """YAML lists as tuples: a robot's arguments are a cache key (one robot object per model)."""
+    return tuple(_frozen(v) for v in value) if isinstance(value, list) else value
 
 
 @cache
-def _panda_robot() -> ArmRobot:
-    return ArmRobot("panda")
+def _made(path: str, args: tuple) -> Any:
+    return _imported(path)(*args)
 
 
-def _panda(name: str, generator, **kwargs) -> EnvSpec:
-    """An env of the Panda: its joint space, surface clouds of 10 x points_per_block points
-    in metres, the judge's 0.002 rad re-check, no planning margin."""
-    panda = _panda_robot()
-    return EnvSpec(
-        name,
-        panda.joint_space(),
-        panda,
-        3,
-        generator,
-        blocks=10,
-        validation_step=0.002,
-        sample_cloud=arm_cloud,
-        motion_step=0.02,
-        planning_margin=0.0,
-        cloud_scale=(1.0, 1.0, 1.0),
-        **kwargs,
-    )
+def _resolve(value, built: dict):
+    """'$robot' / '$generator.attr' -> what the file built so far; lists resolved item by item."""
+    if isinstance(value, str) and value.startswith("$"):
+        name, _, attr = value[1:].partition(".")
+        return getattr(built[name], attr) if attr else built[name]
+    if isinstance(value, list):
+        return [_resolve(v, built) for v in value]
+    return value
 
 
-def _panda_mbm() -> EnvSpec:
-    scenes = MBMScenes(_panda_robot())
-    return _panda("panda_mbm", scenes, pairs=scenes.pairs)
+def _instance(node: dict, built: dict, shared: bool = False) -> Any:
+    """{class, args}: the class called on its arguments (shared: one object per class and arguments)."""
+    args = [_resolve(a, built) for a in node.get("args", [])]
+    return _made(node["class"], _frozen(args)) if shared else _imported(node["class"])(*args)
 
 
-_BUILDERS: dict[str, Callable[[], EnvSpec]] = {
-    "s2d": lambda: EnvSpec("s2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(), exact_reference=True),
-    "c2d": lambda: EnvSpec(
-        "c2d", EuclideanSpace(_BOX * 2), PointRobot(), 2, OriginalLayouts(C2D_SIZES), exact_reference=True
-    ),
-    "c3d": lambda: EnvSpec("c3d", EuclideanSpace(_BOX * 3), PointRobot(), 3, C3DLayouts(), blocks=10),
-    "rigid": lambda: EnvSpec("rigid", SE2Space(_BOX * 2, radius=_RIGID.radius), _RIGID, 2, OriginalLayouts()),
-    # MotionBenchMaker's Franka Panda (the paper's Baxter is not installable): joint vectors
-    # within the model's limits, obstacles in metres in the base frame.
-    "arm7": lambda: _panda("arm7", ArmScenes()),
-    # The same Panda in scenes of MotionBenchMaker's seven families, with MBM's queries
-    # (mpnet.envs.mbm.generator): the training and test data for MBM's 700 problems (issue 26).
-    "panda_mbm": _panda_mbm,
-}
+def definitions() -> dict[str, dict]:
+    """Every env file as read, by name, in their `order` (reports take `label` and the order)."""
+    return {name: dict(d) for name, d in _definitions().items()}
+
+
+@cache
+def _definitions() -> dict[str, dict]:
+    """Every env file, by name, in their `order`."""
+    files = [f for f in ENVS.iterdir() if f.name.endswith(".yaml")]
+    defs = {f.name.removesuffix(".yaml"): yaml.safe_load(f.read_text()) for f in files}
+    return dict(sorted(defs.items(), key=lambda kv: (kv[1].get("order", 1 << 30), kv[0])))
+
+
+def build(name: str, definition: dict) -> EnvSpec:
+    """The EnvSpec an env file describes."""
+    unknown = set(definition) - {"order", "label", "robot", "bounds", "generator", *FIELDS}
+    if unknown:
+        raise ValueError(f"env file {name}.yaml: unknown keys {', '.join(sorted(unknown))}")
+    built: dict[str, Any] = {"robot": _instance(definition["robot"], {}, shared=True)}
+    built["generator"] = _instance(definition["generator"], built)
+    bounds = definition.get("bounds")
+    space = built["robot"].space(None if bounds is None else tuple(tuple(float(v) for v in b) for b in bounds))
+    fields = {k: _resolve(definition[k], built) for k in FIELDS if k in definition}
+    if "sample_cloud" in fields:
+        fields["sample_cloud"] = _imported(fields["sample_cloud"])
+    if "cloud_scale" in fields:
+        fields["cloud_scale"] = tuple(float(v) for v in fields["cloud_scale"])
+    workspace_dim = fields.pop("workspace_dim")
+    return EnvSpec(name, space, built["robot"], workspace_dim, built["generator"], **fields)
 
 
 @cache
 def _built(name: str) -> EnvSpec:
-    return _BUILDERS[name]()
+    return build(name, _definitions()[name])
 
 
 class _Registry(Mapping[str, EnvSpec]):
     """The envs by name: names known at once, each EnvSpec built on first access, then the same object."""
 
     def __getitem__(self, name: str) -> EnvSpec:
-        if name not in _BUILDERS:
+        if name not in _definitions():
             raise KeyError(name)
         return _built(name)
 
     def __iter__(self) -> Iterator[str]:
-        return iter(_BUILDERS)
+        return iter(_definitions())
 
     def __len__(self) -> int:
-        return len(_BUILDERS)
+        return len(_definitions())
 
 
 SPECS: Mapping[str, EnvSpec] = _Registry()

@@ -160,7 +160,9 @@ def load_mbm(path: str | Path, spec: EnvSpec, per_set: int | None = None) -> Tes
     only the first that many of each problem set (folder), by number."""
     model = getattr(spec.robot, "model", None)  # an arm's: its planned joints name the request's
     if model is None or spec.workspace_dim != 3:
-        raise ProblemFileError(path, f"MotionBenchMaker's Panda problems need env arm7 or panda_mbm, not {spec.name}")
+        raise ProblemFileError(
+            path, f"MotionBenchMaker's problems need an env whose robot is an arm model, not {spec.name}"
+        )
     workspaces, queries = [], []
     taken: dict[str, int] = {}
     for pid, scene, request in _pairs(Path(path)):

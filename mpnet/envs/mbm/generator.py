@@ -21,11 +21,10 @@ import numpy as np
 
 from mpnet.envs.arm.ik import IKTarget, solve
 from mpnet.envs.checkers.collision import CollisionChecker
-from mpnet.envs.mbm.scenes import PoseQuery, SceneFamily, default_start, families
+from mpnet.envs.mbm.scenes import PoseQuery, SceneFamily, default_start, families, ik_tip
 from mpnet.envs.spec import EnvSpec
 from mpnet.envs.workspace import Workspace
 
-TIP = "panda_link8"  # MBM's IK tip: the SRDF's panda_arm chain ends there
 FAMILY_ORDER = (
     "bookshelf_small",
     "bookshelf_tall",
@@ -35,11 +34,6 @@ FAMILY_ORDER = (
     "table_pick",
     "table_under_pick",
 )
-
-
-def family_of(ws: Workspace) -> SceneFamily:
-    """The family of a generated workspace (its id is its index)."""
-    return families()[FAMILY_ORDER[int(ws.id) % len(FAMILY_ORDER)]]
 
 
 def poses_of(family: SceneFamily, ws: Workspace) -> dict[str, np.ndarray]:
@@ -60,9 +54,11 @@ def poses_of(family: SceneFamily, ws: Workspace) -> dict[str, np.ndarray]:
     return out
 
 
-def ik_to(model, family: SceneFamily, poses, query: PoseQuery, name: str, rng, seed_q, checker, attempts: int):
-    """A valid joint vector putting panda_link8 where `query` asks at object `name`, or None."""
-    target = IKTarget(TIP, family.link8_targets(poses, query)[name], query.position_tol, query.orientation_tol)
+def ik_to(
+    model, tip: str, family: SceneFamily, poses, query: PoseQuery, name: str, rng, seed_q, checker, attempts: int
+):
+    """A valid joint vector putting link `tip` where `query` asks at object `name`, or None."""
+    target = IKTarget(tip, family.tip_targets(poses, query)[name], query.position_tol, query.orientation_tol)
     return solve(model, target, rng, seed_q=seed_q, attempts=attempts, valid=lambda q: checker.is_valid(q.tolist()))
 
 
@@ -81,9 +77,17 @@ class MBMScenes:
     VERSION = 2  # in the data and test set keys: bumped when a change can change a scene or query (2: compiled IK)
     split_sizes = (7000, 700)  # training (seen) ids 0-6999, unseen 7000-7699: 1000 and 100 per family
 
-    def __init__(self, robot, ik_attempts: int = 200, scene_attempts: int = 200, goal_failures: int = 3):
-        self.robot = robot
+    def __init__(self, robot, scenes: str, ik_attempts: int = 200, scene_attempts: int = 200, goal_failures: int = 3):
+        self.robot, self.scenes = robot, scenes  # scenes: the robot's family file in data_files/mbm
         self.ik_attempts, self.scene_attempts, self.goal_failures = ik_attempts, scene_attempts, goal_failures
+
+    def family_of(self, ws: Workspace) -> SceneFamily:
+        """The family of a generated workspace (its id is its index)."""
+        return families(self.scenes)[FAMILY_ORDER[int(ws.id) % len(FAMILY_ORDER)]]
+
+    def _ik(self, family: SceneFamily, poses, query: PoseQuery, name: str, rng, seed_q, checker):
+        tip = ik_tip(self.scenes)
+        return ik_to(self.robot.model, tip, family, poses, query, name, rng, seed_q, checker, self.ik_attempts)
 
     @cached_property
     def _screen(self) -> EnvSpec:
@@ -92,18 +96,16 @@ class MBMScenes:
 
     def _start(self, family: SceneFamily, poses, checker: CollisionChecker, rng) -> np.ndarray | None:
         if family.starts is None:
-            start = default_start()
+            start = default_start(self.scenes)
             return start if checker.is_valid(start.tolist()) else None
         name = _any(family.starts.objects, rng)
-        return ik_to(
-            self.robot.model, family, poses, family.starts, name, rng, default_start(), checker, self.ik_attempts
-        )
+        return self._ik(family, poses, family.starts, name, rng, default_start(self.scenes), checker)
 
     def _goal(self, family: SceneFamily, poses, checker, rng, start, name: str) -> np.ndarray | None:
-        return ik_to(self.robot.model, family, poses, family.goals, name, rng, start, checker, self.ik_attempts)
+        return self._ik(family, poses, family.goals, name, rng, start, checker)
 
     def make(self, index: int, split: str, seed: int = 0) -> Workspace:
-        family = families()[FAMILY_ORDER[index % len(FAMILY_ORDER)]]
+        family = families(self.scenes)[FAMILY_ORDER[index % len(FAMILY_ORDER)]]
         for attempt in range(self.scene_attempts):
             rng = np.random.default_rng([seed, 26, index, attempt])
             poses = family.sample(rng)
@@ -126,7 +128,7 @@ class MBMScenes:
             return list(pool.map(self.make, indices, [split] * len(indices), [seed] * len(indices), chunksize=4))
 
     def pairs(self, spec: EnvSpec, ws: Workspace, checker: CollisionChecker, rng: np.random.Generator):
-        family = family_of(ws)
+        family = self.family_of(ws)
         poses = poses_of(family, ws)
         misses = dict.fromkeys(family.goals.objects, 0)  # IK calls in a row that found nothing, per object
         failures = 0

@@ -111,9 +111,9 @@ class SceneFamily:
                 out.append(Primitive("cylinder", p[:3, 3], (2 * radius, 2 * radius, height), quat, name=o.name))
         return tuple(out)
 
-    def link8_targets(self, poses: dict[str, np.ndarray], query: PoseQuery) -> dict[str, np.ndarray]:
-        """panda_link8's wanted pose per object of the query: object * offset *
-        inverse(ee_offset), as MBM's ProblemGenerator computes it."""
+    def tip_targets(self, poses: dict[str, np.ndarray], query: PoseQuery) -> dict[str, np.ndarray]:
+        """The IK tip's wanted pose per object of the query (the Panda's: panda_link8): object *
+        offset * inverse(ee_offset), as MBM's ProblemGenerator computes it."""
         inv = np.linalg.inv(self.ee_offset)
         return {name: poses[name] @ query.offset @ inv for name in query.objects}
 
@@ -151,24 +151,30 @@ def _family(name: str, d: dict) -> SceneFamily:
 
 
 @cache
-def _data() -> dict:
-    text = (resources.files("mpnet") / "data_files" / "mbm" / "panda_scenes.yaml").read_text(encoding="utf-8")
+def _data(scenes: str) -> dict:
+    text = (resources.files("mpnet") / "data_files" / "mbm" / scenes).read_text(encoding="utf-8")
     data = yaml.safe_load(text)
     if data.get("format") != FORMAT:
-        raise ValueError(f"panda_scenes.yaml: format {data.get('format')!r}, expected {FORMAT!r}")
+        raise ValueError(f"{scenes}: format {data.get('format')!r}, expected {FORMAT!r}")
     return data
 
 
-def families() -> dict[str, SceneFamily]:
-    """MBM's seven Panda families, by name (parsed once per process; a fresh dict per call)."""
-    return dict(_families())
+def families(scenes: str) -> dict[str, SceneFamily]:
+    """A robot's scene families (`scenes`: its file in data_files/mbm), by name, in the file's
+    order (parsed once per process; a fresh dict per call)."""
+    return dict(_families(scenes))
 
 
 @cache
-def _families() -> dict[str, SceneFamily]:
-    return {name: _family(name, d) for name, d in _data()["families"].items()}
+def _families(scenes: str) -> dict[str, SceneFamily]:
+    return {name: _family(name, d) for name, d in _data(scenes)["families"].items()}
 
 
-def default_start() -> np.ndarray:
-    """MBM's Panda start for every family but table_under_pick (the SRDF's "ready")."""
-    return np.asarray(_data()["start"], float)
+def default_start(scenes: str) -> np.ndarray:
+    """The robot's start for every family that has no `starts` of its own (MBM's robot_state)."""
+    return np.asarray(_data(scenes)["start"], float)
+
+
+def ik_tip(scenes: str) -> str:
+    """The link MBM's queries pose (the end of the SRDF's planning chain)."""
+    return str(_data(scenes)["tip"])

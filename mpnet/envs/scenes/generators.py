@@ -16,7 +16,6 @@ from mpnet.envs.workspace import Workspace
 
 N_TRAIN = 100
 N_UNSEEN = 10
-C2D_SIZES = [[10, 5], [5, 10], [10, 10], [10, 5], [5, 10], [10, 5], [5, 10]]
 C3D_SIZES = [
     [5, 5, 10],
     [5, 10, 5],

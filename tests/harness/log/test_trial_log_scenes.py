@@ -355,7 +355,7 @@ def test_arm_painter_draws_posed_obstacles_the_hand_trace_and_the_links():
     assert len(e["lines"][0]["points"]) > 2  # the hand's trace of a straight joint motion bends
     hand = e["spheres"][0]["pose"]["position"]
     assert 0.2 < hand["x"] < 0.7 and 0.3 < hand["z"] < 0.8  # the home pose's hand, in metres
-    assert len(e["cubes"]) == GHOSTS * len(link_boxes()) == GHOSTS * 11  # base, 7 links, hand, 2 fingers
+    assert len(e["cubes"]) == GHOSTS * len(link_boxes("panda")) == GHOSTS * 11  # base, 7 links, hand, 2 fingers
     ws = {
         "workspace_id": "w",
         "split": "file",
@@ -390,7 +390,7 @@ def test_arm_link_boxes_cover_the_links_where_pybullet_has_them():
 
     q = [0.3, -0.5, 0.2, -2.0, 0.4, 1.8, 0.5]
     corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
-    boxes = list(zip(link_boxes(), arm_boxes(q), strict=True))
+    boxes = list(zip(link_boxes("panda"), arm_boxes(q, "panda"), strict=True))
     with lent_world(load_arm_model("panda")) as w:
         w.set_q(q)
         for (k, _, _), (centre, quat, size) in boxes:

@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 
 from mpnet.envs.arm.ik import IKTarget, meets
-from mpnet.envs.mbm.generator import FAMILY_ORDER, TIP, family_of, poses_of
-from mpnet.envs.mbm.scenes import default_start, families
+from mpnet.envs.mbm.generator import FAMILY_ORDER, poses_of
+from mpnet.envs.mbm.scenes import default_start, families, ik_tip
 from mpnet.envs.scenes.generators import split_ids, split_sizes
 from mpnet.envs.specs import get_spec
 
 SPEC = get_spec("panda_mbm")
-FAMILIES = families()
+SCENES = SPEC.generator.scenes
+FAMILIES = families(SCENES)
+family_of = SPEC.generator.family_of
 
 
 def _target(f, ws, query, name) -> IKTarget:
@@ -25,7 +27,7 @@ def _target(f, ws, query, name) -> IKTarget:
     pose[:3, :3] = p.rotation()
     pose[:3, 3] = p.center
     link8 = pose @ query.offset @ np.linalg.inv(f.ee_offset)
-    return IKTarget(TIP, link8, query.position_tol, query.orientation_tol)
+    return IKTarget(ik_tip(SCENES), link8, query.position_tol, query.orientation_tol)
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +68,7 @@ def test_a_scene_s_pairs_are_valid_and_meet_the_queries(scenes, index):
         assert checker.is_valid(start.tolist()) and checker.is_valid(goal.tolist())
         assert any(meets(model, goal, _target(f, ws, f.goals, n)) for n in f.goals.objects)
         if f.starts is None:
-            assert np.array_equal(start, default_start())
+            assert np.array_equal(start, default_start(SCENES))
         else:  # table_under_pick: the start is under the table top
             assert any(meets(model, start, _target(f, ws, f.starts, n)) for n in f.starts.objects)
 

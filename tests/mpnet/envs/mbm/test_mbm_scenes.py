@@ -9,9 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.envs.mbm.scenes import default_start, families
+from mpnet.envs.mbm.scenes import default_start, families, ik_tip
 
-FAMILIES = families()
+SCENES = "panda_scenes.yaml"
+FAMILIES = families(SCENES)
 
 
 class _Zero:
@@ -25,7 +26,8 @@ def test_the_seven_families_and_the_start():
     assert sorted(FAMILIES) == sorted(
         ["bookshelf_small", "bookshelf_tall", "bookshelf_thin", "box", "cage", "table_pick", "table_under_pick"]
     )
-    assert np.allclose(default_start(), [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    assert np.allclose(default_start(SCENES), [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    assert ik_tip(SCENES) == "panda_link8"  # the end of MBM's SRDF planning chain, from the file
     assert FAMILIES["table_under_pick"].starts is not None
     assert all(f.starts is None for n, f in FAMILIES.items() if n != "table_under_pick")
 
@@ -45,7 +47,7 @@ def test_bookshelf_goal_targets_link8_in_front_of_the_can():
     of the can and 0.05 above it, its z axis pointing into the shelf (+x)."""
     f = FAMILIES["bookshelf_small"]
     poses = f.sample(_Zero())
-    t = f.link8_targets(poses, f.goals)["Can1"]
+    t = f.tip_targets(poses, f.goals)["Can1"]
     assert np.allclose(t[:3, 3], [1.1 - 0.12, 0.0, 0.38 + 0.05], atol=1e-3)
     assert np.allclose(t[:3, 2], [1.0, 0.0, 0.0], atol=1e-3)
 
@@ -53,7 +55,7 @@ def test_bookshelf_goal_targets_link8_in_front_of_the_can():
 def test_box_goal_is_top_down_above_the_can():
     f = FAMILIES["box"]
     poses = f.sample(_Zero())
-    t = f.link8_targets(poses, f.goals)["Can1"]
+    t = f.tip_targets(poses, f.goals)["Can1"]
     assert np.allclose(t[:3, 3], poses["Can1"][:3, 3] + [0.0, 0.0, 0.17], atol=1e-3)
     assert np.allclose(t[:3, 2], [0.0, 0.0, -1.0], atol=1e-3)
 
