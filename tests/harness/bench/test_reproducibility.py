@@ -42,6 +42,11 @@ def test_cold_and_warm_cache_plan_the_same_paths(tmp_path, run_cli):
     assert len(cold) == 8 and cold == warm
     run_cli(*args, "seed=1", f"hydra.run.dir={tmp_path / 'seed1'}")
     assert paths(tmp_path / "seed1") != cold  # the seed does change them
+    # harness.report.unchanged says so: every query compared, 0 differ; another seed differs (exit 1)
+    run_cli("harness.report.unchanged", str(tmp_path / "cold"), str(tmp_path / "warm"), "--out", str(tmp_path / "u"))
+    assert "| s2d | bit_star | 8 / 8 | 8 | 8 | 8 |" in (tmp_path / "u" / "README.md").read_text()
+    other = run_cli("harness.report.unchanged", str(tmp_path / "cold"), str(tmp_path / "seed1"), check=False)
+    assert other.returncode == 1 and "Compared queries that differ: 0." not in other.stdout
 
 
 @pytest.mark.parametrize("seed", [2**64 - 1, 10**20])

@@ -57,7 +57,7 @@ def test_each_query_starts_on_a_fresh_time_slice(monkeypatch):
     """plan_query yields the CPU before it starts the clock: on a loaded machine, what the
     harness did since the last query (MPNet's diagnostics, logging) no longer eats into the
     query's slice, which made MPNet wait inside its queries more than BIT* (loaded / quiet
-    ratio of their medians 2.2 before, 0.9 after: docs/research/threads_under_load.py)."""
+    ratio of their medians 2.2 before, 0.9 after: docs/research/threads_under_load.py at 993d64b)."""
     import numpy as np
 
     from harness.bench import loop
