@@ -58,7 +58,7 @@ depths = network_depths(env)
 compile_env(spec, depths)
 kernels = (K.neural_planner, K.contract, K.is_feasible, K.lockstep)
 before = [len(f.signatures) for f in kernels]
-assert before[0] >= len({p for _, p in depths}), before
+assert before[0] == 1 < len({p for _, p in depths}), before  # one specialisation serves every depth
 write_checkpoint(SHIPPED / f"{env}-quick", f"{folder}/pnet.ckpt")
 ws = spec.generator.make(1, "seen", 0)
 planner = from_checkpoint(folder, spec, 0, lambda w: spec.cloud(w, 200, 0), name="mpnet_nr", compiled=True)
@@ -73,7 +73,8 @@ assert [len(f.signatures) for f in kernels] == before, ([len(f.signatures) for f
 @pytest.mark.parametrize("env", ["s2d", "panda_mbm"])
 def test_a_run_after_it_compiles_no_kernel_more(env, tmp_path):
     """After compile_env, the shipped quick networks' planner (what a run builds) warms up, its
-    batched planning too, with the loop's specialisations already there: none is added."""
+    batched planning too, with the loop's specialisations already there: none is added. One
+    specialisation of the loop serves every network depth (Pnet's layers travel flat)."""
     wait_for_kernels()  # else a cold cache's arm would compile here too, beside the session's compile
     p = subprocess.run([sys.executable, "-c", AFTER_COMPILE, env, str(tmp_path)], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr[-3000:]
