@@ -247,22 +247,8 @@ def lockstep(z, starts, goals, max_steps, precheck, env, memos, counts, prop, ne
     time, their proposals from one pnet_rows call per step. memos: (keys, verdicts, used) with a
     leading query axis; counts (B, 3); scratch: (X, T, Y) of (B, d); live: the queries to run
     (endpoints valid); out: n (B, 2) tree sizes, steps (B,), connected (B,), trace (B, S, 2, d)."""
-    (
-        plain,
-        dropped,
-        biases,
-        alphas,
-        p,
-        mask_scale,
-        offsets,
-        shift2,
-        inv2,
-        out_scale,
-        out_off,
-        bounded,
-        prelu_max,
-        lay,
-    ) = net
+    (plain, dropped, biases, alphas, p, mask_scale, offsets, shift2, inv2, out_scale, out_off, bounded, prelu_max,
+     lay) = net  # fmt: skip
     keys, verdicts, used = memos
     X, T, Y = scratch
     B = starts.shape[0]
