@@ -20,9 +20,11 @@ KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles wh
 ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
 # in a test's id, its folders aside (uses_arm): it uses the arm's kernels
 ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearance")
-# numba's kernels: one cache for the session, its workers and every command they start, under
-# the checkout's artifact cache (harness.core.kernels), unless the environment names one
-os.environ.setdefault("NUMBA_CACHE_DIR", str(REPO_ROOT / ".cache" / "mpnet-bench" / "kernels"))
+# numba's kernels: one cache for the session, its workers and every command they start (whatever
+# cache_dir a test gives), unless the environment names one; in the user's cache, not the
+# checkout (the tests write only into temporary folders), kept between sessions (warm loops)
+_USER_CACHE = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+os.environ.setdefault("NUMBA_CACHE_DIR", str(_USER_CACHE / "mpnet-bench" / "test-kernels"))
 
 
 def pytest_configure(config):

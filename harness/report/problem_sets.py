@@ -5,13 +5,11 @@ VAMP counts them: a query whose start or goal is invalid for our robot model
 
 from __future__ import annotations
 
-from importlib import resources
-
 import pandas as pd
-import yaml
 
 from harness.report.facts import Facts
 from harness.report.names import env_rank
+from harness.report.own_data import own_table
 from harness.report.render import _md_table, _pct, fmt_g
 from harness.report.stats import wilson
 
@@ -33,7 +31,7 @@ COLS = [
 
 
 # Published figures beside a report's problem sets, by the sets' name suffix (data: published.yaml)
-PUBLISHED = yaml.safe_load((resources.files("harness") / "report" / "published.yaml").read_text(encoding="utf-8"))
+PUBLISHED = own_table("published")
 
 
 def problem_set_table(q: pd.DataFrame, facts: Facts) -> pd.DataFrame:

@@ -20,10 +20,9 @@ import csv
 import re
 import sys
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
-import yaml
+from harness.report.own_data import own_table
 
 BEGIN, END = "<!-- summary:begin -->", "<!-- summary:end -->"
 
@@ -45,10 +44,7 @@ class Source:
         return self.short or self.label.split(",")[0]
 
 
-SOURCES = tuple(
-    Source(**{**row, "extra": tuple(row.get("extra", ()))})
-    for row in yaml.safe_load((resources.files("harness") / "report" / "summary.yaml").read_text(encoding="utf-8"))
-)
+SOURCES = tuple(Source(**{**row, "extra": tuple(row.get("extra", ()))}) for row in own_table("summary"))
 PLANNERS = (
     ("MPNet-NR", "mpnet_nr"),
     ("MPNet-HR", "mpnet_hr"),

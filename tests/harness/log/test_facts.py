@@ -40,8 +40,11 @@ def test_facts_of_an_unreadable_config_are_empty():
 
 
 def test_the_report_parses_no_config(repo):
-    """Issue 27: the report reads a run's facts, never its config YAML or a regex over it."""
+    """Issue 27: the report reads a run's facts, never its config YAML or a regex over it (its
+    own tables, harness/report/*.yaml, are read by own_data.py alone)."""
     for path in sorted((repo / "harness" / "report").glob("*.py")):
+        if path.name == "own_data.py":
+            continue
         text = path.read_text()
         assert "safe_load" not in text and "yaml.load" not in text, path.name
         assert "re.search" not in text or "config" not in text.split("re.search", 1)[1][:80], path.name

@@ -347,7 +347,7 @@ def test_mbm_errors_are_one_line(tmp_path, mbm_dir):
     (tmp_path / "s" / "request0001.yaml").write_text("start_state: {}")
     with pytest.raises(ProblemFileError, match="request0001.yaml: not a MoveIt request"):
         load_mbm(tmp_path / "s", ARM)
-    with pytest.raises(ProblemFileError, match="need env arm7"):
+    with pytest.raises(ProblemFileError, match="need an env whose robot is an arm model, not c3d"):
         load_mbm(mbm_dir, get_spec("c3d"))
     (tmp_path / "empty").mkdir()
     with pytest.raises(ProblemFileError, match="no MotionBenchMaker"):

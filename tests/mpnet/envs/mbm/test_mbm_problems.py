@@ -113,8 +113,8 @@ finally:
 @pytest.mark.slow
 def test_the_training_set_is_built_without_any_mbm_problem(tmp_path, repo):
     """Issue 26: MBM's 700 problems are test data only. The tiny panda_mbm build (data and
-    test set) opens no YAML but the configs, Hydra's own and the package's scene families
-    and robot model: never a MoveIt scene or request."""
+    test set) opens no YAML but the configs, Hydra's own and the package's env files, scene
+    families and robot model: never a MoveIt scene or request."""
     import json
     import subprocess
     import sys
@@ -137,7 +137,8 @@ def test_the_training_set_is_built_without_any_mbm_problem(tmp_path, repo):
     assert p.returncode == 0, p.stderr
     assert "expert paths over 2 workspaces" in p.stdout and "8 queries" in p.stdout
     opened = json.loads(p.stdout.split("OPENED ", 1)[1])
-    allowed = (str(repo / "conf"), str(repo / "mpnet" / "data_files" / "mbm" / "panda_scenes.yaml"))
+    package = repo / "mpnet" / "data_files"
+    allowed = (str(repo / "conf"), str(package / "envs"), str(package / "mbm" / "panda_scenes.yaml"))
     others = [
         f for f in opened if not f.startswith(allowed) and not any(s in f for s in ("/hydra/", "/.hydra/", "/robots/"))
     ]
