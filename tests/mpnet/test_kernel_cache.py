@@ -85,6 +85,7 @@ def _cached(folder: Path) -> set[str]:
     return {p.name.split(".")[0] for p in folder.rglob("*.nbi")}
 
 
+@pytest.mark.slow  # compiles in fresh interpreters
 def test_the_cache_is_never_beside_the_sources(package):
     """NUMBA_CACHE_DIR when set, numba's user-wide place when not: the checkout stays what git
     holds (issue 66), and the place read at a kernel's first use, not at its import."""

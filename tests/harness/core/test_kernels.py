@@ -6,6 +6,10 @@ import os
 import subprocess
 import sys
 
+import pytest
+
+pytestmark = pytest.mark.slow  # fresh interpreters
+
 PROBE = """
 import os, sys
 from harness.core.kernels import use_kernel_cache
