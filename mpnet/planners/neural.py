@@ -146,8 +146,10 @@ class MPNetPlanner:
             stats["restarts"] = 0
         while True:
             result = self._attempt(problem, raw, z, stats, deadline, first)
-            if result.path is not None or not self.anytime or time.perf_counter() > deadline:
+            if result.path is not None or not self.anytime:
                 return result
+            if time.perf_counter() > deadline:  # anytime ends on the budget: a timeout, whenever its last run failed
+                return replace(result, status=TIMEOUT) if result.status == NO_SOLUTION else result
             stats["restarts"] += 1  # anytime: the paper's loop again, its draws (dropout, proposals) fresh
             first = None
 

@@ -1,6 +1,8 @@
 """MPNet's planning machinery (NeuralPlanner, LSC, replanning, HR fallback) driven by
 simple proposal functions in place of a trained Pnet."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -8,7 +10,7 @@ from mpnet.data.queries import make_queries
 from mpnet.envs import Workspace, get_spec
 from mpnet.envs.scenes.generators import make_workspace
 from mpnet.motion import verify_path
-from mpnet.planners import EXACT, INVALID_QUERY, Problem
+from mpnet.planners import EXACT, INVALID_QUERY, NO_SOLUTION, Problem
 from mpnet.planners.classical import OmplPlanner
 from mpnet.planners.mpnet import MPNetSettings
 from mpnet.planners.neural import MPNetPlanner
@@ -408,6 +410,19 @@ def test_anytime_stops_at_the_budget():
     res = anytime(stuck, 0.3)
     assert not res.solved and res.status == "timeout" and res.stats["restarts"] >= 2
     assert 80 * res.stats["restarts"] < res.stats["pnet_calls"] <= 80 * (res.stats["restarts"] + 1)
+
+
+def test_anytime_that_ran_out_is_a_timeout_even_if_its_last_run_failed_before_the_deadline(monkeypatch):
+    """A run that failed just before the deadline said no_solution, and anytime, finding the
+    budget spent, returned it (seen once in a loaded full suite): anytime ends on its budget."""
+    failed = MPNetPlanner.failed
+
+    def early(self, deadline, stats, path=None):  # every run's failure decided before the deadline
+        return replace(failed(self, deadline, stats, path), status=NO_SOLUTION)
+
+    monkeypatch.setattr(MPNetPlanner, "failed", early)
+    res = anytime(stuck, 0.05)
+    assert not res.solved and res.status == "timeout" and res.stats["restarts"] >= 1
 
 
 def test_anytime_is_a_named_variant():
