@@ -72,7 +72,7 @@ ROWS, COLS, W_AT, B_AT = range(4)  # layout's columns: a layer's weight shape, w
 
 def flat(arrays) -> np.ndarray:
     """The layers' arrays, each in C order, one after another (float32)."""
-    return np.concatenate([np.ascontiguousarray(a, np.float32).ravel() for a in arrays]).astype(np.float32)
+    return np.concatenate([np.ascontiguousarray(a, np.float32).ravel() for a in arrays])  # float32 in, float32 out
 
 
 def layout(weights) -> np.ndarray:
