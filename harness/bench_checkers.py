@@ -19,7 +19,7 @@ single_threaded()  # before numpy, scipy, torch or numba load (harness.core.thre
 
 import numpy as np  # noqa: E402
 
-from mpnet.envs.specs import SPECS, get_spec  # noqa: E402
+from mpnet.envs.specs import generated, get_spec  # noqa: E402
 
 STATES, MOTIONS, REPEATS = 2000, 200, 5
 
@@ -138,7 +138,7 @@ def write_report(out: Path, rows: list[dict], ratios: list[str], argv: list[str]
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m harness.bench_checkers", description=__doc__.splitlines()[0])
-    ap.add_argument("envs", nargs="*", default=sorted(SPECS))
+    ap.add_argument("envs", nargs="*", default=sorted(generated()))
     ap.add_argument("--workspaces", type=int, default=3)
     ap.add_argument(
         "--out", type=Path, help="also write OUT/README.md and OUT/checkers.json (e.g. reports/perf/checkers)"

@@ -26,7 +26,7 @@ import numpy as np
 from harness.core.cli import CONF_DIR
 from harness.core.kernels import use_kernel_cache
 from mpnet.envs.spec import EnvSpec
-from mpnet.envs.specs import SPECS, get_spec
+from mpnet.envs.specs import SPECS, generated, get_spec
 from mpnet.models.numpy_nets import EnetArrays, Normalizer, NumpyEnet, NumpyPnet, PnetArrays
 from mpnet.motion import verify_path
 from mpnet.planners.base import Problem
@@ -98,12 +98,12 @@ def compile_env(spec: EnvSpec, depths: list[tuple[int, int]]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m harness.compile_kernels", description=__doc__.split("\n\n")[0])
-    ap.add_argument("envs", nargs="*", metavar="ENV", help=f"envs (default: all): {', '.join(SPECS)}")
+    ap.add_argument("envs", nargs="*", metavar="ENV", help=f"envs (default: all with a generator): {', '.join(SPECS)}")
     ap.add_argument("--cache-dir", default=".cache/mpnet-bench", help="the runs' cache_dir (default: %(default)s)")
     args = ap.parse_args(argv)
     use_kernel_cache(args.cache_dir)
     try:
-        specs = [get_spec(e) for e in args.envs or SPECS]
+        specs = [get_spec(e) for e in args.envs or generated()]
     except KeyError as e:
         print(f"error: {e.args[0]}", file=sys.stderr)
         return 2

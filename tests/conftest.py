@@ -25,6 +25,9 @@ ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearanc
 # checkout (the tests write only into temporary folders), kept between sessions (warm loops)
 _USER_CACHE = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
 os.environ.setdefault("NUMBA_CACHE_DIR", str(_USER_CACHE / "mpnet-bench" / "test-kernels"))
+# Robots installed by harness.fetch_mbm (the UR5's, the Fetch's) are not the suite's: its robot folder
+# is an empty one (a test that installs a robot gives its own), so a run here and on CI see the same envs
+os.environ["MPNET_BENCH_ROBOTS"] = str(_USER_CACHE / "mpnet-bench" / "test-robots")
 
 
 def pytest_configure(config):
@@ -63,11 +66,11 @@ def pytest_configure(config):
 # harness.compile_kernels for the planar envs, their lock released (argv[1]: its fd), then the arms
 COMPILE = """import os, sys
 from harness.compile_kernels import main
-from mpnet.envs.specs import SPECS
+from mpnet.envs.specs import generated
 arms = sys.argv[2].split(",")
-rc = main([e for e in SPECS if e not in arms])
+rc = main([e for e in generated() if e not in arms])
 os.close(int(sys.argv[1]))
-sys.exit(rc or main([e for e in SPECS if e in arms]))
+sys.exit(rc or main([e for e in generated() if e in arms]))
 """
 
 

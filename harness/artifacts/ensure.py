@@ -13,7 +13,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from harness.artifacts.dagger import with_dagger
-from harness.core.cli import RunRefused
+from harness.core.cli import RunRefused, UsageError
 from harness.core.config import enet_params
 from harness.core.provenance import artifact_provenance
 from harness.core.settings import RunSettings
@@ -94,7 +94,7 @@ def ensure_dataset(run: RunSettings, progress: bool = True, plan: bool = True):
     """The env's training dataset at this scale, from the cache or built now: (folder,
     manifest, built); `load_dataset(folder, manifest)` reads it. plan=False: the merge of
     a sharded build, which plans nothing (MissingChunks when a shard has not finished)."""
-    spec, params = run.env.spec, run.data
+    spec, params = run.env.spec, _data(run)
 
     def build(folder: Path) -> dict:
         bar = _bar(params.train_workspaces, f"expert paths {spec.name}", progress)
@@ -236,10 +236,20 @@ def _check_enet(folder: Path, manifest: dict) -> None:
         raise ArtifactError(str(e)) from None
 
 
+def _data(run: RunSettings):
+    """The run's data params; UsageError for an env with no data (no workspace generator)."""
+    if run.data is None:
+        raise UsageError(
+            f"config key planner: env {run.env.name} has no workspace generator, so no data to train networks on "
+            "(planners without networks plan its problem files)"
+        )
+    return run.data
+
+
 def models_key_config(run: RunSettings) -> dict:
     """What the models artifact's key hashes: the dataset's key (derived from its params,
     so that a cached or shipped model needs no dataset built) and the training params."""
-    data_key = content_key({"kind": "data", **run.data.key_config()})
+    data_key = content_key({"kind": "data", **_data(run).key_config()})
     return {"data": data_key, **run.models}
 
 

@@ -50,7 +50,7 @@ def geometry_params(env_cfg) -> dict:
     """The config's geometry knobs, for cache keys. The validation step decides which
     expert paths are kept and the reference costs, so it is in the key too, but only when
     it differs from the env's registry value (existing caches keep their keys)."""
-    spec = get_spec(env_cfg.name)
+    spec = built_spec(env_cfg.name)
     out = _geometry(env_cfg) | spec.robot.cache_identity()
     if value_of(env_cfg, EnvKnobs, "cloud") != "surface":  # envs without the key keep their keys
         out["cloud"] = str(env_cfg.cloud)
@@ -58,7 +58,7 @@ def geometry_params(env_cfg) -> dict:
     if version is not None:
         out["generator"] = f"{type(spec.generator).__name__}@{version}"
     step = env_cfg.get("validation_step")
-    if step is not None and float(step) != get_spec(env_cfg.name).validation_step:
+    if step is not None and float(step) != built_spec(env_cfg.name).validation_step:
         out["validation_step"] = float(step)
     return out
 
@@ -71,7 +71,16 @@ def env_spec(env_cfg) -> EnvSpec:
         extra["sample_cloud"] = camera_cloud
     if env_cfg.get("planner_range") is not None:  # not geometry: no data or test set depends on it
         extra["planner_range"] = float(env_cfg.planner_range)
-    return replace(get_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **extra)
+    return replace(built_spec(env_cfg.name), validation_step=float(env_cfg.validation_step), **extra)
+
+
+def built_spec(name: str) -> EnvSpec:
+    """The registry's env, or a UsageError naming why it cannot be built here (its robot's files
+    not installed, a broken robot file)."""
+    try:
+        return get_spec(name)
+    except ValueError as e:
+        raise UsageError(f"config key env: {e}") from None
 
 
 # Counts and sizes a user may type: (key, smallest sensible value). A key a config lacks is
@@ -302,10 +311,10 @@ def check_env(env_cfg: DictConfig) -> None:
         raise UsageError(
             "config key env.expert.run_iterations: the rrt_connect experts' budget (rrt_star's: iterations)"
         )
-    checkers = get_spec(env_cfg.name).robot.checkers
+    checkers = built_spec(env_cfg.name).robot.checkers
     if env_cfg.collision not in checkers:
         raise UsageError(f"config key env.collision: expected one of {', '.join(checkers)}, got {env_cfg.collision!r}")
-    if value_of(env_cfg, EnvKnobs, "cloud") == "camera" and not get_spec(env_cfg.name).robot.posed_obstacles:
+    if value_of(env_cfg, EnvKnobs, "cloud") == "camera" and not built_spec(env_cfg.name).robot.posed_obstacles:
         raise UsageError(
             f"config key env.cloud: camera sees posed obstacles (the arm's envs); env {env_cfg.name} has surface only"
         )
@@ -348,7 +357,7 @@ def model_params(cfg: DictConfig) -> dict:
             "config key networks.collision_motion (env.networks or planner.networks): it shapes the collision "
             "loss, and networks.collision_loss is not set"
         )
-    robot = get_spec(cfg.env.name).robot
+    robot = built_spec(cfg.env.name).robot
     if params.get("collision_loss") and not robot.offers_clearance:
         raise UsageError(
             f"config key networks.collision_loss (env.networks or planner.networks): env {cfg.env.name}'s robot "

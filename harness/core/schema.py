@@ -214,8 +214,8 @@ class EnvKnobs:
     cloud only for posed obstacles."""
 
     validation_step: float = _option(float, "the step of the fine re-check that decides success", default=MISSING)
-    solvable_s: float = _option(
-        float, "a generated test query is kept when RRT-Connect solves it this fast", default=MISSING
+    solvable_s: float | None = _option(
+        float, "a generated test query is kept when RRT-Connect solves it this fast (an env with a generator)"
     )
     motion_step: float | None = _option(float, "collision=pybullet: motions sampled at this step")
     planner_range: float | None = _option(float, "OMPL's RRT-Connect / RRT* / Informed-RRT* maximum edge length")

@@ -63,16 +63,16 @@ class EnvSettings:
     spec: EnvSpec
     data_seed: int
     points_per_block: int
-    solvable_s: float
+    solvable_s: float | None  # None: an env of problem files only
     collision: str
-    expert: ExpertSettings
+    expert: ExpertSettings | None  # None: an env of problem files only (no data to build)
     reference_bit_star_s: float | None
     geometry: dict = field(repr=False)  # the knobs in every data and test-set key (config.geometry_params)
 
     @classmethod
     def of(cls, env_cfg: DictConfig) -> EnvSettings:
         check_env(env_cfg)
-        expert = env_cfg.expert
+        expert = env_cfg.get("expert")
 
         def knob(name: str):  # the config's value, or the schema's default for an absent key
             return value_of(expert, ExpertKnobs, name)
@@ -83,9 +83,11 @@ class EnvSettings:
             spec=env_spec(env_cfg),
             data_seed=int(env_cfg.data_seed),
             points_per_block=int(env_cfg.points_per_block),
-            solvable_s=float(env_cfg.solvable_s),
+            solvable_s=None if env_cfg.get("solvable_s") is None else float(env_cfg.solvable_s),
             collision=str(env_cfg.collision),
-            expert=ExpertSettings(
+            expert=None
+            if expert is None
+            else ExpertSettings(
                 planner=str(knob("planner")),
                 iterations=int(expert.iterations),
                 max_seconds=float(expert.max_seconds),
@@ -249,6 +251,8 @@ def settings_of(cfg: DictConfig) -> RunSettings:
         raise UsageError("choose an env with +env=NAME")
     check_run(cfg)
     env = EnvSettings.of(cfg.env)
+    if env.spec.generator is None and not cfg.get("problems"):
+        raise UsageError(f"config key problems: env {env.name} has no workspace generator; it plans problem files only")
     planner = None
     if cfg.get("planner") is not None:
         planner = PlannerSettings.of(cfg, "planner", env.spec, int(cfg.seed), networks_params(cfg))
@@ -273,8 +277,8 @@ def settings_of(cfg: DictConfig) -> RunSettings:
         scale=str(cfg.scale.name),
         test_sizes={s: (int(test[s].workspaces), int(test[s].queries)) for s in ("seen", "unseen")},
         test_blocked_only=bool(test.get("blocked_only", True)),
-        data=data_params(env, cfg.scale.train),
-        reference=env.reference_params(),
+        data=None if env.expert is None else data_params(env, cfg.scale.train),  # None: no data to build
+        reference={} if env.expert is None else env.reference_params(),
         models=model_params(cfg),
         lightning=lightning_params(cfg),
         config_yaml=OmegaConf.to_yaml(cfg, resolve=True),

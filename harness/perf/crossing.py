@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from mpnet.envs.checkers.compiled_env import motion_free, state_free  # noqa: E402
 from mpnet.envs.ompl_space import make_space_information  # noqa: E402
-from mpnet.envs.specs import SPECS, get_spec  # noqa: E402
+from mpnet.envs.specs import SPECS, generated, get_spec  # noqa: E402
 from mpnet.jit import njit  # noqa: E402
 from mpnet.search.rrt_connect import tree_range  # noqa: E402
 
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=Path("crossing"), help="folder for crossing.md and crossing.csv")
     args = ap.parse_args(argv)
     try:
-        envs = [get_spec(e).name for e in args.envs or SPECS]
+        envs = [get_spec(e).name for e in args.envs or generated()]
     except KeyError as e:
         print(f"error: {e.args[0]}", file=sys.stderr)
         return 2

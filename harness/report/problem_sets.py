@@ -98,9 +98,10 @@ def render_problem_sets(df: pd.DataFrame, facts: Facts) -> str:
     text = f"# Problem sets\n\n{_md_table(head, rows)}\n\n{note}\n"
     for p in shown:
         published = _md_table(["Planner", "Solved / valid / total", "Time", "Source"], [list(f) for f in p["figures"]])
+        per_set = "neither publishes per-set figures" if len(p["figures"]) > 1 else "no per-set figures are published"
         text += (
             f"\n## {p['title']}\n\n"
-            f"{published}\n\nPooled over the seven sets (neither publishes per-set figures); other machines, "
+            f"{published}\n\nPooled over the seven sets ({per_set}); other machines, "
             "other collision models: for orientation, not a comparison on equal terms.\n"
         )
     return text

@@ -64,6 +64,12 @@ def definitions() -> dict[str, dict]:
     return {name: dict(d) for name, d in _definitions().items()}
 
 
+def generated() -> list[str]:
+    """The envs with a workspace generator, in order: those that data, training, generated queries
+    and the tools' default sweeps are for (the others, `generator: null`, plan problem files only)."""
+    return [name for name, d in _definitions().items() if d.get("generator") is not None]
+
+
 @cache
 def _definitions() -> dict[str, dict]:
     """Every env file, by name, in their `order`."""
@@ -78,7 +84,8 @@ def build(name: str, definition: dict) -> EnvSpec:
     if unknown:
         raise ValueError(f"env file {name}.yaml: unknown keys {', '.join(sorted(unknown))}")
     built: dict[str, Any] = {"robot": _instance(definition["robot"], {}, shared=True)}
-    built["generator"] = _instance(definition["generator"], built)
+    generator = definition.get("generator")  # null: an env of problem files only (no data to train on)
+    built["generator"] = None if generator is None else _instance(generator, built)
     bounds = definition.get("bounds")
     space = built["robot"].space(None if bounds is None else tuple(tuple(float(v) for v in b) for b in bounds))
     fields = {k: _resolve(definition[k], built) for k in FIELDS if k in definition}

@@ -15,14 +15,14 @@ import yaml
 
 from mpnet.data.shipped import SHIPPED as TESTSETS
 from mpnet.envs.mbm.files import load_mbm
-from mpnet.envs.specs import SPECS, get_spec
+from mpnet.envs.specs import generated, get_spec
 from mpnet.envs.workspace import Workspace
 from mpnet.models.pretrained import SHIPPED, write_checkpoint
 from mpnet.planners.base import Problem
 from mpnet.planners.mpnet import from_checkpoint
 from mpnet.problems import load_problems
 
-ENVS = sorted(SPECS)
+ENVS = sorted(generated())
 QUERIES = {"arm7": 12, "panda_mbm": 12}  # the arms' queries cost more: fewer of them
 SLOW = {"c2d", "c3d", "rigid", "arm7", "panda_mbm"}
 

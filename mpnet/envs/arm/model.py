@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from functools import cache, cached_property
@@ -72,20 +73,27 @@ class Frame:
 
 
 @dataclass(frozen=True)
-class CollisionMesh:
-    """A link's collision mesh file and its pose in the link frame."""
+class CollisionShape:
+    """A link's collision geometry and its pose in the link frame: a mesh file (`path`, its
+    `scale`), or a URDF primitive (`geometry` "box" with `size` (x, y, z), "sphere" with
+    `size` (radius,))."""
 
     link: str
-    path: Path
+    path: Path | None
     origin: np.ndarray
+    geometry: str = "mesh"
+    size: tuple[float, ...] = (1.0, 1.0, 1.0)
+
+    def label(self) -> str:
+        return self.path.name if self.path is not None else self.geometry
 
 
 @dataclass(frozen=True)
 class Kinematics:
-    """The URDF's tree as frames in parent-before-child order, with the collision meshes."""
+    """The URDF's tree as frames in parent-before-child order, with the collision shapes."""
 
     frames: tuple[Frame, ...]
-    meshes: tuple[CollisionMesh, ...]
+    shapes: tuple[CollisionShape, ...]
     urdf_limits: tuple[tuple[float, float], ...]
 
     def index(self, link: str) -> int:
@@ -184,28 +192,73 @@ def read_urdf(path: Path, planned: tuple[str, ...], held: dict[str, float]) -> K
     missing = [j for j in planned if j not in limits]
     if missing:
         raise ArmModelError(f"{path}: no joints named {missing}")
-    meshes = []
-    for f in frames:
-        col = links[f.link].find("collision")
-        if col is None:
-            continue
-        mesh = col.find("geometry/mesh")
-        if mesh is None:
-            raise ArmModelError(f"{path}: link {f.link!r}'s collision geometry is not a mesh")
-        rel = mesh.get("filename").removeprefix("package://")
-        meshes.append(CollisionMesh(f.link, path.parent / rel, _origin(col)))
-    return Kinematics(tuple(frames), tuple(meshes), tuple(limits[j] for j in planned))
+    shapes = [_collision(path, f.link, links[f.link]) for f in frames if links[f.link].find("collision") is not None]
+    return Kinematics(tuple(frames), tuple(shapes), tuple(limits[j] for j in planned))
+
+
+def _collision(path: Path, link: str, el) -> CollisionShape:
+    """A link's one <collision>: a mesh (package:// stripped, relative to the URDF) or a box
+    or sphere primitive; anything else is an error, as is a second <collision>."""
+    collisions = el.findall("collision")
+    if len(collisions) > 1:
+        raise ArmModelError(f"{path}: link {link!r} has {len(collisions)} <collision> elements; one is supported")
+    col = collisions[0]
+    geometry = col.find("geometry")
+    shape = geometry[0] if geometry is not None and len(geometry) else None
+    kind = shape.tag if shape is not None else None
+    try:
+        if kind == "mesh":
+            rel = shape.get("filename").removeprefix("package://")
+            scale = tuple(float(v) for v in shape.get("scale", "1 1 1").split())
+            return CollisionShape(link, path.parent / rel, _origin(col), "mesh", scale)
+        if kind == "box":
+            return CollisionShape(link, None, _origin(col), "box", tuple(float(v) for v in shape.get("size").split()))
+        if kind == "sphere":
+            return CollisionShape(link, None, _origin(col), "sphere", (float(shape.get("radius")),))
+    except (AttributeError, ValueError):
+        raise ArmModelError(f"{path}: link {link!r}'s collision {kind} is malformed") from None
+    raise ArmModelError(f"{path}: link {link!r}'s collision geometry {kind!r} is not supported (mesh, box, sphere)")
 
 
 def _data_dir():
     return resources.files("mpnet") / "data_files" / "robots"
 
 
+ROBOTS_VAR = "MPNET_BENCH_ROBOTS"
+
+
+def user_robot_dir() -> Path:
+    """Where `python -m harness.fetch_mbm` installs robots whose files the package cannot ship
+    (MotionBenchMaker's UR5 and Fetch): the first folder of $MPNET_BENCH_ROBOTS, else
+    $XDG_DATA_HOME/mpnet-bench/robots (~/.local/share/mpnet-bench/robots)."""
+    given = [p for p in os.environ.get(ROBOTS_VAR, "").split(os.pathsep) if p]
+    if given:
+        return Path(given[0]).expanduser()
+    home = os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share"
+    return Path(home) / "mpnet-bench" / "robots"
+
+
+def robot_dirs() -> list[Path]:
+    """Where a robot's files (description, sphere set, URDF) are looked for, in order: the
+    package's, each folder of $MPNET_BENCH_ROBOTS, the user's robot folder."""
+    given = [Path(p).expanduser() for p in os.environ.get(ROBOTS_VAR, "").split(os.pathsep) if p]
+    return list(dict.fromkeys([Path(str(_data_dir())), *given, user_robot_dir()]))
+
+
+def robot_file(name: str) -> Path | None:
+    """The first robot folder's file of that name (None: in none of them)."""
+    return next((d / name for d in robot_dirs() if (d / name).is_file()), None)
+
+
 def _urdf_path(urdf: str) -> Path:
-    """A URDF named relative to pybullet_data (the package ships the meshes), or a path."""
+    """A URDF path: absolute, or relative to a robot folder (robot_dirs), or else to
+    pybullet_data (which ships the Panda's URDF and meshes)."""
     p = Path(urdf)
     if p.is_absolute():
         return p
+    found = robot_file(urdf)
+    if found is not None:
+        return found
     import pybullet_data
 
     return Path(pybullet_data.getDataPath()) / urdf
@@ -228,6 +281,10 @@ class ArmModel:
     spheres: str
     source: str = ""
     kinematics: Kinematics = field(repr=False, compare=False, default=None)
+    # MotionBenchMaker's name for this robot in its scene files (default: `name`)
+    scene_robot: str = ""
+    # harness.spherize's settings for a robot without a sphere set yet
+    spherize: dict = field(repr=False, compare=False, default_factory=dict)
 
     @property
     def dof(self) -> int:
@@ -258,8 +315,19 @@ class ArmModel:
         cache keys and logs."""
         h = hashlib.sha256()
         for name in (f"{self.name}.yaml", self.spheres):
-            h.update((_data_dir() / name).read_bytes())
+            found = robot_file(name)
+            if found is None and name == self.spheres:
+                make = f"python -m harness.spherize {self.name}"
+                raise ArmModelError(f"arm model {self.name}: no sphere set {name} yet ({make})")
+            if found is None:
+                raise ArmModelError(f"arm model {self.name}: no {name} in {', '.join(map(str, robot_dirs()))}")
+            h.update(found.read_bytes())
         return h.hexdigest()[:16]
+
+    @property
+    def spheres_path(self) -> Path | None:
+        """The sphere set's file (None: not made yet: `python -m harness.spherize <name>`)."""
+        return robot_file(self.spheres)
 
     def link_transforms(self, q) -> np.ndarray:
         return self.kinematics.link_transforms(q)
@@ -277,18 +345,22 @@ def _pairs(items, where: str) -> frozenset[tuple[str, str]]:
 
 @cache
 def load_arm_model(name: str) -> ArmModel:
-    """The arm model `name` from the package's robot descriptions."""
+    """The arm model `name` from the robot folders (robot_dirs: the package's, then the user's)."""
     import yaml
 
-    path = _data_dir() / f"{name}.yaml"
-    if not path.is_file():
-        known = sorted(p.name.removesuffix(".yaml") for p in _data_dir().iterdir() if p.name.endswith(".yaml"))
+    path = robot_file(f"{name}.yaml")
+    if path is None:
+        known = sorted({p.name.removesuffix(".yaml") for d in robot_dirs() if d.is_dir() for p in d.glob("*.yaml")})
         raise ArmModelError(f"unknown arm model {name!r}; choices: {', '.join(known)}")
     doc = yaml.safe_load(path.read_text(encoding="utf-8"))
     try:
         joints = tuple(doc["joints"])
         fingers = {str(k): float(v) for k, v in (doc.get("fingers") or {}).items()}
-        kin = read_urdf(_urdf_path(doc["urdf"]), joints, fingers)
+        urdf = _urdf_path(doc["urdf"])
+        if not urdf.is_file():
+            hint = doc.get("install", "")
+            raise ArmModelError(f"{path}: its URDF {doc['urdf']} is in no robot folder ({hint or 'see the file'})")
+        kin = read_urdf(urdf, joints, fingers)
         limits = tuple((float(lo), float(hi)) for lo, hi in doc.get("limits") or kin.urdf_limits)
         model = ArmModel(
             name=str(doc["name"]),
@@ -301,6 +373,8 @@ def load_arm_model(name: str) -> ArmModel:
             spheres=str(doc["spheres"]),
             source=str(doc.get("source", "")),
             kinematics=kin,
+            scene_robot=str(doc.get("scene_robot", doc["name"])),
+            spherize=dict(doc.get("spherize") or {}),
         )
     except (KeyError, TypeError) as e:
         raise ArmModelError(f"{path}: missing or malformed key {e}") from None

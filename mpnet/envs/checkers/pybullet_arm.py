@@ -13,6 +13,8 @@ never checked). pybullet tests each collision mesh as its convex hull.
 from __future__ import annotations
 
 import math
+import os
+import sys
 import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -20,10 +22,25 @@ from functools import cache
 
 import numpy as np
 
-from mpnet.envs.arm.model import ArmModel
+from mpnet.envs.arm.model import ArmModel, ArmModelError
 from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
+
+
+@contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Bullet's URDF importer prints a warning per link without <inertial> (a UR5's fixed gripper
+    links: dozens a load) to the process's stdout from C++; that output is dropped while it loads."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 class ArmWorld:
@@ -36,9 +53,15 @@ class ArmWorld:
         self.model = model
         self.client = pb.connect(pb.DIRECT)
         flags = pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
-        self.robot = pb.loadURDF(
-            str(model.urdf_path), [0, 0, 0], useFixedBase=True, flags=flags, physicsClientId=self.client
-        )
+        try:
+            with _quiet_stdout():
+                self.robot = pb.loadURDF(
+                    str(model.urdf_path), [0, 0, 0], useFixedBase=True, flags=flags, physicsClientId=self.client
+                )
+        except pb.error:
+            pb.disconnect(physicsClientId=self.client)
+            why = "every mesh it names, <visual> ones too, must be there"
+            raise ArmModelError(f"{model.urdf_path}: pybullet cannot load it ({why})") from None
         info = [pb.getJointInfo(self.robot, j, physicsClientId=self.client) for j in range(self._n_joints())]
         by_joint = {i[1].decode(): i[0] for i in info}
         self.link_names = {-1: model.kinematics.frames[0].link} | {i[0]: i[12].decode() for i in info}

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import json
 from functools import cache
-from importlib import resources
 
 import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
-from mpnet.envs.arm.model import PRISMATIC, ArmModel, load_arm_model
+from mpnet.envs.arm.model import PRISMATIC, ArmModel, ArmModelError, load_arm_model
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers import sphere_layout
@@ -31,7 +30,13 @@ CERTIFY_TOL = 1e-4
 
 
 def read_spheres(model: ArmModel) -> dict:
-    return json.loads((resources.files("mpnet") / "data_files" / "robots" / model.spheres).read_text(encoding="utf-8"))
+    """The model's sphere set (mpnet.envs.arm.spherize's JSON), from its robot folder."""
+    path = model.spheres_path
+    if path is None:
+        raise ArmModelError(
+            f"arm model {model.name}: no sphere set {model.spheres} yet (python -m harness.spherize {model.name})"
+        )
+    return json.loads(path.read_text(encoding="utf-8"))
 
 
 class SphereModel:

@@ -33,8 +33,18 @@ def is_mbm(path: str | Path) -> bool:
     return p.is_dir() or p.suffix in (".yaml", ".yml")
 
 
-def _pairs(path: Path) -> list[tuple[str, Path, Path]]:
-    """(problem id, scene file, request file), sorted by id."""
+def scene_robot(scene: Path) -> str | None:
+    """The robot a MoveIt scene file is for (its robot_model_name; None: it names none)."""
+    for line in scene.read_text(encoding="utf-8").splitlines():
+        if line.startswith("robot_model_name:"):
+            return line.partition(":")[2].strip().strip("'\"") or None
+    return None
+
+
+def _pairs(path: Path, robot: str) -> list[tuple[str, Path, Path]]:
+    """(problem id, scene file, request file), sorted by id: a folder of folders gives the
+    folders whose scenes are for `robot` (MotionBenchMaker's robot_model_name); a folder or
+    file for another robot is an error."""
     if not path.exists():
         raise ProblemFileError(path, "no such file or folder")
     if path.is_file():
@@ -45,6 +55,13 @@ def _pairs(path: Path) -> list[tuple[str, Path, Path]]:
     else:
         subs = sorted(d for d in path.iterdir() if d.is_dir())
         folders, only = ([path] if any(_SCENE.search(f.name) for f in path.iterdir()) else subs), None
+        if folders == subs:
+            firsts = {d: next((f for f in sorted(d.iterdir()) if _SCENE.search(f.name)), None) for d in subs}
+            robots = {d: scene_robot(f) for d, f in firsts.items() if f is not None}
+            folders = [d for d, r in robots.items() if r in (robot, None)]
+            if robots and not folders:
+                named = ", ".join(sorted({str(r) for r in robots.values()}))
+                raise ProblemFileError(path, f"no problems for robot {robot} here (its scenes are for {named})")
     out = []
     for folder in folders:
         for scene in sorted(folder.iterdir()):
@@ -54,6 +71,9 @@ def _pairs(path: Path) -> list[tuple[str, Path, Path]]:
             request = scene.with_name(f"request{m.group(1)}{scene.suffix}")
             if not request.exists():
                 raise ProblemFileError(scene, f"no {request.name} beside it")
+            named = scene_robot(scene)
+            if named not in (robot, None):
+                raise ProblemFileError(scene, f"a scene for robot {named}, not {robot}")
             out.append((f"{folder.name}/{m.group(1)}", scene, request))
     if not out:
         raise ProblemFileError(path, "no MotionBenchMaker sceneNNNN.yaml / requestNNNN.yaml pairs found")
@@ -165,7 +185,7 @@ def load_mbm(path: str | Path, spec: EnvSpec, per_set: int | None = None) -> Tes
         )
     workspaces, queries = [], []
     taken: dict[str, int] = {}
-    for pid, scene, request in _pairs(Path(path)):
+    for pid, scene, request in _pairs(Path(path), model.scene_robot):
         folder = pid.rsplit("/", 1)[0]
         if per_set is not None and taken.get(folder, 0) >= per_set:
             continue

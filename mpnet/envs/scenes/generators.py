@@ -106,15 +106,22 @@ class C3DLayouts:
         return [Workspace(str(i), split, centres[perm[i]], np.array(C3D_SIZES, float)) for i in indices]
 
 
+def generator_of(spec):
+    """The env's workspace generator; ValueError for an env of problem files only."""
+    if spec.generator is None:
+        raise ValueError(f"env {spec.name} has no workspace generator: it plans problem files only (problems=...)")
+    return spec.generator
+
+
 def make_workspace(spec, index: int, split: str, seed: int = 0) -> Workspace:
     """Workspace `index` of an env: 0-99 training, 100-109 unseen, beyond: extra layouts
     (point clouds for the autoencoder)."""
-    return spec.generator.make(index, split, seed)
+    return generator_of(spec).make(index, split, seed)
 
 
 def make_workspaces(spec, indices: list[int], split: str, seed: int = 0) -> list[Workspace]:
     """Several workspaces at once (c3d draws its layouts once for the largest index)."""
-    return spec.generator.make_many(indices, split, seed)
+    return generator_of(spec).make_many(indices, split, seed)
 
 
 def extra_ids(count: int) -> list[int]:

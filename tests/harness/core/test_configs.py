@@ -13,7 +13,7 @@ from omegaconf import open_dict
 from harness.bench.run import runtime_objects
 from harness.core.cli import UsageError, choices
 from harness.core.settings import settings_of
-from mpnet.envs.specs import get_spec
+from mpnet.envs.specs import generated, get_spec
 from mpnet.models import Enet, Pnet
 from mpnet.planners.base import Planner
 from mpnet.planners.compiled.planner import supports
@@ -21,6 +21,8 @@ from mpnet.planners.mpnet import MPNetSettings
 from tests.conftest import REPO_ROOT
 
 ENVS, PLANNERS, SCALES, EXPERIMENTS = (choices(g) for g in ("env", "planner", "scale", "experiment"))
+FILES_ONLY = [e for e in ENVS if e not in generated()]  # problem files only, robots not installed here
+ENVS = [e for e in ENVS if e in generated()]
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +78,20 @@ def test_every_env_and_planner_builds(env, planner, env_configs, planner_configs
         return
     (main, *_) = build(cfg, models_dirs)
     assert main.name == cfg.planner.name
+
+
+def test_envs_of_problem_files_only_say_what_they_lack(compose_config, models_dirs):
+    """mbm_ur5 and mbm_fetch: their robots' files are installed by harness.fetch_mbm (the suite's
+    robot folder is empty), so each names the command; without problems= each says it needs them."""
+    assert set(FILES_ONLY) == {"mbm_ur5", "mbm_fetch"}
+    for env in FILES_ONLY:
+        cfg = compose_config([f"+env={env}", "+planner=rrt_connect", "problems=tests/data/mbm"])
+        robot = env.removeprefix("mbm_")
+        with pytest.raises(
+            UsageError,
+            match=f"config key env: .*is in no robot folder .python -m harness.fetch_mbm data/mbm --robot {robot}",
+        ):
+            build(cfg, models_dirs)
 
 
 @pytest.mark.parametrize("scale", SCALES)

@@ -420,9 +420,12 @@ def _tar(members: dict[str, bytes], mode: str) -> bytes:
     return buf.getvalue()
 
 
-def test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist(tmp_path, mbm_dir, capsys):
+def test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist(tmp_path, mbm_dir, capsys, monkeypatch):
+    from harness import fetch_mbm
     from harness.fetch_mbm import main
 
+    panda = [a for a in fetch_mbm.ARCHIVES["problems"] if "panda" in a["member"]]
+    monkeypatch.setitem(fetch_mbm.ARCHIVES, "problems", panda)  # the other robots' archives: test_robot_files
     pair = {
         f"problems/box_panda/{n}0001.yaml": (mbm_dir / "box_panda" / f"{n}0001.yaml").read_bytes()
         for n in ("scene", "request")

@@ -35,13 +35,13 @@ def ws_of(*prims: Primitive) -> Workspace:
 
 def test_every_mesh_link_has_spheres_made_from_the_meshes_shipped():
     doc = read_spheres(MODEL)
-    assert set(doc["links"]) == {m.link for m in MODEL.kinematics.meshes}
-    for mesh in MODEL.kinematics.meshes:
+    assert set(doc["links"]) == {m.link for m in MODEL.kinematics.shapes}
+    for mesh in MODEL.kinematics.shapes:
         assert doc["meshes"][mesh.link]["sha256"] == hashlib.sha256(mesh.path.read_bytes()).hexdigest()
     assert doc["pad"] > doc["spacing"]
 
 
-@pytest.mark.parametrize("link", [m.link for m in MODEL.kinematics.meshes])
+@pytest.mark.parametrize("link", [m.link for m in MODEL.kinematics.shapes])
 @pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_spheres_cover_the_links_hull(link):
     """Every hull vertex and 20,000 random points of the hull lie inside one of the link's
@@ -269,7 +269,7 @@ def _model_copy(tmp_path, monkeypatch):
 
 
 def test_an_unknown_or_broken_model_is_named(tmp_path, monkeypatch):
-    with pytest.raises(ArmModelError, match="unknown arm model 'nope'; choices: panda"):
+    with pytest.raises(ArmModelError, match="unknown arm model 'nope'; choices: fetch, panda, panda_pybullet_data, ur5"):  # noqa: E501
         load_arm_model("nope")
     folder = _model_copy(tmp_path, monkeypatch)
     desc = folder / "panda.yaml"
