@@ -4,14 +4,14 @@
 - mcap_io: plain JSON values, MCAP writing helpers, `read_log` (also of a killed run's file)
 - recover: reading a cut-short or damaged file record by record (`scan_log`)
 - csv: queries.csv;  rerun: the Rerun sink (trials.rrd);  foxglove: /scene SceneUpdates
-- painters: how each robot kind is drawn (`painter_for`), for Foxglove, Rerun and the report
+- painters: how each robot kind is drawn (`painter_for`, which finds each kind's `*_painter.py`), for
+  Foxglove, Rerun and the report
 - writer: `TrialLog`, the three files together, resume and finalisation
 - process: `LogProcess`, the log in a child process that `judge`s each query
 """
 
 from __future__ import annotations
 
-from harness.log.arm_painter import ArmPainter
 from harness.log.csv import CSV_FIXED, CSV_NAME
 from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
@@ -22,7 +22,6 @@ from harness.log.tally import Tally
 from harness.log.writer import ResumeRefused, TrialLog
 
 __all__ = [
-    "ArmPainter",
     "CSV_FIXED",
     "CSV_NAME",
     "FORMAT",

@@ -3,17 +3,20 @@
 A painter turns the log's own messages (/workspace and /query as JSON) into Foxglove scene
 primitives, Rerun archetypes, and the report's example figure (matplotlib, through
 harness.log.mpl). The writer, the Rerun sink, the Foxglove module and the report only call a
-painter, so a new robot kind is a new painter class, registered with `register` (here, or in
-its own module imported by harness/log/__init__.py, as arm_painter's ArmPainter), and nothing
-else changes.
+painter, so a new robot kind is a new painter class, registered with `register` in its own
+module `harness/log/<kind>_painter.py` (as arm_painter's ArmPainter), which `painter_for` finds
+and imports: nothing else changes.
 
     painter = painter_for(ws_msg["robot"], workspace_dim)
 """
 
 from __future__ import annotations
 
+import importlib
 import math
+import pkgutil
 from abc import ABC, abstractmethod
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -42,11 +45,21 @@ def register(cls: type[Painter]) -> type[Painter]:
     return cls
 
 
+def _discover() -> None:
+    """Import every `*_painter.py` module beside this one: each registers its kind's painter."""
+    for module in pkgutil.iter_modules([str(Path(__file__).parent)]):
+        if module.name.endswith("_painter"):
+            importlib.import_module(f"{__package__}.{module.name}")
+
+
 def painter_for(robot: dict | str, workspace_dim: int) -> Painter:
     """The painter of a /workspace message's `robot` ({"kind": ...}, or an arm's name)
     in a workspace of `workspace_dim` dimensions."""
     kind = robot.get("kind") if isinstance(robot, dict) else robot
     cls = _PAINTERS.get((kind, int(workspace_dim)))
+    if cls is None:  # a kind whose painter module is not imported yet
+        _discover()
+        cls = _PAINTERS.get((kind, int(workspace_dim)))
     if cls is None:
         known = ", ".join(f"{k} ({d}D)" for k, d in sorted(_PAINTERS))
         raise ValueError(f"no painter for robot {robot!r} in a {workspace_dim}D workspace; painters: {known}")

@@ -9,7 +9,8 @@ one compilation, cached on disk, serves both. ARM is the sphere model's (its pac
 floats, the packed obstacles as lo's one row, hi's one row (certify tolerance, base blocked),
 its scratch, and one field more, so that the kernels compile apart for it;
 mpnet.envs.checkers.sphere_checks, which counts the configurations it evaluates in counts[2]).
-A robot kind of one's own: its checker's `compiled_env`, and its branch here.
+A robot kind of one's own: its checker's `compiled_env`, and its branch here (an 8-field env of
+another kind is refused when checked, not run through the rigid body's kernels).
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ POINT, RIGID, ARM = 0, 1, 2
 # model). A cold cache then compiles only what the env planned on needs: the sphere model's
 # checks inlined into every kernel tripled a point robot's first compilation.
 BOX_FIELDS, ARM_FIELDS = 8, 9
+# A box robot's env whose kind is neither POINT nor RIGID is refused, never checked as another kind's
+UNKNOWN = "compiled_env: an env of an unknown robot kind (add its branch here)"
 
 
 def state_free(env, counts, q):
@@ -65,6 +68,8 @@ def _state_typed(env, counts, q):
         kind, ints, floats, lo, hi, lower, upper, scratch = env
         if kind == POINT:
             return P.state_free(q, lo, hi, lower, upper)
+        if kind != RIGID:
+            raise ValueError(UNKNOWN)
         return R.state_free(q, lo, hi, floats)
 
     return boxes
@@ -88,6 +93,8 @@ def _motion_typed(env, counts, a, b):
         kind, ints, floats, lo, hi, lower, upper, scratch = env
         if kind == POINT:
             return P.motion_free(a, b, lo, hi, lower, upper, scratch)
+        if kind != RIGID:
+            raise ValueError(UNKNOWN)
         return R.motion_free(a, b, lo, hi, floats, ints)
 
     return boxes
@@ -112,6 +119,8 @@ def _motions_typed(env, counts, A, B, out):
         kind, ints, floats, lo, hi, lower, upper, scratch = env
         if kind == POINT:
             P.motions_free(A, B, lo, hi, lower, upper, scratch, out)
+        elif kind != RIGID:
+            raise ValueError(UNKNOWN)
         else:  # the rigid checker's batch is its one-motion test in a loop (CollisionChecker)
             for i in range(A.shape[0]):
                 out[i] = R.motion_free(A[i], B[i], lo, hi, floats, ints)

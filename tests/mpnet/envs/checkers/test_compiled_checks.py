@@ -6,6 +6,8 @@ coordinate, where the one-motion and batch tests' arithmetic matter; the rigid b
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -108,3 +110,20 @@ def test_a_checker_that_changes_the_geometry_has_no_compiled_form():
     assert PointChecker.compiled and RigidChecker.compiled and not Everywhere.compiled and not FclRigidChecker.compiled
     with pytest.raises(ValueError, match="no kernels for Everywhere"):
         kernel_env(checker)
+
+
+@pytest.mark.slow  # compiles a caller of the rigid and point checks
+def test_an_env_of_an_unknown_kind_is_refused_not_checked_as_a_rigid_body():
+    from mpnet.envs.checkers.compiled_env import UNKNOWN, motion_free, state_free
+    from mpnet.jit import njit
+
+    @njit
+    def check(env, counts, a, b):
+        return state_free(env, counts, a) and motion_free(env, counts, a, b)
+
+    spec = get_spec("rigid")
+    env = spec.make_checker(make_workspace(spec, 0, "train")).compiled_env()
+    counts, a, b = np.zeros(4, np.int64), np.array([0.0, 0.0, 0.0]), np.array([0.1, 0.0, 0.0])
+    check(env, counts, a, b)  # the rigid body's own kind: answered
+    with pytest.raises(ValueError, match=re.escape(UNKNOWN)):
+        check((type(env[0])(7), *env[1:]), counts, a, b)

@@ -269,7 +269,9 @@ def _model_copy(tmp_path, monkeypatch):
 
 
 def test_an_unknown_or_broken_model_is_named(tmp_path, monkeypatch):
-    with pytest.raises(ArmModelError, match="unknown arm model 'nope'; choices: fetch, panda, panda_pybullet_data, ur5"):  # noqa: E501
+    with pytest.raises(
+        ArmModelError, match="unknown arm model 'nope'; choices: fetch, panda, panda_pybullet_data, ur5"
+    ):  # noqa: E501
         load_arm_model("nope")
     folder = _model_copy(tmp_path, monkeypatch)
     desc = folder / "panda.yaml"
