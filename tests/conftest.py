@@ -19,7 +19,7 @@ PLANAR_LOCK = "MPNET_BENCH_TESTS_PLANAR_LOCK"  # held while the planar envs' ker
 KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles what it needs itself
 ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
 # in a test's id, its folders aside (uses_arm): it uses the arm's kernels
-ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearance")
+ARM_TESTS = ("arm7", "test_arm", "panda", "mbm", "sphere", "checkers", "clearance", "robot_files")
 # numba's kernels: one cache for the session, its workers and every command they start (whatever
 # cache_dir a test gives), unless the environment names one; in the user's cache, not the
 # checkout (the tests write only into temporary folders), kept between sessions (warm loops)

@@ -123,9 +123,11 @@ def test_pybullet_refusing_a_urdf_is_named(robots):
         ArmWorld(load_arm_model("toy"))
 
 
+@pytest.mark.slow  # spherizes the toy, compiles its env's kernels (cached: the Panda's types)
 def test_a_robot_of_ones_own_is_files_in_a_robot_folder(robots, capsys):
     """Description, URDF and meshes in the user's folder; harness.spherize writes the set beside
     them; the sphere checker then agrees with pybullet on the toy's configurations."""
+    from harness.compile_kernels import compile_env
     from harness.spherize import main as spherize_main
     from mpnet.envs.specs import build
 
@@ -155,6 +157,7 @@ def test_a_robot_of_ones_own_is_files_in_a_robot_folder(robots, capsys):
     truth = [judge.is_valid(q) for q in qs.tolist()]
     assert 30 < sum(free) < 270  # the wall blocks some of them
     assert not any(f and not t for f, t in zip(free, truth))  # spheres free => meshes free
+    compile_env(spec, [])  # harness.compile_kernels on an env of problem files only: checks and RRT-Connect
     assert sum(t and not f for f, t in zip(free, truth)) <= 0.1 * len(qs)  # and not much more cautious
 
 
@@ -168,6 +171,7 @@ def _tar(members: dict[str, bytes], mode: str) -> bytes:
     return buf.getvalue()
 
 
+@pytest.mark.slow  # spherizes the toy twice
 def test_fetch_mbm_installs_a_robot_without_visuals_and_spherizes_it(robots, tmp_path, mbm_dir, monkeypatch, capsys):
     from harness import fetch_mbm
 
