@@ -36,6 +36,7 @@ ARM_FIRST = CLI_EXPERIMENTS + "test_the_arm_in_two_minutes"
 SUMMARY = "tests/harness/report/test_summary.py::test_command_writes_both_files_and_refuses_a_readme_without_markers"
 
 # documented command (as documented_commands() normalises it) -> the test that runs it
+FILES_ONLY = "tests/harness/core/test_configs.py::test_envs_of_problem_files_only_say_what_they_lack"
 TESTED = {
     # README.md
     "python -m harness +env=s2d +planner=bit_star": CLI + "test_bench_tiny_s2d",
@@ -67,6 +68,13 @@ TESTED = {
     "python -m harness.fetch_mbm data/mbm": (
         "tests/mpnet/envs/arm/test_arm.py::test_fetch_mbm_unpacks_the_panda_problems_of_an_sdist"
     ),
+    # a robot installed from an sdist (a toy robot: the suite cannot download the UR5's files)
+    "python -m harness.fetch_mbm data/mbm --robot ur5 --robot fetch": (
+        "tests/mpnet/envs/arm/test_robot_files.py::test_fetch_mbm_installs_a_robot_without_visuals_and_spherizes_it"
+    ),
+    # composed and refused without the robot's files, naming the command that installs them
+    "python -m harness +env=mbm_ur5 +planner=rrt_connect problems=data/mbm/problems": FILES_ONLY,
+    "python -m harness +env=mbm_fetch +planner=rrt_connect_compiled problems=data/mbm/problems": FILES_ONLY,
     "python -m harness +env=arm7 +planner=rrt_connect problems=data/mbm/problems": MBM_RUN,
     "python -m harness.perf.crossing --out reports/rrt_connect_compiled/crossing": (
         "tests/harness/test_perf.py::test_crossing_command_writes_its_table"

@@ -91,7 +91,10 @@ def test_multirun_flag_last(tmp_path, run_cli):
 @pytest.mark.parametrize(
     "args,needle",
     [
-        (["+planner=bit_star"], "choose an env with +env=NAME (choices: arm7, c2d, c3d, panda_mbm, rigid, s2d)"),
+        (
+            ["+planner=bit_star"],
+            "choose an env with +env=NAME (choices: arm7, c2d, c3d, mbm_fetch, mbm_ur5, panda_mbm, rigid, s2d)",
+        ),
         (["+env=s2d"], "choose a planner with +planner=NAME"),
         (["+env=s3d", "+planner=bit_star"], "unknown env 's3d' (did you mean s2d?"),
         (["+env=s2d", "+planner=bitstar"], "unknown planner 'bitstar'"),

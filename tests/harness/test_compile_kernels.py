@@ -88,5 +88,5 @@ def test_compile_kernels_cli(run_cli):
     assert "Pnet of 3, 4, 11 hidden layers" in lines[0] and "Pnet of 3, 4, 8 hidden layers" in lines[2]
     bad = run_cli("harness.compile_kernels", "s3d", check=False)
     assert bad.returncode == 2 and bad.stderr.strip().splitlines() == [
-        "error: unknown env 's3d'; choices: arm7, c2d, c3d, panda_mbm, rigid, s2d"
+        "error: unknown env 's3d'; choices: arm7, c2d, c3d, mbm_fetch, mbm_ur5, panda_mbm, rigid, s2d"
     ]

@@ -33,7 +33,7 @@ BAD = {
     "bad_missing_format.json": ("s2d", ["missing key 'format'", FORMAT]),
     "bad_wrong_format.json": ("s2d", ["mpnet-bench/problems@9", f"expected {FORMAT!r} or {FORMAT_2!r}"]),
     "bad_missing_env.json": ("s2d", ["missing key 'env'"]),
-    "bad_unknown_env.json": ("s2d", ["unknown env 's4d'", "c2d, c3d, panda_mbm, rigid, s2d"]),
+    "bad_unknown_env.json": ("s2d", ["unknown env 's4d'", "c2d, c3d, mbm_fetch, mbm_ur5, panda_mbm, rigid, s2d"]),
     "bad_env_mismatch.json": ("s2d", ["'c2d'", "'s2d'"]),
     "bad_missing_workspaces.json": ("s2d", ["missing key 'workspaces'"]),
     "bad_workspaces_not_list.json": ("s2d", ["workspaces must be a list", "got an object"]),

@@ -80,18 +80,16 @@ def test_every_env_and_planner_builds(env, planner, env_configs, planner_configs
     assert main.name == cfg.planner.name
 
 
-def test_envs_of_problem_files_only_say_what_they_lack(compose_config, models_dirs):
+def test_envs_of_problem_files_only_say_what_they_lack(run_cli, mbm_dir):
     """mbm_ur5 and mbm_fetch: their robots' files are installed by harness.fetch_mbm (the suite's
-    robot folder is empty), so each names the command; without problems= each says it needs them."""
+    robot folder is empty), so `python -m harness +env=mbm_ur5 +planner=rrt_connect problems=...`
+    (and mbm_fetch's with +planner=rrt_connect_compiled) says in one line which command installs them."""
     assert set(FILES_ONLY) == {"mbm_ur5", "mbm_fetch"}
-    for env in FILES_ONLY:
-        cfg = compose_config([f"+env={env}", "+planner=rrt_connect", "problems=tests/data/mbm"])
+    for env, planner in (("mbm_ur5", "rrt_connect"), ("mbm_fetch", "rrt_connect_compiled")):
+        p = run_cli("harness", f"+env={env}", f"+planner={planner}", f"problems={mbm_dir}", check=False)
         robot = env.removeprefix("mbm_")
-        with pytest.raises(
-            UsageError,
-            match=f"config key env: .*is in no robot folder .python -m harness.fetch_mbm data/mbm --robot {robot}",
-        ):
-            build(cfg, models_dirs)
+        assert p.returncode != 0 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert f"is in no robot folder (python -m harness.fetch_mbm data/mbm --robot {robot})" in p.stderr
 
 
 @pytest.mark.parametrize("scale", SCALES)

@@ -173,7 +173,7 @@ def _tar(members: dict[str, bytes], mode: str) -> bytes:
 
 @pytest.mark.slow  # spherizes the toy twice
 def test_fetch_mbm_installs_a_robot_without_visuals_and_spherizes_it(robots, tmp_path, mbm_dir, monkeypatch, capsys):
-    from harness import fetch_mbm
+    import harness.fetch_mbm as fetch_mbm
 
     monkeypatch.setitem(fetch_mbm.ARCHIVES, "problems", [{"member": "resources/toy/problems.tar.bz2", "dest": "."}])
     robot = {"model": "toy", "folder": "resources/toy", "urdf": "toy.urdf", "files": ["meshes/"], "dest": "toy"}
