@@ -5,10 +5,8 @@ distribution. The robot here is a toy (two joints), small enough to spherize in 
 
 from __future__ import annotations
 
-import io
 import json
 import re
-import tarfile
 
 import numpy as np
 import pytest
@@ -18,6 +16,7 @@ from mpnet.envs.arm.model import ArmModelError, load_arm_model, read_urdf, robot
 from mpnet.envs.arm.spherize import read_stl_vertices, shape_points
 from mpnet.envs.shapes import Primitive
 from mpnet.envs.workspace import Workspace
+from tests.mpnet.envs.arm.test_arm import _tar  # an sdist's nested archives, in memory
 
 CUBE = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (0.0, 0.3)])
 FACES = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6), (0, 2, 6),
@@ -159,16 +158,6 @@ def test_a_robot_of_ones_own_is_files_in_a_robot_folder(robots, capsys):
     assert not any(f and not t for f, t in zip(free, truth))  # spheres free => meshes free
     compile_env(spec, [])  # harness.compile_kernels on an env of problem files only: checks and RRT-Connect
     assert sum(t and not f for f, t in zip(free, truth)) <= 0.1 * len(qs)  # and not much more cautious
-
-
-def _tar(members: dict[str, bytes], mode: str) -> bytes:
-    buf = io.BytesIO()
-    with tarfile.open(fileobj=buf, mode=mode) as t:
-        for name, data in members.items():
-            info = tarfile.TarInfo(name)
-            info.size = len(data)
-            t.addfile(info, io.BytesIO(data))
-    return buf.getvalue()
 
 
 @pytest.mark.slow  # spherizes the toy twice
