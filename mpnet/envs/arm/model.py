@@ -84,9 +84,6 @@ class CollisionShape:
     geometry: str = "mesh"
     size: tuple[float, ...] = (1.0, 1.0, 1.0)
 
-    def label(self) -> str:
-        return self.path.name if self.path is not None else self.geometry
-
 
 @dataclass(frozen=True)
 class Kinematics:
@@ -227,13 +224,18 @@ def _data_dir():
 ROBOTS_VAR = "MPNET_BENCH_ROBOTS"
 
 
+def _given_dirs() -> list[Path]:
+    """The folders of $MPNET_BENCH_ROBOTS, in order."""
+    return [Path(p).expanduser() for p in os.environ.get(ROBOTS_VAR, "").split(os.pathsep) if p]
+
+
 def user_robot_dir() -> Path:
     """Where `python -m harness.fetch_mbm` installs robots whose files the package cannot ship
     (MotionBenchMaker's UR5 and Fetch): the first folder of $MPNET_BENCH_ROBOTS, else
     $XDG_DATA_HOME/mpnet-bench/robots (~/.local/share/mpnet-bench/robots)."""
-    given = [p for p in os.environ.get(ROBOTS_VAR, "").split(os.pathsep) if p]
+    given = _given_dirs()
     if given:
-        return Path(given[0]).expanduser()
+        return given[0]
     home = os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share"
     return Path(home) / "mpnet-bench" / "robots"
 
@@ -241,8 +243,7 @@ def user_robot_dir() -> Path:
 def robot_dirs() -> list[Path]:
     """Where a robot's files (description, sphere set, URDF) are looked for, in order: the
     package's, each folder of $MPNET_BENCH_ROBOTS, the user's robot folder."""
-    given = [Path(p).expanduser() for p in os.environ.get(ROBOTS_VAR, "").split(os.pathsep) if p]
-    return list(dict.fromkeys([Path(str(_data_dir())), *given, user_robot_dir()]))
+    return list(dict.fromkeys([Path(str(_data_dir())), *_given_dirs(), user_robot_dir()]))
 
 
 def robot_file(name: str) -> Path | None:

@@ -71,9 +71,6 @@ def _pairs(path: Path, robot: str) -> list[tuple[str, Path, Path]]:
             request = scene.with_name(f"request{m.group(1)}{scene.suffix}")
             if not request.exists():
                 raise ProblemFileError(scene, f"no {request.name} beside it")
-            named = scene_robot(scene)
-            if named not in (robot, None):
-                raise ProblemFileError(scene, f"a scene for robot {named}, not {robot}")
             out.append((f"{folder.name}/{m.group(1)}", scene, request))
     if not out:
         raise ProblemFileError(path, "no MotionBenchMaker sceneNNNN.yaml / requestNNNN.yaml pairs found")
@@ -116,12 +113,16 @@ def _pose(path: Path, obj: str, pose, what: str) -> tuple[np.ndarray, np.ndarray
     return position, quat / norm
 
 
-def scene_primitives(path: Path) -> list[Primitive]:
+def scene_primitives(path: Path, robot: str | None = None) -> list[Primitive]:
     """The collision objects of a MoveIt scene file as posed primitives (an object's own
-    `pose`, where given, composed with its primitives' poses, as MoveIt does)."""
+    `pose`, where given, composed with its primitives' poses, as MoveIt does); robot: a scene
+    naming another robot (robot_model_name) is refused."""
     from scipy.spatial.transform import Rotation  # here: scipy.spatial costs ~0.25 s (arm.ik.solve)
 
     doc = _load_yaml(path)
+    named = doc.get("robot_model_name") if isinstance(doc, dict) else None
+    if robot is not None and named not in (robot, None):
+        raise ProblemFileError(path, f"a scene for robot {named}, not {robot}")
     world = doc.get("world") if isinstance(doc, dict) else None
     objects = world.get("collision_objects") if isinstance(world, dict) else None
     if not isinstance(objects, list):
@@ -191,7 +192,9 @@ def load_mbm(path: str | Path, spec: EnvSpec, per_set: int | None = None) -> Tes
             continue
         taken[folder] = taken.get(folder, 0) + 1
         start, goal = request_states(request, model.joints)
-        ws = Workspace(pid, SPLIT, np.zeros((0, 3)), np.zeros((0, 3)), tuple(scene_primitives(scene)))
+        ws = Workspace(
+            pid, SPLIT, np.zeros((0, 3)), np.zeros((0, 3)), tuple(scene_primitives(scene, model.scene_robot))
+        )
         workspaces.append(ws)
         queries.append(Query(pid, pid, SPLIT, start, goal))
     return TestSet(spec, workspaces, queries)
