@@ -21,6 +21,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from mpnet.envs.arm.model import ArmModel, ArmModelError, CollisionShape
+from mpnet.jit import njit
 
 CANDIDATE_SPACING = 0.005  # m between the interior grid's candidate centres
 _STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
@@ -115,6 +116,74 @@ def candidates(hull: ConvexHull, reach: float, spacing: float) -> tuple[np.ndarr
     return grid[depth > 0], depth[depth > 0] + reach
 
 
+@njit(cache=True)
+def _holds(centres, radii, points):
+    """holds[i, p]: ball i (centre, radius) holds point p. Compiled: numpy's broadcast form
+    made a (balls x points x 3) temporary, most of a small link's covering time. The sum is
+    numpy's own order ((dx^2 + dy^2) + dz^2), so every answer is the numpy form's, bit for bit
+    (a point on a ball's surface included as it was: the shipped sets are unchanged)."""
+    out = np.empty((centres.shape[0], points.shape[0]), np.bool_)
+    for i in range(centres.shape[0]):
+        cx, cy, cz, r2 = centres[i, 0], centres[i, 1], centres[i, 2], radii[i] * radii[i]
+        for p in range(points.shape[0]):
+            dx, dy, dz = cx - points[p, 0], cy - points[p, 1], cz - points[p, 2]
+            out[i, p] = (dx * dx + dy * dy) + dz * dz <= r2
+    return out
+
+
+@njit(cache=True)
+def _greedy(holds):
+    """The greedy set cover of the points by the balls (holds: _holds): each pick the ball
+    holding the most points not yet held (the first such: numpy's argmax), until none holds
+    one. Returns the picks and the points left open (a sharp corner, a small reach). Each
+    ball's count of open points is kept current, not recounted per pick."""
+    n, m = holds.shape
+    counts = np.zeros(n, np.int64)
+    for i in range(n):
+        for p in range(m):
+            counts[i] += holds[i, p]
+    open_ = np.ones(m, np.bool_)
+    newly = np.empty(m, np.int64)
+    chosen = []
+    while True:
+        j = np.argmax(counts)
+        if counts[j] == 0:
+            break
+        chosen.append(j)
+        k = 0
+        for p in range(m):
+            if open_[p] and holds[j, p]:
+                open_[p] = False
+                newly[k] = p
+                k += 1
+        for i in range(n):
+            if counts[i] == 0:  # holds no open point, so none of these
+                continue
+            t = 0
+            for q in range(k):
+                t += holds[i, newly[q]]
+            counts[i] -= t
+    return np.array(chosen, np.int64), open_
+
+
+@njit(cache=True)
+def _farthest_assigned(points, centres, radii):
+    """Each point assigned to the ball it overshoots least (distance minus radius; the first
+    such), and per ball its farthest assigned point's distance (-1: none). Compiled, in numpy's
+    own arithmetic (a millions-of-points x balls temporary before, most of a link's time)."""
+    farthest = np.full(centres.shape[0], -1.0)
+    for p in range(points.shape[0]):
+        best, owner, dist = np.inf, -1, 0.0
+        for i in range(centres.shape[0]):
+            dx, dy, dz = points[p, 0] - centres[i, 0], points[p, 1] - centres[i, 1], points[p, 2] - centres[i, 2]
+            d = math.sqrt((dx * dx + dy * dy) + dz * dz)
+            if d - radii[i] < best:
+                best, owner, dist = d - radii[i], i, d
+        if owner >= 0 and dist > farthest[owner]:
+            farthest[owner] = dist
+    return farthest
+
+
 def cover(points: np.ndarray, hull: ConvexHull, reach: float, seed: int, subsample: int = 6000):
     """Spheres (centres, radii) whose union holds every point, none reaching much beyond
     the hull: a greedy set cover of a subsample by the candidate balls (each pick the ball
@@ -123,24 +192,8 @@ def cover(points: np.ndarray, hull: ConvexHull, reach: float, seed: int, subsamp
     rng = np.random.default_rng(seed)
     centres, radii = candidates(hull, reach, CANDIDATE_SPACING)
     sub = points[rng.choice(len(points), min(subsample, len(points)), replace=False)]
-    holds = np.concatenate(
-        [
-            ((c[:, None, :] - sub[None]) ** 2).sum(-1) <= r[:, None] ** 2
-            for c, r in zip(
-                np.array_split(centres, 1 + len(centres) // 1000), np.array_split(radii, 1 + len(radii) // 1000)
-            )
-        ]
-    )
-    open_, chosen = np.ones(len(sub), bool), []
-    counts = holds.sum(axis=1)  # per ball, the open points it holds: kept current, not recounted per pick
-    while open_.any():
-        j = int(np.argmax(counts))
-        if counts[j] == 0:  # what is left, no candidate reaches (a sharp corner, a small reach)
-            break
-        chosen.append(j)
-        newly = open_ & holds[j]
-        open_ &= ~holds[j]
-        counts -= holds[:, newly].sum(axis=1)
+    holds = _holds(centres, radii, sub)
+    chosen, open_ = _greedy(holds)
     c, r = centres[chosen], radii[chosen]
     corner = []  # balls of radius `reach` centred on the points left, each taking those it holds
     while open_.any():
@@ -149,11 +202,7 @@ def cover(points: np.ndarray, hull: ConvexHull, reach: float, seed: int, subsamp
         open_ &= ((sub - at) ** 2).sum(-1) > reach**2
     if corner:
         c, r = np.concatenate([c, corner]), np.concatenate([r, np.full(len(corner), reach)])
-    farthest = np.full(len(c), -1.0)  # per chosen ball, its farthest assigned point (-1: none)
-    for block in np.array_split(points, 1 + len(points) // 100_000):  # bounded memory on big links
-        d = np.sqrt(((block[:, None, :] - c[None]) ** 2).sum(-1))
-        owner = np.argmin(d - r[None], axis=1)
-        np.maximum.at(farthest, owner, d[np.arange(len(block)), owner])
+    farthest = _farthest_assigned(points, np.asarray(c, float), np.asarray(r, float))
     keep = farthest >= 0
     return c[keep], farthest[keep]
 
