@@ -6,7 +6,8 @@ data key, and so every models key, moved then, and no test set's; when panda_mbm
 on an iteration count (env.expert.run_iterations, issue 42): panda_mbm's data and models keys only; and
 when panda_mbm's recipe took a collision loss (networks.collision_loss, issue 42), and when that loss
 was measured along each step (networks.collision_motion): its models keys only; and when the sphere
-checker became VERSION 3 (issue 64): every arm7 and panda_mbm key)."""
+checker became VERSION 3 (issue 64): every arm7 and panda_mbm key; when the tiny scale took a 0.2 s
+reference BIT* run (scale.reference_bit_star_s): the tiny test set keys of the envs with planned references)."""
 
 from __future__ import annotations
 
