@@ -48,8 +48,8 @@ def _field(table: list[Field], name: str, packed: str, *shape) -> int:
 # Frames in parent-before-child order; a three-level sphere tree: links (a bounding sphere,
 # a range of groups), groups (a bounding sphere, a range of spheres), spheres; the pairs of
 # links that may not touch; levers (how far a link's or group's centre moves per unit of
-# each joint); the pair tables (SphereModel._build_tables). first: 1 when the root link never
-# moves (it is tested against obstacles once).
+# each joint); the pair tables (SphereModel._build_tables). first: how many links (the first
+# ones) never move (tested against obstacles once, SphereChecker._base_blocked).
 PARENT = _field(MODEL, "parent", INTS, "F")
 ORIGIN = _field(MODEL, "origin", FLOATS, "F", 3, 4)
 KIND = _field(MODEL, "kind", INTS, "F")

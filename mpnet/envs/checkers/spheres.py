@@ -48,7 +48,12 @@ class SphereModel:
         self.model = model
         frames = kin.frames
         self.parent, self.origin, self.kind, self.axis, self.coord = kin.arrays()
+        # Links no joint moves (the root's and those fixed to it: a pedestal, a mobile base) go
+        # first, each kind in frame order (an ancestor still before its descendants): the kernels
+        # skip them against obstacles, which _base_blocked tests once a workspace.
         links = [f.link for f in frames if f.link in doc["links"]]
+        fixed = {name for name in links if _root_fixed(frames, kin.index(name))}
+        links = [name for name in links if name in fixed] + [name for name in links if name not in fixed]
         self.links = links
         self.link_frame = np.array([kin.index(name) for name in links], np.int64)
         spheres = [_grouped(np.array(doc["links"][name], float).reshape(-1, 4)) for name in links]
@@ -74,8 +79,8 @@ class SphereModel:
         self.pair_a = np.array([p[0] for p in pairs], np.int64)
         self.pair_b = np.array([p[1] for p in pairs], np.int64)
         self.pair_j0 = np.array([self._joints_between(a, b) for a, b in pairs], np.int64)
-        # The root link never moves: it is tested against a workspace's obstacles once.
-        self.first = 1 if self.link_frame[0] == 0 else 0
+        # How many links never move (the first ones): tested against a workspace's obstacles once.
+        self.first = len(fixed)
         self.sphere_frame = np.repeat(self.group_frame, gsizes)
         self.sphere_link = np.repeat(np.repeat(np.arange(len(links)), per_link), gsizes)
         # Static levers per sphere (the kernels use the links' and groups', which bound them).
@@ -213,7 +218,7 @@ class SphereModel:
         (mpnet.models.clearance) poses in torch. Frames: parent index (-1: the base), origin
         (F, 3, 4), joint kind, axis and coordinate (-1: fixed); spheres: frame, centre in it, radius;
         their groups (the checker's tree): frame, bounding sphere, and first and last + 1 sphere."""
-        g0 = int(self.link_g1[0]) if self.first else 0  # the first group, and its first sphere, that move
+        g0 = int(self.link_g1[self.first - 1]) if self.first else 0  # the first group, and its first sphere, that move
         s0 = int(self.group_s0[g0]) if g0 < len(self.group_s0) else len(self.radius)
         return {
             "parent": self.parent,
@@ -230,6 +235,15 @@ class SphereModel:
             "group_start": self.group_s0[g0:] - s0,
             "group_stop": self.group_s1[g0:] - s0,
         }
+
+
+def _root_fixed(frames, i: int) -> bool:
+    """No joint lies between frame i and the root (its pose is the same in every configuration)."""
+    while i >= 0:
+        if frames[i].coordinate >= 0:
+            return False
+        i = frames[i].parent
+    return True
 
 
 def obstacle_arrays(ws: Workspace) -> dict[str, np.ndarray]:
@@ -339,7 +353,7 @@ class SphereChecker(SampledConfigurations):
         m = self.model
         if not m.first:
             return False
-        base = m.world_spheres(np.zeros(m.model.dof))[: m.link_sizes[0]]
+        base = m.world_spheres(np.zeros(m.model.dof))[: m.link_sizes[: m.first].sum()]
         return bool(C.any_hit(np.ascontiguousarray(base[:, :3]), np.ascontiguousarray(base[:, 3]), self._args[2]))
 
     def _state_free(self, q) -> bool:

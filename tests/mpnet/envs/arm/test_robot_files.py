@@ -229,3 +229,38 @@ def test_robot_folders_are_searched_in_order(tmp_path, monkeypatch):
     (b / "x.yaml").write_text("b")
     assert arm_model.robot_file("x.yaml") == b / "x.yaml" and arm_model.robot_file("nothing.yaml") is None
     assert arm_model.robot_file("panda.yaml").parent == robot_dirs()[0]  # the package's first
+
+
+@pytest.mark.slow  # spherizes the toy
+def test_links_no_joint_moves_are_tested_against_a_workspace_once(robots):
+    """A robot standing on a link fixed to the root (the UR5's base on its offset link): that link
+    is one the kernels skip (SphereModel.first) and the checker tests once a workspace: touching
+    it blocks every state; elsewhere the checker still agrees with pybullet's meshes."""
+    from harness.spherize import main as spherize_main
+    from mpnet.envs.checkers.spheres import SphereModel
+    from mpnet.envs.specs import build
+
+    fixed = '<robot name="toy">\n  <link name="world"/>\n  <joint name="fix" type="fixed"><parent link="world"/>'
+    fixed += '<child link="root"/><origin xyz="0 0 0.1"/></joint>'
+    files = robot_files(visual=False)
+    files["toy/toy.urdf"] = files["toy/toy.urdf"].decode().replace('<robot name="toy">', fixed).encode()
+    install(robots, {**files, "toy.yaml": DESCRIPTION.encode()})
+    assert spherize_main(["toy"]) == 0
+    model = SphereModel(load_arm_model("toy"))
+    assert model.first == 1 and model.links[0] == "root" and model.link_frame[0] != 0  # not the root frame
+    robot = {"class": "mpnet.envs.robots.ArmRobot", "args": ["toy"]}
+    steps = {"validation_step": 0.002, "motion_step": 0.02, "planning_margin": 0.0}
+    spec = build("toy_env", {"robot": robot, "workspace_dim": 3, "generator": None, **steps})
+    qs = np.random.default_rng(1).uniform([-3, -2], [3, 2], (200, 2))
+
+    def workspace(centre, size):
+        return Workspace("w", "file", np.zeros((0, 3)), np.zeros((0, 3)), (Primitive("box", centre, size),))
+
+    on_base = spec.make_checker(workspace((0.0, 0.3, 0.1), (0.1, 0.5, 0.05)))  # touches the root's box only
+    assert on_base.base_blocked and not any(on_base.is_valid(q) for q in qs.tolist())
+    wall = workspace((0.2, 0.0, 0.6), (0.15, 2.0, 0.4))
+    spheres, judge = spec.make_checker(wall), spec.judge_checker(wall)
+    free = [spheres.is_valid(q) for q in qs.tolist()]
+    truth = [judge.is_valid(q) for q in qs.tolist()]
+    assert not spheres.base_blocked and 20 < sum(free) < 180
+    assert not any(f and not t for f, t in zip(free, truth))
