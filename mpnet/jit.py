@@ -7,7 +7,9 @@ code compiled from that module's old text after it changes: the compiled MPNet l
 an edit of `point_kernels.state_free` did not reach the planner. Here the stamp is the digest
 of the kernel's module and of every `mpnet` module it imports, transitively (module-level and
 function-level imports alike, read from the source, so nothing is imported to find them; a
-package's `__init__` only where a name is imported from it): an
+package's `__init__` only where a name is imported from it; a module's `DISCOVERS = "<glob>"`,
+the modules beside it that it imports by name at run time, as compiled_env finds the robot
+kinds): an
 edit anywhere a kernel reaches recompiles that kernel, and only the kernels that reach it.
 
 Where: `NUMBA_CACHE_DIR` (numba's setting) if set when a kernel is first compiled or
@@ -63,7 +65,11 @@ def _imports(path: Path, mtime_ns: int, size: int) -> tuple[Path, ...]:
             for a in node.names:
                 sub = f"{node.module}.{a.name}"
                 names.append(sub if _module_file(sub) is not None else node.module)
-    return tuple(sorted({f for f in map(_module_file, names) if f is not None}))
+    found = {f for f in map(_module_file, names) if f is not None}
+    for node in tree.body:  # DISCOVERS = "<glob>": modules beside it that it imports by name at run time
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "DISCOVERS" for t in node.targets):
+            found |= {f.resolve() for f in path.parent.glob(node.value.value)}
+    return tuple(sorted(found))
 
 
 def reach(path: str | os.PathLike) -> list[Path]:

@@ -116,11 +116,14 @@ def test_the_stamp_does_not_depend_on_where_the_package_is(package, tmp_path_fac
 
 def test_the_repository_kernels_reach_what_they_inline():
     """The compiled MPNet loop's stamp covers the point, rigid, sphere and Pnet kernels it
-    inlines; the sphere checks' covers sphere_kernels (once a hand-pinned digest)."""
+    inlines, through the kind modules compiled_env imports by name; the sphere checks' covers
+    sphere_kernels (once a hand-pinned digest)."""
     root = jit.ROOT
     reach = lambda m: {p.relative_to(root).as_posix() for p in jit.reach(root / m)}  # noqa: E731
     assert {
         "envs/checkers/compiled_env.py",
+        "envs/checkers/boxes_compiled.py",  # the robot kinds compiled_env finds by name (DISCOVERS)
+        "envs/checkers/spheres_compiled.py",
         "envs/checkers/point_kernels.py",
         "envs/checkers/rigid_kernels.py",
         "envs/checkers/sphere_checks.py",

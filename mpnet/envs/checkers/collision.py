@@ -157,10 +157,10 @@ class PointChecker(CollisionChecker):
     compiled = True
 
     def compiled_env(self) -> tuple:
-        from mpnet.envs.checkers.compiled_env import POINT  # numba's kernels load with the compiled planner only
+        from mpnet.envs.checkers import boxes_compiled as B  # numba's kernels load with the compiled planner only
 
-        d = self.spec.state_dim
-        return (POINT, np.zeros(0, np.int64), np.zeros(0), self._lo, self._hi, self._lower, self._upper, np.empty(d))
+        ints, floats, scratch = np.zeros(0, np.int64), np.zeros(0), np.empty(self.spec.state_dim)
+        return B.env(B.POINT, ints, floats, self._lo, self._hi, self._lower, self._upper, scratch)
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         from mpnet.envs.checkers import point_kernels as k  # numba: loaded with the first checker, not on import

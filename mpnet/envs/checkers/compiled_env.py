@@ -1,149 +1,146 @@
-"""A checker's compiled form: the `env` tuple a checker hands the compiled planner
-(`CollisionChecker.compiled_env`), and the checks and state-space operations the planner's
-kernels call on it, each robot kind's chosen here, so that the planner knows no robot kind.
+"""A checker's compiled form: the `env` tuple a checker hands the compiled planners
+(`CollisionChecker.compiled_env`), and the checks and state-space operations their kernels
+call on it, each robot kind's own, so that the planners know no robot kind.
 
-An env is one tuple of arrays (kind, ints, floats, lo, hi, lower, upper, scratch): kind POINT is
-the point robot's boxes (lo, hi; mpnet.envs.checkers.point_kernels), RIGID the rectangle's (box centres
-and halves in lo, hi, the body and bounds in floats, ints scratch; mpnet.envs.checkers.rigid_kernels):
-one compilation, cached on disk, serves both. ARM is the sphere model's (its packed ints and
-floats, the packed obstacles as lo's one row, hi's one row (certify tolerance, base blocked),
-its scratch, and one field more, so that the kernels compile apart for it;
-mpnet.envs.checkers.sphere_checks, which counts the configurations it evaluates in counts[2]).
-A robot kind of one's own: its checker's `compiled_env`, and its branch here (an 8-field env of
-another kind is refused when checked, not run through the rigid body's kernels).
+An env is one tuple whose last field is its kind's tag (`tag(name)`: an empty array of a
+one-field record dtype named after the kind), so numba types each kind's env apart and a
+kernel compiles once per kind. A kind is a module of this folder named `*_compiled.py` that
+calls `register` with its checks (`boxes_compiled`: the point robot's and the rectangle's,
+one compilation for both; `spheres_compiled`: the arm's sphere model); the modules are found
+by name (DISCOVERS), so a robot kind of one's own is its checker and one such file, and
+mpnet.jit's cache stamp reaches every one of them (an edit of a kind's file recompiles the
+kernels that inline it). An env whose tag no module registers is refused when a kernel is
+typed, by name.
 """
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numba.core.errors import TypingError
 from numba.extending import overload
 
-from mpnet.envs.checkers import point_kernels as P
-from mpnet.envs.checkers import rigid_kernels as R
-from mpnet.envs.checkers import sphere_checks as S
-from mpnet.jit import njit
+DISCOVERS = "*_compiled.py"  # the kinds' modules, beside this one (mpnet.jit's stamp reads this too)
+KINDS: dict[str, CompiledKind] = {}
 
-POINT, RIGID, ARM = 0, 1, 2
 
-# The env's checks, one implementation per env layout, chosen when a kernel is compiled (typing
-# time): the arm's env has one field more (ARM_FIELDS), so every kernel compiles apart for the
-# box robots (point, rigid: a kind test between two small checks) and for the arm (the sphere
-# model). A cold cache then compiles only what the env planned on needs: the sphere model's
-# checks inlined into every kernel tripled a point robot's first compilation.
-BOX_FIELDS, ARM_FIELDS = 8, 9
-# A box robot's env whose kind is neither POINT nor RIGID is refused, never checked as another kind's
-UNKNOWN = "compiled_env: an env of an unknown robot kind (add its branch here)"
+@dataclass(frozen=True)
+class CompiledKind:
+    """A robot kind's compiled checks, each a numba function of (env, counts, ...): counts[2]
+    gathers the configurations a sampled or certified check evaluates. canonical(env, q) and
+    wrap_difference(env, d) write in place (a space with an angle wraps it); bounded_dims(env,
+    n): how many leading coordinates of an n-D state have bounds. Left out: a Euclidean space."""
+
+    name: str
+    state_free: Callable
+    motion_free: Callable
+    motions_free: Callable
+    canonical: Callable | None = None
+    wrap_difference: Callable | None = None
+    bounded_dims: Callable | None = None
+
+
+def register(kind: CompiledKind) -> None:
+    KINDS[kind.name] = kind
+
+
+def tag(name: str) -> np.ndarray:
+    """The last field of a `name` env: numba types it by its record's field name."""
+    return np.zeros(0, np.dtype([(name, np.int8)]))
+
+
+def _discover() -> None:
+    """Import every kind module of this folder (each registers its kind)."""
+    folder = __name__.rpartition(".")[0]
+    for info in pkgutil.iter_modules(importlib.import_module(folder).__path__):
+        if info.name.endswith(DISCOVERS.removeprefix("*").removesuffix(".py")):
+            importlib.import_module(f"{folder}.{info.name}")
+
+
+def _kind(env) -> CompiledKind:
+    """The registered kind of an env's numba type (typing time)."""
+    fields = getattr(getattr(env.types[-1], "dtype", None), "fields", None) if hasattr(env, "types") else None
+    name = next(iter(fields)) if fields else None
+    if name not in KINDS:
+        _discover()
+    if name not in KINDS:
+        raise TypingError(f"compiled_env: an env of kind {name!r}, which no *_compiled.py module registers")
+    return KINDS[name]
 
 
 def state_free(env, counts, q):
-    """Whether the state is free (the env's checker's _state_free); typed by the overload below."""
+    """Whether the state is free; typed by the overload below."""
     raise NotImplementedError("compiled only")
 
 
 def motion_free(env, counts, a, b):
-    """Whether the motion is free (the env's checker's _motion_free); typed by the overload below."""
+    """Whether the motion is free; typed by the overload below."""
     raise NotImplementedError("compiled only")
 
 
 def motions_free(env, counts, A, B, out):
-    """out[i]: whether motion i is free (the env's checker's _motions_free); typed by the overload."""
+    """out[i]: whether motion i is free; typed by the overload below."""
     raise NotImplementedError("compiled only")
 
 
-def _is_arm(env) -> bool:
-    return len(env.types) == ARM_FIELDS
+def canonical(env, q):
+    """The state space's wrap of a state (SE2: the angle into [-pi, pi)), in place."""
+    raise NotImplementedError("compiled only")
 
 
-@overload(state_free, jit_options={"_nrt": False})  # borrowed (mpnet.jit), as the checks it calls
+def wrap_difference(env, d):
+    """A difference of states along the shorter way (SE2: the angle's into [-pi, pi)), in place."""
+    raise NotImplementedError("compiled only")
+
+
+def bounded_dims(env, n):
+    """How many leading coordinates of an n-D state have bounds to clip into (SE2: x and y)."""
+    raise NotImplementedError("compiled only")
+
+
+# Borrowed (mpnet.jit), as the checks they call; motions_free counts references: a kind's batch
+# may allocate its answers.
+@overload(state_free, jit_options={"_nrt": False})
 def _state_typed(env, counts, q):
-    if _is_arm(env):
-
-        def arm(env, counts, q):  # SphereChecker._state_free
-            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-            counts[2] += 1
-            return hi[0, 1] == 0.0 and S.state_free(q, ints, floats, lo[0], lower, upper, scratch)
-
-        return arm
-
-    def boxes(env, counts, q):
-        kind, ints, floats, lo, hi, lower, upper, scratch = env
-        if kind == POINT:
-            return P.state_free(q, lo, hi, lower, upper)
-        if kind != RIGID:
-            raise ValueError(UNKNOWN)
-        return R.state_free(q, lo, hi, floats)
-
-    return boxes
+    check = _kind(env).state_free
+    return lambda env, counts, q: check(env, counts, q)
 
 
 @overload(motion_free, jit_options={"_nrt": False})
 def _motion_typed(env, counts, a, b):
-    if _is_arm(env):
-
-        def arm(env, counts, a, b):  # SphereChecker._motion_free
-            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-            if hi[0, 1] != 0.0:
-                return False
-            ok, n = S.motion_free(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-            counts[2] += n
-            return ok
-
-        return arm
-
-    def boxes(env, counts, a, b):
-        kind, ints, floats, lo, hi, lower, upper, scratch = env
-        if kind == POINT:
-            return P.motion_free(a, b, lo, hi, lower, upper, scratch)
-        if kind != RIGID:
-            raise ValueError(UNKNOWN)
-        return R.motion_free(a, b, lo, hi, floats, ints)
-
-    return boxes
+    check = _kind(env).motion_free
+    return lambda env, counts, a, b: check(env, counts, a, b)
 
 
-@overload(motions_free, jit_options={"_nrt": True})  # counts: S.motions_free allocates its answers
+@overload(motions_free, jit_options={"_nrt": True})
 def _motions_typed(env, counts, A, B, out):
-    if _is_arm(env):
-
-        def arm(env, counts, A, B, out):  # SphereChecker._motions_free
-            _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-            if hi[0, 1] != 0.0:
-                out[:] = False
-                return
-            res, n = S.motions_free(A, B, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-            out[:] = res
-            counts[2] += n
-
-        return arm
-
-    def boxes(env, counts, A, B, out):
-        kind, ints, floats, lo, hi, lower, upper, scratch = env
-        if kind == POINT:
-            P.motions_free(A, B, lo, hi, lower, upper, scratch, out)
-        elif kind != RIGID:
-            raise ValueError(UNKNOWN)
-        else:  # the rigid checker's batch is its one-motion test in a loop (CollisionChecker)
-            for i in range(A.shape[0]):
-                out[i] = R.motion_free(A[i], B[i], lo, hi, floats, ints)
-
-    return boxes
+    check = _kind(env).motions_free
+    return lambda env, counts, A, B, out: check(env, counts, A, B, out)
 
 
-@njit(cache=True, borrowed=True)
-def canonical(env, q):
-    """The state space's wrap of a state (SE2: the angle into [-pi, pi)), in place."""
-    if env[0] == RIGID:
-        q[2] = R.wrap_angle(q[2])
+@overload(canonical, jit_options={"_nrt": False})
+def _canonical_typed(env, q):
+    wrap = _kind(env).canonical
+    if wrap is None:
+        return lambda env, q: None
+    return lambda env, q: wrap(env, q)
 
 
-@njit(cache=True, borrowed=True)
-def wrap_difference(env, d):
-    """A difference of states along the shorter way (SE2: the angle's into [-pi, pi)), in place."""
-    if env[0] == RIGID:
-        d[2] = R.wrap_angle(d[2])
+@overload(wrap_difference, jit_options={"_nrt": False})
+def _wrap_typed(env, d):
+    wrap = _kind(env).wrap_difference
+    if wrap is None:
+        return lambda env, d: None
+    return lambda env, d: wrap(env, d)
 
 
-@njit(cache=True, borrowed=True)
-def bounded_dims(env, n):
-    """How many leading coordinates of an n-D state have bounds to clip into (SE2: x and y; the
-    angle wraps)."""
-    return 2 if env[0] == RIGID else n
+@overload(bounded_dims, jit_options={"_nrt": False})
+def _bounded_typed(env, n):
+    dims = _kind(env).bounded_dims
+    if dims is None:
+        return lambda env, n: n
+    return lambda env, n: dims(env, n)

@@ -36,11 +36,11 @@ class RigidChecker(CollisionChecker):
     compiled = True
 
     def compiled_env(self) -> tuple:
-        from mpnet.envs.checkers.compiled_env import RIGID  # numba's kernels load with the compiled planner only
+        from mpnet.envs.checkers import boxes_compiled as B  # numba's kernels load with the compiled planner only
 
         near = np.empty(len(self._centres), np.int64)
         d = self.spec.state_dim
-        return (RIGID, near, self._floats, self._centres, self._halves, self._lower, self._upper, np.empty(d))
+        return B.env(B.RIGID, near, self._floats, self._centres, self._halves, self._lower, self._upper, np.empty(d))
 
     def __init__(self, spec, ws: Workspace, margin: float = PLANNING_MARGIN):
         from mpnet.envs.checkers import rigid_kernels as k  # numba: loaded with the first checker, not on import

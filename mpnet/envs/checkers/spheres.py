@@ -334,13 +334,11 @@ class SphereChecker(SampledConfigurations):
     compiled = True
 
     def compiled_env(self) -> tuple:
-        """The sphere model's arrays; one field more than the box robots' (mpnet.envs.checkers.compiled_env:
-        the arm's kernels compile apart)."""
-        from mpnet.envs.checkers.compiled_env import ARM
+        """The sphere model's arrays as the compiled planners' env (mpnet.envs.checkers.spheres_compiled)."""
+        from mpnet.envs.checkers import spheres_compiled  # numba's kernels load with the compiled planner only
 
         mi, mf, ob, lo_, up_ = self._args
-        status = np.array([[CERTIFY_TOL, 1.0 if self.base_blocked else 0.0]])
-        return (ARM, mi, mf, np.ascontiguousarray(ob, float)[None], status, lo_, up_, self._buf, np.zeros(0, np.int8))
+        return spheres_compiled.env(mi, mf, ob, CERTIFY_TOL, self.base_blocked, lo_, up_, self._buf)
 
     def __init__(self, spec, ws: Workspace, margin: float):
         super().__init__(spec, ws, margin)

@@ -41,7 +41,7 @@ def test_the_kernels_answer_as_the_checker(env, index, seed):
     a, b = _points(rng, checker, 400), _points(rng, checker, 400)
     still = rng.random(a.shape) < 0.2  # a coordinate that does not move
     b = np.where(still, a, b)
-    _, _, _, lo, hi, lower, upper, _ = kernel_env(checker)  # the compiled planner's own arrays
+    _, _, _, lo, hi, lower, upper, _, _ = kernel_env(checker)  # the compiled planner's own arrays
     args = (lo, hi, lower, upper)
     d = np.empty(spec.state_dim)
     for x, y in zip(a, b):
@@ -114,7 +114,8 @@ def test_a_checker_that_changes_the_geometry_has_no_compiled_form():
 
 @pytest.mark.slow  # compiles a caller of the rigid and point checks
 def test_an_env_of_an_unknown_kind_is_refused_not_checked_as_a_rigid_body():
-    from mpnet.envs.checkers.compiled_env import UNKNOWN, motion_free, state_free
+    from mpnet.envs.checkers.boxes_compiled import UNKNOWN
+    from mpnet.envs.checkers.compiled_env import motion_free, state_free
     from mpnet.jit import njit
 
     @njit
@@ -127,3 +128,54 @@ def test_an_env_of_an_unknown_kind_is_refused_not_checked_as_a_rigid_body():
     check(env, counts, a, b)  # the rigid body's own kind: answered
     with pytest.raises(ValueError, match=re.escape(UNKNOWN)):
         check((type(env[0])(7), *env[1:]), counts, a, b)
+
+
+@pytest.mark.slow  # compiles RRT-Connect's search for a kind of its own
+def test_a_kind_of_ones_own_registers_its_checks_and_an_unregistered_one_is_refused_by_name():
+    """The compiled planners dispatch on an env's tag alone: a kind registered from outside the
+    library (a disc in the plane, free outside a circle) runs the compiled RRT-Connect with no
+    edit of compiled_env; an env whose tag nobody registers is a typing error naming it."""
+    from numba.core.errors import TypingError
+
+    from mpnet.envs.checkers.compiled_env import KINDS, CompiledKind, register, state_free, tag
+    from mpnet.jit import njit
+    from mpnet.search.rrt_connect import RRTConnectSearch
+
+    @njit
+    def disc_state(env, counts, q):
+        counts[2] += 1
+        return (q[0] - env[0][0]) ** 2 + (q[1] - env[0][1]) ** 2 > env[0][2] ** 2
+
+    @njit
+    def disc_motion(env, counts, a, b):
+        for i in range(101):  # sampled: enough for the test's circle
+            t = i / 100.0
+            if not disc_state(env, counts, a + t * (b - a)):
+                return False
+        return True
+
+    @njit
+    def disc_motions(env, counts, A, B, out):
+        for i in range(A.shape[0]):
+            out[i] = disc_motion(env, counts, A[i], B[i])
+
+    register(CompiledKind("test_disc", disc_state, disc_motion, disc_motions))
+    try:
+        env = (np.array([0.5, 0.5, 0.3]), tag("test_disc"))
+        spec = get_spec("s2d")
+        found = RRTConnectSearch(range=0.2).run(
+            env, spec, np.array([0.1, 0.1]), np.array([0.9, 0.9]), np.array([7], np.uint64)
+        )
+        assert found.path is not None and found.counts[2] > 0
+        path = np.asarray(found.path)
+        dense = np.concatenate([a + np.linspace(0, 1, 50)[:, None] * (b - a) for a, b in zip(path[:-1], path[1:])])
+        assert (np.hypot(dense[:, 0] - 0.5, dense[:, 1] - 0.5) > 0.3 - 1e-9).all()  # around the disc
+    finally:
+        KINDS.pop("test_disc")
+
+    @njit
+    def check(env, counts, q):
+        return state_free(env, counts, q)
+
+    with pytest.raises(TypingError, match="an env of kind 'nobody', which no \\*_compiled.py module registers"):
+        check((np.zeros(3), tag("nobody")), np.zeros(3, np.int64), np.zeros(2))
