@@ -34,7 +34,7 @@ from pathlib import Path
 
 import yaml
 
-from harness.spherize import build, parse
+from harness.spherize import build, parse, settings
 from mpnet.envs.arm.model import load_arm_model, user_robot_dir
 from mpnet.envs.checkers.spheres import read_spheres
 
@@ -100,12 +100,17 @@ def install_robot(sdist: tarfile.TarFile, members: list, robot: dict, to: Path) 
 
 
 def _current(model) -> bool:
-    """The model has a sphere set made from the meshes it now has (each mesh's sha256 recorded)."""
+    """The model has a sphere set made from the meshes it now has (each mesh's sha256 recorded)
+    with the settings its description now gives (a description that changed them remakes it)."""
     if model.spheres_path is None:
         return False
-    made = read_spheres(model)["meshes"]
+    made = read_spheres(model)
+    reach, spacing, pad = settings(model, parse([model.name]), described=True)
+    if (made.get("reach"), made.get("spacing"), made.get("pad")) != (reach, spacing, pad):
+        return False
     return all(
-        s.geometry != "mesh" or made.get(s.link, {}).get("sha256") == hashlib.sha256(s.path.read_bytes()).hexdigest()
+        s.geometry != "mesh"
+        or made["meshes"].get(s.link, {}).get("sha256") == hashlib.sha256(s.path.read_bytes()).hexdigest()
         for s in model.kinematics.shapes
     )
 
@@ -117,7 +122,7 @@ def make_spheres(robots: list[dict]) -> list[str]:
     for robot in robots:
         model = load_arm_model(robot["model"])
         if not _current(model):
-            out, n, links = build(parse([robot["model"]]))
+            out, n, links = build(parse([robot["model"]]), described=True)
             lines.append(f"{out}: {n} spheres over {links} links")
         else:
             lines.append(f"{model.spheres_path}: kept")

@@ -36,11 +36,12 @@ def _reach(text: str) -> tuple[str, float]:
     return link, float(metres)
 
 
-def settings(model, args) -> tuple[dict[str, float], float, float]:
-    """(reach per link, spacing, pad): the options given, else what the
-    model's current sphere set records, else its description's `spherize:`, else the defaults."""
+def settings(model, args, described: bool = False) -> tuple[dict[str, float], float, float]:
+    """(reach per link, spacing, pad): the options given, else what the model's current sphere
+    set records, else its description's `spherize:`, else the defaults; described=True: the
+    description's over the set's (harness.fetch_mbm installs a robot as described)."""
     try:
-        recorded = read_spheres(model)
+        recorded = dict(model.spherize) if described else read_spheres(model)
     except (OSError, ValueError):  # a new robot: no set yet
         recorded = dict(model.spherize)
     reach = dict(recorded.get("reach", {})) | dict(args.reach)
@@ -51,11 +52,11 @@ def settings(model, args) -> tuple[dict[str, float], float, float]:
     return links, spacing, pad
 
 
-def build(args: argparse.Namespace) -> tuple[Path, int, int]:
+def build(args: argparse.Namespace, described: bool = False) -> tuple[Path, int, int]:
     """Make the model's sphere set and write it: (file, spheres, links). ArmModelError for a
-    model that cannot be read. `build(parse([MODEL]))`: its description's settings."""
+    model that cannot be read. `build(parse([MODEL]), described=True)`: its description's settings."""
     model = load_arm_model(args.model)
-    reach, spacing, pad = settings(model, args)
+    reach, spacing, pad = settings(model, args, described)
     doc = spherize(model, reach, spacing, pad)
     out = args.out or model.spheres_path or user_robot_dir() / model.spheres
     out.parent.mkdir(parents=True, exist_ok=True)

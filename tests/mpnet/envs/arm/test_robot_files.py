@@ -69,12 +69,17 @@ def robot_files(visual: bool = True) -> dict[str, bytes]:
 
 @pytest.fixture
 def robots(tmp_path, monkeypatch):
-    """An empty robot folder of the user's, and load_arm_model's cache cleared before and after."""
+    """An empty robot folder of the user's, and the models' caches (load_arm_model's, sphere_model's)
+    cleared before and after: each test's toy is its own."""
+    from mpnet.envs.checkers.spheres import sphere_model
+
     folder = tmp_path / "robots"
     monkeypatch.setenv("MPNET_BENCH_ROBOTS", str(folder))
     load_arm_model.cache_clear()
+    sphere_model.cache_clear()
     yield folder
     load_arm_model.cache_clear()
+    sphere_model.cache_clear()
 
 
 def install(folder, files: dict[str, bytes]) -> None:
@@ -188,6 +193,12 @@ def test_fetch_mbm_installs_a_robot_without_visuals_and_spherizes_it(robots, tmp
     load_arm_model.cache_clear()
     assert fetch_mbm.main([str(tmp_path / "out"), "--sdist", str(tmp_path / "v.tar.gz"), "--robot", "toy"]) == 0
     assert "toy_spheres.json: kept" not in capsys.readouterr().out
+    # a description whose settings changed (a finer covering shipped): the set is remade with them
+    install(robots, {"toy.yaml": DESCRIPTION.replace("pad: 0.01", "pad: 0.012").encode()})
+    load_arm_model.cache_clear()
+    assert fetch_mbm.main([str(tmp_path / "out"), "--sdist", str(tmp_path / "v.tar.gz"), "--robot", "toy"]) == 0
+    assert "toy_spheres.json: kept" not in capsys.readouterr().out
+    assert json.loads((robots / "toy_spheres.json").read_text())["pad"] == 0.012
 
 
 def test_problems_for_another_robot_are_refused_or_passed_over(tmp_path, mbm_dir):
