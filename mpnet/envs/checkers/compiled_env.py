@@ -87,18 +87,18 @@ def motions_free(env, counts, A, B, out):
     raise NotImplementedError("compiled only")
 
 
-def canonical(env, q):
-    """The state space's wrap of a state (SE2: the angle into [-pi, pi)), in place."""
+def canonical(env, x):
+    """The state space's wrap of a state x (SE2: the angle into [-pi, pi)), in place."""
     raise NotImplementedError("compiled only")
 
 
-def wrap_difference(env, d):
-    """A difference of states along the shorter way (SE2: the angle's into [-pi, pi)), in place."""
+def wrap_difference(env, x):
+    """A difference x of states along the shorter way (SE2: the angle's into [-pi, pi)), in place."""
     raise NotImplementedError("compiled only")
 
 
-def bounded_dims(env, n):
-    """How many leading coordinates of an n-D state have bounds to clip into (SE2: x and y)."""
+def bounded_dims(env, x):
+    """How many leading coordinates of an x-D state have bounds to clip into (SE2: x and y)."""
     raise NotImplementedError("compiled only")
 
 
@@ -122,25 +122,15 @@ def _motions_typed(env, counts, A, B, out):
     return lambda env, counts, A, B, out: check(env, counts, A, B, out)
 
 
-@overload(canonical, jit_options={"_nrt": False})
-def _canonical_typed(env, q):
-    wrap = _kind(env).canonical
-    if wrap is None:
-        return lambda env, q: None
-    return lambda env, q: wrap(env, q)
+def _overload_optional(stub, field: str, default) -> None:
+    """stub(env, x) typed to the kind's own function, or `default` where the kind has none."""
+
+    @overload(stub, jit_options={"_nrt": False})
+    def typed(env, x):
+        own = getattr(_kind(env), field)
+        return default if own is None else (lambda env, x: own(env, x))
 
 
-@overload(wrap_difference, jit_options={"_nrt": False})
-def _wrap_typed(env, d):
-    wrap = _kind(env).wrap_difference
-    if wrap is None:
-        return lambda env, d: None
-    return lambda env, d: wrap(env, d)
-
-
-@overload(bounded_dims, jit_options={"_nrt": False})
-def _bounded_typed(env, n):
-    dims = _kind(env).bounded_dims
-    if dims is None:
-        return lambda env, n: n
-    return lambda env, n: dims(env, n)
+_overload_optional(canonical, "canonical", lambda env, x: None)  # a Euclidean space: nothing to wrap
+_overload_optional(wrap_difference, "wrap_difference", lambda env, x: None)
+_overload_optional(bounded_dims, "bounded_dims", lambda env, x: x)  # every coordinate bounded
