@@ -12,11 +12,8 @@ and imports: nothing else changes.
 
 from __future__ import annotations
 
-import importlib
 import math
-import pkgutil
 from abc import ABC, abstractmethod
-from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -35,6 +32,7 @@ from harness.log.style import (
     THIN_Z,
     rgba8,
 )
+from mpnet.discover import import_named
 
 _PAINTERS: dict[tuple[str, int], type[Painter]] = {}
 
@@ -45,20 +43,13 @@ def register(cls: type[Painter]) -> type[Painter]:
     return cls
 
 
-def _discover() -> None:
-    """Import every `*_painter.py` module beside this one: each registers its kind's painter."""
-    for module in pkgutil.iter_modules([str(Path(__file__).parent)]):
-        if module.name.endswith("_painter"):
-            importlib.import_module(f"{__package__}.{module.name}")
-
-
 def painter_for(robot: dict | str, workspace_dim: int) -> Painter:
     """The painter of a /workspace message's `robot` ({"kind": ...}, or an arm's name)
     in a workspace of `workspace_dim` dimensions."""
     kind = robot.get("kind") if isinstance(robot, dict) else robot
     cls = _PAINTERS.get((kind, int(workspace_dim)))
-    if cls is None:  # a kind whose painter module is not imported yet
-        _discover()
+    if cls is None:  # a kind whose painter module is not imported yet: every `*_painter.py` beside this one
+        import_named(__package__, "_painter")
         cls = _PAINTERS.get((kind, int(workspace_dim)))
     if cls is None:
         known = ", ".join(f"{k} ({d}D)" for k, d in sorted(_PAINTERS))

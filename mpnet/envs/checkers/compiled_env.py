@@ -15,14 +15,14 @@ typed, by name.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numba.core.errors import TypingError
 from numba.extending import overload
+
+from mpnet.discover import import_named
 
 DISCOVERS = "*_compiled.py"  # the kinds' modules, beside this one (mpnet.jit's stamp reads this too)
 KINDS: dict[str, CompiledKind] = {}
@@ -53,20 +53,12 @@ def tag(name: str) -> np.ndarray:
     return np.zeros(0, np.dtype([(name, np.int8)]))
 
 
-def _discover() -> None:
-    """Import every kind module of this folder (each registers its kind)."""
-    folder = __name__.rpartition(".")[0]
-    for info in pkgutil.iter_modules(importlib.import_module(folder).__path__):
-        if info.name.endswith(DISCOVERS.removeprefix("*").removesuffix(".py")):
-            importlib.import_module(f"{folder}.{info.name}")
-
-
 def _kind(env) -> CompiledKind:
     """The registered kind of an env's numba type (typing time)."""
     fields = getattr(getattr(env.types[-1], "dtype", None), "fields", None) if hasattr(env, "types") else None
     name = next(iter(fields)) if fields else None
-    if name not in KINDS:
-        _discover()
+    if name not in KINDS:  # every kind module of this folder imported (each registers its kind)
+        import_named(__name__.rpartition(".")[0], DISCOVERS.removeprefix("*").removesuffix(".py"))
     if name not in KINDS:
         raise TypingError(f"compiled_env: an env of kind {name!r}, which no *_compiled.py module registers")
     return KINDS[name]
