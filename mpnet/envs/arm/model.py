@@ -286,6 +286,8 @@ class ArmModel:
     scene_robot: str = ""
     # harness.spherize's settings for a robot without a sphere set yet
     spherize: dict = field(repr=False, compare=False, default_factory=dict)
+    # link pairs the checker tests on their convex hulls, not their spheres (hull_kernels)
+    exact_pairs: frozenset[tuple[str, str]] = frozenset()
 
     @property
     def dof(self) -> int:
@@ -341,7 +343,7 @@ def _pairs(items, where: str) -> frozenset[tuple[str, str]]:
     try:
         return frozenset((min(a, b), max(a, b)) for a, b in items)
     except (TypeError, ValueError):
-        raise ArmModelError(f"{where}: allowed must be a list of [link, link] pairs") from None
+        raise ArmModelError(f"{where}: allowed and exact_pairs must be lists of [link, link] pairs") from None
 
 
 @cache
@@ -376,14 +378,16 @@ def load_arm_model(name: str) -> ArmModel:
             kinematics=kin,
             scene_robot=str(doc.get("scene_robot", doc["name"])),
             spherize=dict(doc.get("spherize") or {}),
+            exact_pairs=_pairs(doc.get("exact_pairs") or [], str(path)),
         )
     except (KeyError, TypeError) as e:
         raise ArmModelError(f"{path}: missing or malformed key {e}") from None
     if len(model.limits) != len(joints) or any(lo >= hi for lo, hi in model.limits):
         raise ArmModelError(f"{path}: limits must be one [lower, upper] pair per joint, lower < upper")
     names = {f.link for f in kin.frames}
-    for a, b in model.allowed:
-        if a not in names or b not in names:
-            raise ArmModelError(f"{path}: allowed pair ({a}, {b}) names a link the URDF lacks")
+    for key, pairs in (("allowed", model.allowed), ("exact_pairs", model.exact_pairs)):
+        for a, b in pairs:
+            if a not in names or b not in names:
+                raise ArmModelError(f"{path}: {key} pair ({a}, {b}) names a link the URDF lacks")
     kin.index(model.end_effector)
     return model

@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
+from mpnet.envs.checkers.hull_kernels import JUDGE_GAP, hull_gap
 from mpnet.envs.checkers.sphere_layout import (
     AXDIR,
     AXIS,
@@ -48,6 +49,7 @@ from mpnet.envs.checkers.sphere_layout import (
     GROUP_S0,
     GROUP_S1,
     GSPEED,
+    HULL,
     KIND,
     LB,
     LCENTRES,
@@ -55,6 +57,8 @@ from mpnet.envs.checkers.sphere_layout import (
     LINK_FRAME,
     LINK_G0,
     LINK_G1,
+    LINK_H0,
+    LINK_H1,
     LLEVER,
     LOCAL,
     LPLACED,
@@ -62,6 +66,7 @@ from mpnet.envs.checkers.sphere_layout import (
     ORIGIN,
     PAIR_A,
     PAIR_B,
+    PAIR_EXACT,
     PAIR_J0,
     PAIR_TABLE,
     PARENT,
@@ -338,6 +343,23 @@ def _fill_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n, q, bits):
                 bits[c >> 6] |= np.int64(1) << np.int64(c & 63)
 
 
+@njit(cache=True, borrowed=True)
+def _hulls_hit(m, pose, a, b, grown):
+    """Links a and b on their hulls (an exact pair): 0 apart by more than the judge's gap
+    plus `grown`, 1 apart by the gap only, 2 maybe touching (hull_kernels.hull_gap's lower
+    bound decides: never apart on GJK's estimate)."""
+    h0, h1, hull, frame = m[LINK_H0], m[LINK_H1], m[HULL], m[LINK_FRAME]
+    fa, fb = frame[a], frame[b]
+    ra, ta, rb, tb = pose[fa, :, :3], pose[fa, :, 3], pose[fb, :, :3], pose[fb, :, 3]
+    target = JUDGE_GAP + grown
+    gap = hull_gap(hull, h0[a], h1[a], ra, ta, h0[b], h1[b], rb, tb, target)
+    if gap > target:
+        return 0
+    if grown > 0.0 and gap <= JUDGE_GAP:  # it stopped at `target`: the plain question asked afresh
+        gap = hull_gap(hull, h0[a], h1[a], ra, ta, h0[b], h1[b], rb, tb, JUDGE_GAP)
+    return 1 if grown > 0.0 and gap > JUDGE_GAP else 2
+
+
 @njit(cache=True, borrowed=True, inline="always")
 def verdict(q, m, obs, bufs, growing, h, dq):
     """FREE, NEAR, HIT or NEAR_HIT for configuration q (see the module docstring). `growing`: q is
@@ -413,6 +435,16 @@ def verdict(q, m, obs, bufs, growing, h, dq):
             ra, rb = 0.0, _growth_from(bufs[LSPEED], b, bradius, m[LLEVER], j0, grow)
         else:
             ra, rb = lextra[a] * on, lextra[b] * on
+        if m[PAIR_EXACT][pi]:
+            if _apart(lcentres, a, bradius, lcentres, b, bradius, ra + rb + JUDGE_GAP):
+                continue
+            hit = _hulls_hit(m, pose, a, b, ra + rb)
+            if hit == 0:
+                continue
+            if hit == 1:  # apart, but not by the growth
+                on = 0.0
+                continue
+            return NEAR_HIT if growing and on == 0.0 else HIT
         if _apart(lcentres, a, bradius, lcentres, b, bradius, ra + rb):
             continue
         _place_groups(a, m, bufs, grow, growing, on != 0.0 and not rel)

@@ -13,7 +13,7 @@ file's name: mpnet.jit's cache stamps them with its text.
 
 A shape is a tuple of sizes: a number, or an expression in the model's counts (F frames,
 L links, G groups, S spheres, P self-collision pairs, D joints, T pair tables, W entries of
-the tables' summed counts), each count read from the first MODEL field whose shape names it alone.
+the tables' summed counts, V hull vertices), each count read from the first MODEL field whose shape names it alone.
 """
 
 from __future__ import annotations
@@ -48,7 +48,8 @@ def _field(table: list[Field], name: str, packed: str, *shape) -> int:
 # Frames in parent-before-child order; a three-level sphere tree: links (a bounding sphere,
 # a range of groups), groups (a bounding sphere, a range of spheres), spheres; the pairs of
 # links that may not touch; levers (how far a link's or group's centre moves per unit of
-# each joint); the pair tables (SphereModel._build_tables). first: how many links (the first
+# each joint); the pair tables (SphereModel._build_tables); the pairs tested on their hulls
+# and the hulls' vertices, link by link (SphereModel._hulls, hull_kernels). first: how many links (the first
 # ones) never move (tested against obstacles once, SphereChecker._base_blocked).
 PARENT = _field(MODEL, "parent", INTS, "F")
 ORIGIN = _field(MODEL, "origin", FLOATS, "F", 3, 4)
@@ -77,6 +78,10 @@ PAIR_TABLE = _field(MODEL, "pair_table", INTS, "P")
 TABLE_I = _field(MODEL, "table_i", INTS, "T", 5)
 TABLE_F = _field(MODEL, "table_f", FLOATS, "T", 4)
 TABLE_SUM = _field(MODEL, "table_sum", INTS, "W")
+PAIR_EXACT = _field(MODEL, "pair_exact", INTS, "P")
+LINK_H0 = _field(MODEL, "link_h0", INTS, "L")
+LINK_H1 = _field(MODEL, "link_h1", INTS, "L")
+HULL = _field(MODEL, "hull", FLOATS, "V", 3)
 
 # Scratch: poses (pose[F] is forward's spare); sphere, link and group centres; link and group
 # placed flags; link and group growth and second-order terms; a joint vector and the motion's

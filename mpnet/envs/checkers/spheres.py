@@ -79,6 +79,7 @@ class SphereModel:
         self.pair_a = np.array([p[0] for p in pairs], np.int64)
         self.pair_b = np.array([p[1] for p in pairs], np.int64)
         self.pair_j0 = np.array([self._joints_between(a, b) for a, b in pairs], np.int64)
+        self.pair_exact, self.link_h0, self.link_h1, self.hull = self._hulls(pairs)
         # How many links never move (the first ones): tested against a workspace's obstacles once.
         self.first = len(fixed)
         self.sphere_frame = np.repeat(self.group_frame, gsizes)
@@ -98,6 +99,28 @@ class SphereModel:
         self._pack()
         self._build_tables()
         self.link_sizes = np.array([sum(len(g) for g in link) for link in spheres])
+
+    def _hulls(self, pairs: list[tuple[int, int]]):
+        """The pairs tested on their convex hulls (the model's exact_pairs: 1, else 0) and the
+        hulls' vertices (link frames), each link's from link_h0 to link_h1."""
+        links, model = self.links, self.model
+        named = {(min(links[a], links[b]), max(links[a], links[b])) for a, b in pairs}
+        for a, b in sorted(model.exact_pairs - named):
+            raise ArmModelError(f"{model.name}: exact pair ({a}, {b}) is never tested (allowed, or parent and child)")
+        exact = np.array([(min(links[a], links[b]), max(links[a], links[b])) in model.exact_pairs for a, b in pairs])
+        h0, h1, verts = np.zeros(len(links), np.int64), np.zeros(len(links), np.int64), [np.zeros((0, 3))]
+        hulled = {name for pair in model.exact_pairs for name in pair}
+        if hulled:
+            # here, not at the top: only a model with exact pairs pays scipy.spatial's import
+            from mpnet.envs.arm.spherize import link_hull
+
+            for i, name in enumerate(links):
+                if name in hulled:
+                    hull = link_hull(model, name)
+                    h0[i] = sum(len(v) for v in verts)
+                    verts.append(hull.points[hull.vertices])
+                    h1[i] = h0[i] + len(verts[-1])
+        return exact.astype(np.int64), h0, h1, np.ascontiguousarray(np.concatenate(verts))
 
     def _pack(self) -> None:
         """The kernels' packed arrays and the scratch's length (sphere_layout lays them out)."""

@@ -275,3 +275,41 @@ def test_links_no_joint_moves_are_tested_against_a_workspace_once(robots):
     truth = [judge.is_valid(q) for q in qs.tolist()]
     assert not spheres.base_blocked and 20 < sum(free) < 180
     assert not any(f and not t for f, t in zip(free, truth))
+
+
+def test_an_exact_pair_is_tested_on_its_hulls(robots):
+    """A description's exact_pairs: the pair's convex hulls decide (hull_kernels), never
+    calling free a state or a motion the judge's meshes find colliding, and refusing fewer
+    states near the contact than the pair's spheres (padded 1 cm here) do."""
+    from harness.spherize import main as spherize_main
+    from mpnet.envs.checkers.spheres import sphere_model
+    from mpnet.envs.specs import build
+
+    urdf = URDF.replace('<origin xyz="0 0 0.4"/><axis xyz="0 1 0"/>', '<origin xyz="0 0 0.15"/><axis xyz="0 1 0"/>')
+    urdf = urdf.replace('<limit lower="-2" upper="2"', '<limit lower="-3" upper="3"')
+    urdf = urdf.replace('<geometry><sphere radius="0.04"/>', '<geometry><box size="0.06 0.06 0.06"/>')
+    files = {
+        **robot_files(visual=False),
+        "toy/toy.urdf": re.sub(r"<visual>.*?</visual>", "", urdf, flags=re.S).encode(),
+    }
+    spheres_only = DESCRIPTION.replace("allowed: [[root, tip]]\n", "")
+    install(robots, {**files, "toy.yaml": (spheres_only + "exact_pairs: [[tip, root]]\n").encode()})
+    assert spherize_main(["toy"]) == 0
+    robot = {"class": "mpnet.envs.robots.ArmRobot", "args": ["toy"]}
+    steps = {"validation_step": 0.002, "motion_step": 0.02, "planning_margin": 0.0}
+    spec = build("toy_env", {"robot": robot, "workspace_dim": 3, "generator": None, **steps})
+    empty = Workspace("w", "file", np.zeros((0, 3)), np.zeros((0, 3)), ())
+    exact, judge = spec.make_checker(empty), spec.judge_checker(empty)
+    rng = np.random.default_rng(2)
+    qs = np.column_stack([rng.uniform(-3, 3, 400), rng.uniform(2.0, 2.6, 400)])  # the tip near the root's box
+    free, truth = exact.states_valid(qs), judge.states_valid(qs)
+    assert 40 < truth.sum() < 360 and not (free & ~truth).any()
+    a, b = qs[free][:-1], qs[free][1:]
+    for x, y in zip(a[exact.motions_valid(a, b)], b[exact.motions_valid(a, b)]):
+        assert judge.states_valid(x + np.linspace(0, 1, 200)[:, None] * (y - x)).all()
+    # the same toy without the exact pair: its spheres refuse more of the judge's free states
+    (robots / "toy.yaml").write_text(spheres_only, encoding="utf-8")
+    load_arm_model.cache_clear()
+    sphere_model.cache_clear()
+    cautious = build("toy_env2", {"robot": robot, "workspace_dim": 3, "generator": None, **steps}).make_checker(empty)
+    assert cautious.states_valid(qs).sum() < free.sum()
