@@ -71,6 +71,17 @@ def shape_points(shape: CollisionShape) -> np.ndarray:
     return v @ shape.origin[:3, :3].T + shape.origin[:3, 3]
 
 
+def link_core(model: ArmModel, link: str) -> tuple[np.ndarray, float]:
+    """A link's collision shape as the points of a convex core and a radius around it (the
+    shape is the core's hull grown by the radius), in the link frame: a mesh's or a box's hull
+    vertices and 0, a sphere's centre and its radius."""
+    shape = next(m for m in model.kinematics.shapes if m.link == link)
+    if shape.geometry == "sphere":
+        return shape.origin[None, :3, 3].copy(), float(shape.size[0])
+    hull = ConvexHull(shape_points(shape))
+    return hull.points[hull.vertices], 0.0
+
+
 def link_hull(model: ArmModel, link: str) -> ConvexHull:
     """The convex hull of a link's collision shape (a mesh or a box), in the link frame."""
     return ConvexHull(shape_points(next(m for m in model.kinematics.shapes if m.link == link)))

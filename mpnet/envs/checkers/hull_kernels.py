@@ -22,11 +22,14 @@ import numpy as np
 from mpnet.jit import njit
 
 ITERATIONS = 64  # GJK's steps at most (a polytope pair converges in a handful)
-# pybullet pads each convex hull by a collision margin of 1 mm: two links collide for the judge
-# when their hulls are closer than about 2 mm (measured: pybullet's distance is the hulls' minus
-# 1.94-1.99 mm on the UR5's forearm and wrist and base and upper arm); a pair is apart only
-# beyond this gap (tests/mpnet/envs/checkers/test_hull_kernels.py holds it to pybullet's answers)
-JUDGE_GAP = 0.00202
+# pybullet pads each convex hull (a mesh's, a box's) by a collision margin of 1 mm; a sphere is
+# itself. Measured: pybullet's distance is the shapes' less 1.93-1.99 mm between two meshes (the
+# UR5's forearm and wrist, base and upper arm; a Fetch pair) and less 0.98-1.00 mm between a mesh
+# and a sphere (the Fetch's head and torso spheres): a pair is apart for the judge only beyond
+# both margins (SphereModel._hulls adds each link's to its radius) and this tolerance
+# (tests/mpnet/envs/arm/test_robot_files.py holds the checker to pybullet's answers)
+BULLET_MARGIN = 0.001
+JUDGE_TOLERANCE = 2e-5
 
 
 @njit(cache=True, inline="always")

@@ -70,6 +70,7 @@ class ArmWorld:
         self._held = [[v] for v in model.fingers.values()]
         self._ee = next(i for i, name in self.link_names.items() if name == model.end_effector)
         self.bodies: list[int] = []
+        self.key: tuple = ()  # the pool's key (_key), set when taken
         self.shapes: dict[tuple, int] = {}
         self.margin = 0.0
         self.base_blocked = False
@@ -178,7 +179,7 @@ class ArmWorld:
 
 # Worlds no holder uses, by arm model: emptied, and lent again rather than closed. The only
 # state kept across holders; a world is never lent to two at once.
-_IDLE: dict[str, list[ArmWorld]] = {}  # by the model's repr: every field the world is built from
+_IDLE: dict[tuple, list[ArmWorld]] = {}  # by _key: what the world is built from
 
 
 def borrow_world(model: ArmModel, holder: object) -> ArmWorld:
@@ -200,13 +201,24 @@ def lent_world(model: ArmModel) -> Iterator[ArmWorld]:
 
 
 def _take(model: ArmModel) -> ArmWorld:
-    idle = _IDLE.get(repr(model))
-    return idle.pop() if idle else ArmWorld(model)
+    key = _key(model)
+    idle = _IDLE.get(key)
+    world = idle.pop() if idle else ArmWorld(model)
+    world.key = key
+    return world
 
 
 def _give_back(world: ArmWorld) -> None:
     world.clear()
-    _IDLE.setdefault(repr(world.model), []).append(world)
+    _IDLE.setdefault(world.key, []).append(world)
+
+
+def _key(model: ArmModel) -> tuple:
+    """An idle world's identity: the model's fields and its files (where, and which version:
+    a URDF or mesh rewritten under the same name is another robot, not the world loaded from
+    the old one)."""
+    files = [model.urdf_path] + [s.path for s in model.kinematics.shapes if s.path is not None]
+    return (repr(model), *((str(p), p.stat().st_mtime_ns, p.stat().st_size) for p in files))
 
 
 class PybulletArmChecker(SampledConfigurations):

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
-from mpnet.envs.checkers.hull_kernels import JUDGE_GAP, hull_gap
+from mpnet.envs.checkers.hull_kernels import BULLET_MARGIN, JUDGE_TOLERANCE, hull_gap
 from mpnet.envs.checkers.sphere_layout import (
     AXDIR,
     AXIS,
@@ -59,6 +59,7 @@ from mpnet.envs.checkers.sphere_layout import (
     LINK_G1,
     LINK_H0,
     LINK_H1,
+    LINK_HR,
     LLEVER,
     LOCAL,
     LPLACED,
@@ -345,19 +346,22 @@ def _fill_table(mi, mf, buf, lever, a, partners, ja, jb, lo, width, n, q, bits):
 
 @njit(cache=True, borrowed=True)
 def _hulls_hit(m, pose, a, b, grown):
-    """Links a and b on their hulls (an exact pair): 0 apart by more than the judge's gap
-    plus `grown`, 1 apart by the gap only, 2 maybe touching (hull_kernels.hull_gap's lower
+    """Links a and b on the judge's shapes (an exact pair: convex cores, each grown by its
+    LINK_HR, a sphere's radius or pybullet's margin): 0 apart by more than `grown`, 1 apart,
+    but not by `grown`, 2 maybe touching (hull_kernels.hull_gap's lower
     bound decides: never apart on GJK's estimate)."""
     h0, h1, hull, frame = m[LINK_H0], m[LINK_H1], m[HULL], m[LINK_FRAME]
     fa, fb = frame[a], frame[b]
     ra, ta, rb, tb = pose[fa, :, :3], pose[fa, :, 3], pose[fb, :, :3], pose[fb, :, 3]
-    target = JUDGE_GAP + grown
+    radii = m[LINK_HR][a] + m[LINK_HR][b]  # the cores' gap less how far the judge's shapes reach beyond them
+    target = JUDGE_TOLERANCE + grown + radii
     gap = hull_gap(hull, h0[a], h1[a], ra, ta, h0[b], h1[b], rb, tb, target)
     if gap > target:
         return 0
-    if grown > 0.0 and gap <= JUDGE_GAP:  # it stopped at `target`: the plain question asked afresh
-        gap = hull_gap(hull, h0[a], h1[a], ra, ta, h0[b], h1[b], rb, tb, JUDGE_GAP)
-    return 1 if grown > 0.0 and gap > JUDGE_GAP else 2
+    plain = JUDGE_TOLERANCE + radii
+    if grown > 0.0 and gap <= plain:  # it stopped at `target`: the plain question asked afresh
+        gap = hull_gap(hull, h0[a], h1[a], ra, ta, h0[b], h1[b], rb, tb, plain)
+    return 1 if grown > 0.0 and gap > plain else 2
 
 
 @njit(cache=True, borrowed=True, inline="always")
@@ -436,7 +440,7 @@ def verdict(q, m, obs, bufs, growing, h, dq):
         else:
             ra, rb = lextra[a] * on, lextra[b] * on
         if m[PAIR_EXACT][pi]:
-            if _apart(lcentres, a, bradius, lcentres, b, bradius, ra + rb + JUDGE_GAP):
+            if _apart(lcentres, a, bradius, lcentres, b, bradius, ra + rb + 2 * BULLET_MARGIN):
                 continue
             hit = _hulls_hit(m, pose, a, b, ra + rb)
             if hit == 0:

@@ -81,6 +81,7 @@ TABLE_SUM = _field(MODEL, "table_sum", INTS, "W")
 PAIR_EXACT = _field(MODEL, "pair_exact", INTS, "P")
 LINK_H0 = _field(MODEL, "link_h0", INTS, "L")
 LINK_H1 = _field(MODEL, "link_h1", INTS, "L")
+LINK_HR = _field(MODEL, "link_hr", FLOATS, "L")
 HULL = _field(MODEL, "hull", FLOATS, "V", 3)
 
 # Scratch: poses (pose[F] is forward's spare); sphere, link and group centres; link and group

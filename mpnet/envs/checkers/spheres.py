@@ -22,6 +22,7 @@ from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers import sphere_layout
 from mpnet.envs.checkers.collision import SampledConfigurations
+from mpnet.envs.checkers.hull_kernels import BULLET_MARGIN
 from mpnet.envs.workspace import Workspace
 
 # A motion whose spheres would still touch something with less growth than this (metres)
@@ -79,7 +80,7 @@ class SphereModel:
         self.pair_a = np.array([p[0] for p in pairs], np.int64)
         self.pair_b = np.array([p[1] for p in pairs], np.int64)
         self.pair_j0 = np.array([self._joints_between(a, b) for a, b in pairs], np.int64)
-        self.pair_exact, self.link_h0, self.link_h1, self.hull = self._hulls(pairs)
+        self.pair_exact, self.link_h0, self.link_h1, self.link_hr, self.hull = self._hulls(pairs)
         # How many links never move (the first ones): tested against a workspace's obstacles once.
         self.first = len(fixed)
         self.sphere_frame = np.repeat(self.group_frame, gsizes)
@@ -102,25 +103,29 @@ class SphereModel:
 
     def _hulls(self, pairs: list[tuple[int, int]]):
         """The pairs tested on their convex hulls (the model's exact_pairs: 1, else 0) and the
-        hulls' vertices (link frames), each link's from link_h0 to link_h1."""
+        convex cores' vertices (link frames: a hull's, a sphere's centre), each link's from
+        link_h0 to link_h1, and how far the judge's shape reaches beyond each (a sphere's radius,
+        a hull's pybullet margin)."""
         links, model = self.links, self.model
         named = {(min(links[a], links[b]), max(links[a], links[b])) for a, b in pairs}
         for a, b in sorted(model.exact_pairs - named):
             raise ArmModelError(f"{model.name}: exact pair ({a}, {b}) is never tested (allowed, or parent and child)")
         exact = np.array([(min(links[a], links[b]), max(links[a], links[b])) in model.exact_pairs for a, b in pairs])
         h0, h1, verts = np.zeros(len(links), np.int64), np.zeros(len(links), np.int64), [np.zeros((0, 3))]
+        hr = np.zeros(len(links))
         hulled = {name for pair in model.exact_pairs for name in pair}
         if hulled:
             # here, not at the top: only a model with exact pairs pays scipy.spatial's import
-            from mpnet.envs.arm.spherize import link_hull
+            from mpnet.envs.arm.spherize import link_core
 
             for i, name in enumerate(links):
                 if name in hulled:
-                    hull = link_hull(model, name)
+                    core, radius = link_core(model, name)
+                    hr[i] = radius + (BULLET_MARGIN if len(core) > 1 else 0.0)  # a hull's margin; a sphere is itself
                     h0[i] = sum(len(v) for v in verts)
-                    verts.append(hull.points[hull.vertices])
-                    h1[i] = h0[i] + len(verts[-1])
-        return exact.astype(np.int64), h0, h1, np.ascontiguousarray(np.concatenate(verts))
+                    verts.append(core)
+                    h1[i] = h0[i] + len(core)
+        return exact.astype(np.int64), h0, h1, hr, np.ascontiguousarray(np.concatenate(verts))
 
     def _pack(self) -> None:
         """The kernels' packed arrays and the scratch's length (sphere_layout lays them out)."""

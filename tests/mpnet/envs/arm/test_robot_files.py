@@ -277,17 +277,19 @@ def test_links_no_joint_moves_are_tested_against_a_workspace_once(robots):
     assert not any(f and not t for f, t in zip(free, truth))
 
 
-def test_an_exact_pair_is_tested_on_its_hulls(robots):
+@pytest.mark.parametrize("tip", ['<box size="0.06 0.06 0.06"/>', '<sphere radius="0.04"/>'])
+def test_an_exact_pair_is_tested_on_its_hulls(robots, tip):
     """A description's exact_pairs: the pair's convex hulls decide (hull_kernels), never
     calling free a state or a motion the judge's meshes find colliding, and refusing fewer
-    states near the contact than the pair's spheres (padded 1 cm here) do."""
+    states near the contact than the pair's spheres (padded 1 cm here) do; a sphere's shape is its
+    centre grown by its radius."""
     from harness.spherize import main as spherize_main
     from mpnet.envs.checkers.spheres import sphere_model
     from mpnet.envs.specs import build
 
     urdf = URDF.replace('<origin xyz="0 0 0.4"/><axis xyz="0 1 0"/>', '<origin xyz="0 0 0.15"/><axis xyz="0 1 0"/>')
     urdf = urdf.replace('<limit lower="-2" upper="2"', '<limit lower="-3" upper="3"')
-    urdf = urdf.replace('<geometry><sphere radius="0.04"/>', '<geometry><box size="0.06 0.06 0.06"/>')
+    urdf = urdf.replace('<geometry><sphere radius="0.04"/>', f"<geometry>{tip}")
     files = {
         **robot_files(visual=False),
         "toy/toy.urdf": re.sub(r"<visual>.*?</visual>", "", urdf, flags=re.S).encode(),
@@ -313,3 +315,24 @@ def test_an_exact_pair_is_tested_on_its_hulls(robots):
     sphere_model.cache_clear()
     cautious = build("toy_env2", {"robot": robot, "workspace_dim": 3, "generator": None, **steps}).make_checker(empty)
     assert cautious.states_valid(qs).sum() < free.sum()
+
+
+def test_a_rewritten_robot_file_is_not_judged_by_the_old_world(robots):
+    """pybullet worlds are kept for reuse by what they were loaded from: a URDF rewritten under
+    the same name (a sphere tip for a box one) gets a world of its own, not the old one (before,
+    the pool was keyed by the model's fields alone and the old tip went on judging)."""
+    from mpnet.envs.checkers.pybullet_arm import lent_world
+
+    box = URDF.replace('<geometry><sphere radius="0.04"/>', '<geometry><box size="0.06 0.06 0.06"/>')
+    files = robot_files(visual=False)
+    install(robots, {**files, "toy/toy.urdf": re.sub(r"<visual>.*?</visual>", "", box, flags=re.S).encode()})
+    install(robots, {"toy.yaml": DESCRIPTION.encode()})
+    with lent_world(load_arm_model("toy")) as first:
+        pass
+    install(robots, files)  # the sphere tip again, same name, same description
+    load_arm_model.cache_clear()
+    with lent_world(load_arm_model("toy")) as second:
+        assert second is not first
+        tip = next(i for i, name in second.link_names.items() if name == "tip")
+        shape = second.pb.getCollisionShapeData(second.robot, tip, physicsClientId=second.client)[0]
+        assert shape[2] == second.pb.GEOM_SPHERE
