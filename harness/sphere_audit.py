@@ -1,7 +1,8 @@
-"""`python -m harness.sphere_audit [--problems DIR] [--configurations N] [--motions M]`: the
-arm's sphere checker audited against pybullet's meshes and against itself.
+"""`python -m harness.sphere_audit [--env ENV] [--problems DIR] [--configurations N] [--motions M]`:
+an arm's sphere checker audited against pybullet's meshes and against itself.
 
     python -m harness.sphere_audit --problems data/mbm/problems --configurations 1000000 --motions 100000
+    python -m harness.sphere_audit --env mbm_ur5 --problems data/mbm/problems
 
 - configurations: N random configurations spread over the scenes (MotionBenchMaker's, from
   `--problems`, else arm7's generated ones); counts those the spheres call free and pybullet
@@ -9,7 +10,10 @@ arm's sphere checker audited against pybullet's meshes and against itself.
   the spheres reject (how conservative the covering is);
 - motions: M random motions from valid states; each one the checker calls free is sampled
   10x finer than 0.02 rad (0.002 rad) with the sphere state check; counts the colliding ones
-  (must be 0).
+  (must be 0);
+- queries (with `--problems`): how many of the problems' starts and goals both checkers accept,
+  the spheres only (must be 0), pybullet only (valid problems the spheres refuse as
+  `invalid_query`) or neither.
 
 Exit 1 when either count is not 0.
 """
@@ -69,23 +73,43 @@ def audit(spec, scenes, configurations: int, motions: int, seed: int = 0) -> dic
     }
 
 
+def query_validity(spec, testset) -> dict:
+    """How many queries' start and goal both checkers accept, the spheres only, pybullet only,
+    neither (each checker at margin 0)."""
+    scenes = {w.id: w for w in testset.workspaces}
+    out = {"both": 0, "spheres_only": 0, "pybullet_only": 0, "neither": 0}
+    for q in testset.queries:
+        ws, ends = scenes[q.workspace_id], np.array([q.start, q.goal])
+        s = bool(spec.make_checker(ws, margin=0.0, backend="spheres").states_valid(ends).all())
+        p = bool(spec.make_checker(ws, margin=0.0, backend="pybullet").states_valid(ends).all())
+        out["both" if s and p else "spheres_only" if s else "pybullet_only" if p else "neither"] += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m harness.sphere_audit", description=__doc__.splitlines()[0])
-    ap.add_argument("--problems", type=Path, help="MotionBenchMaker problems (folder); default: arm7's scenes")
+    ap.add_argument("--env", default="arm7", help="an arm env (default arm7)")
+    ap.add_argument("--problems", type=Path, help="MotionBenchMaker problems (folder); default: the env's own scenes")
     ap.add_argument("--configurations", type=int, default=100_000)
     ap.add_argument("--motions", type=int, default=10_000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, help="also write OUT/README.md and OUT/audit.json (e.g. reports/sphere_audit)")
     args = ap.parse_args(argv)
-    spec = get_spec("arm7")
     try:
-        scenes = load_mbm(args.problems, spec).workspaces if args.problems else None
-    except ProblemFileError as e:
-        print(f"error: {e}", file=sys.stderr)
+        spec = get_spec(args.env)
+        testset = load_mbm(args.problems, spec) if args.problems else None
+    except (KeyError, ValueError, ProblemFileError) as e:
+        print(f"error: {e.args[0] if isinstance(e, KeyError) else e}", file=sys.stderr)
         return 2
-    scenes = scenes or [spec.generator.make(i, "seen") for i in range(20)]
+    if testset is None and spec.generator is None:
+        print(f"error: {args.env} has no scenes of its own: name --problems", file=sys.stderr)
+        return 2
+    scenes = testset.workspaces if testset else [spec.generator.make(i, "seen") for i in range(20)]
     t = time.perf_counter()
     r = audit(spec, scenes, args.configurations, args.motions, args.seed)
+    r["env"] = args.env
+    if testset is not None:
+        r["queries"] = query_validity(spec, testset)
     lines = [
         f"{r['configurations']:,} configurations in {len(scenes)} scenes: {r['false_free']} called free by the "
         f"spheres and colliding by pybullet; the spheres reject {100 * r['rejected_share']:.1f}% of the "
@@ -93,10 +117,17 @@ def main(argv: list[str] | None = None) -> int:
         f"{r['motions']:,} motions: {r['free_motions']:,} called free, {r['free_motions_colliding']} of them "
         f"colliding at 0.002 rad ({time.perf_counter() - t:.0f} s)",
     ]
+    if "queries" in r:
+        v = r["queries"]
+        lines.append(
+            f"{sum(v.values())} queries (start and goal): {v['both']} valid for both checkers, "
+            f"{v['pybullet_only']} for pybullet only (the spheres call them invalid_query), "
+            f"{v['spheres_only']} for the spheres only, {v['neither']} for neither"
+        )
     print("\n".join(lines))
     if args.out is not None:
         print(f"written: {write_report(args.out, r, lines, argv if argv is not None else sys.argv[1:])}")
-    return 1 if r["false_free"] or r["free_motions_colliding"] else 0
+    return 1 if r["false_free"] or r["free_motions_colliding"] or r.get("queries", {}).get("spheres_only") else 0
 
 
 def write_report(out: Path, result: dict, lines: list[str], argv: list[str]) -> Path:
@@ -108,7 +139,7 @@ def write_report(out: Path, result: dict, lines: list[str], argv: list[str]) -> 
     out.mkdir(parents=True, exist_ok=True)
     (out / "audit.json").write_text(json.dumps({"machine": m, "argv": argv, **result}, indent=1))
     text = [
-        "# The arm's sphere checker audited against pybullet's meshes and itself",
+        f"# {result.get('env', 'arm7')}: the arm's sphere checker audited against pybullet's meshes and itself",
         "",
         generated_by(f"python -m harness.sphere_audit {' '.join(argv)}", m),
         "",

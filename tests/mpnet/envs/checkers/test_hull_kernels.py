@@ -34,7 +34,7 @@ def posed_pair(seed: int):
     return verts, ra, ta, rb, tb, va @ ra.T + ta, vb @ rb.T + tb
 
 
-@pytest.mark.parametrize("seed", range(40))
+@pytest.mark.parametrize("seed", range(16))
 def test_the_gap_is_the_hulls_distance_and_never_more(seed):
     verts, ra, ta, rb, tb, a, b = posed_pair(seed)
     exact = qp_distance(a, b)
