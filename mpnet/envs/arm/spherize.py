@@ -78,7 +78,7 @@ def link_core(model: ArmModel, link: str) -> tuple[np.ndarray, float]:
     shape = next(m for m in model.kinematics.shapes if m.link == link)
     if shape.geometry == "sphere":
         return shape.origin[None, :3, 3].copy(), float(shape.size[0])
-    hull = ConvexHull(shape_points(shape))
+    hull = link_hull(model, link)
     return hull.points[hull.vertices], 0.0
 
 

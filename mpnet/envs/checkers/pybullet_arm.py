@@ -218,7 +218,8 @@ def _key(model: ArmModel) -> tuple:
     a URDF or mesh rewritten under the same name is another robot, not the world loaded from
     the old one)."""
     files = [model.urdf_path] + [s.path for s in model.kinematics.shapes if s.path is not None]
-    return (repr(model), *((str(p), p.stat().st_mtime_ns, p.stat().st_size) for p in files))
+    stats = ((str(p), p.stat()) for p in files)
+    return (repr(model), *((p, st.st_mtime_ns, st.st_size) for p, st in stats))
 
 
 class PybulletArmChecker(SampledConfigurations):

@@ -107,10 +107,12 @@ class SphereModel:
         link_h0 to link_h1, and how far the judge's shape reaches beyond each (a sphere's radius,
         a hull's pybullet margin)."""
         links, model = self.links, self.model
-        named = {(min(links[a], links[b]), max(links[a], links[b])) for a, b in pairs}
-        for a, b in sorted(model.exact_pairs - named):
+        named = [(min(links[a], links[b]), max(links[a], links[b])) for a, b in pairs]
+        untested = sorted(model.exact_pairs - set(named))
+        if untested:
+            a, b = untested[0]
             raise ArmModelError(f"{model.name}: exact pair ({a}, {b}) is never tested (allowed, or parent and child)")
-        exact = np.array([(min(links[a], links[b]), max(links[a], links[b])) in model.exact_pairs for a, b in pairs])
+        exact = np.array([key in model.exact_pairs for key in named])
         h0, h1, verts = np.zeros(len(links), np.int64), np.zeros(len(links), np.int64), [np.zeros((0, 3))]
         hr = np.zeros(len(links))
         hulled = {name for pair in model.exact_pairs for name in pair}
