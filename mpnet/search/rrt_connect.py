@@ -100,9 +100,10 @@ class RRTConnectSearch:
         self, env, spec, start, goal, rng, deadline: float = math.inf, max_rounds: int | None = None, counts=None
     ) -> Searched:
         """Search from start to goal on the checker's compiled form `env` until connected,
-        `deadline` (time.perf_counter's) or `max_rounds` rounds. rng: the kernels' splitmix64
-        state (one uint64, advanced in place); counts: the checks are added into it (int64 (3,),
-        the caller's, so that a search stopped by an exception still counts them)."""
+        `deadline` (time.perf_counter's) or `max_rounds` rounds (no path and 0 rounds when start
+        or goal is not free). rng: the kernels' splitmix64 state (one uint64, advanced in
+        place); counts: the checks are added into it (int64 (3,), the caller's, so that a
+        search stopped by an exception still counts them)."""
         t0 = time.perf_counter()
         lower, upper, weights, reach, room = self.space_of(spec)
         start, goal = np.asarray(start, float), np.asarray(goal, float)
@@ -111,6 +112,8 @@ class RRTConnectSearch:
         counts = np.zeros(3, np.int64) if counts is None else counts
         sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
         chunk, outcome = FIRST_SLICE, K.RUNNING
+        if not K.roots_free(env, counts, start, goal):  # the motions' checks skip the trees' states
+            return Searched(None, 0, 2, counts)
         while True:
             if max_rounds is not None:
                 chunk = min(chunk, max_rounds - int(state[K.ROUNDS]))

@@ -4,7 +4,9 @@ and its checks, so the planner pays what MPNet's compiled loop pays per check.
 
 OMPL's algorithm, step for step: the trees take turns; a uniform sample is grown toward
 from the turn's tree (its nearest state, moved at most `reach` toward the sample; the start
-tree checks the motion nearest -> new, the goal tree the new state and then new -> nearest);
+tree checks the motion nearest -> new, the goal tree the new state and then new -> nearest;
+a tree's states are known free, so a motion's check does not test them first: the roots
+are checked once);
 if that tree moved, the other tree is grown toward the state just added until it reaches it
 (connected) or is trapped. Nearest neighbours by a linear scan of the tree (OMPL: GNAT),
 exact and cheap at the sizes these trees reach within a budget.
@@ -20,7 +22,7 @@ import math
 
 import numpy as np
 
-from mpnet.envs.checkers.compiled_env import bounded_dims, canonical, motion_free, state_free, wrap_difference
+from mpnet.envs.checkers.compiled_env import bounded_dims, canonical, motion_free_known, state_free, wrap_difference
 from mpnet.jit import njit
 
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
@@ -96,6 +98,15 @@ def nearest(env, weights, nodes, cols, n, q, scratch, dist):
     return bi
 
 
+@njit(cache=True)
+def roots_free(env, counts, start, goal):
+    """Are both roots free? Checked once a search (counted as state checks): a motion's
+    check skips a tree's state (motion_free_known), and without its early exit a search
+    from a blocked root would spend its whole budget finding nothing."""
+    counts[0] += 2
+    return state_free(env, counts, start) and state_free(env, counts, goal)
+
+
 @njit(cache=True, borrowed=True)
 def _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, t, target, d):
     """OMPL's growTree: tree t's nearest node moved toward target by at most `reach`, added
@@ -123,15 +134,16 @@ def _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, t, t
     else:
         for k in range(new.shape[0]):  # a loop: a slice copy may allocate (arrays could overlap)
             new[k] = target[k]
+    # a tree's states are free: a motion from one is not checked there again (the same answer)
     if t == 0:
         counts[1] += 1
-        ok = motion_free(env, counts, near, new)
+        ok = motion_free_known(env, counts, near, new, 1)
     else:  # the goal tree: the new state, then the motion toward its tree (OMPL's order)
         counts[0] += 1
         ok = state_free(env, counts, new)
         if ok:
             counts[1] += 1
-            ok = motion_free(env, counts, new, near)
+            ok = motion_free_known(env, counts, new, near, 2)
     if not ok:
         return TRAPPED
     parents[t, n] = i

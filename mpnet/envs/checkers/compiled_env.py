@@ -33,7 +33,9 @@ class CompiledKind:
     """A robot kind's compiled checks, each a numba function of (env, counts, ...): counts[2]
     gathers the configurations a sampled or certified check evaluates. canonical(env, q) and
     wrap_difference(env, d) write in place (a space with an angle wraps it); bounded_dims(env,
-    n): how many leading coordinates of an n-D state have bounds. Left out: a Euclidean space."""
+    n): how many leading coordinates of an n-D state have bounds. Left out: a Euclidean space.
+    motion_free_known(env, counts, a, b, known): motion_free when the caller knows `known` of
+    its ends are free (1: a; 2: a and b), which need not be checked again; left out: motion_free."""
 
     name: str
     state_free: Callable
@@ -42,6 +44,7 @@ class CompiledKind:
     canonical: Callable | None = None
     wrap_difference: Callable | None = None
     bounded_dims: Callable | None = None
+    motion_free_known: Callable | None = None
 
 
 def register(kind: CompiledKind) -> None:
@@ -79,6 +82,12 @@ def motions_free(env, counts, A, B, out):
     raise NotImplementedError("compiled only")
 
 
+def motion_free_known(env, counts, a, b, known):
+    """Whether the motion is free, `known` of its ends (1: a; 2: a and b) known to be free
+    already (a tree's states: not checked again); typed by the overload below."""
+    raise NotImplementedError("compiled only")
+
+
 def canonical(env, x):
     """The state space's wrap of a state x (SE2: the angle into [-pi, pi)), in place."""
     raise NotImplementedError("compiled only")
@@ -106,6 +115,15 @@ def _state_typed(env, counts, q):
 def _motion_typed(env, counts, a, b):
     check = _kind(env).motion_free
     return lambda env, counts, a, b: check(env, counts, a, b)
+
+
+@overload(motion_free_known, jit_options={"_nrt": False})
+def _motion_known_typed(env, counts, a, b, known):
+    own = _kind(env).motion_free_known
+    if own is None:  # the kind checks the whole motion
+        check = _kind(env).motion_free
+        return lambda env, counts, a, b, known: check(env, counts, a, b)
+    return lambda env, counts, a, b, known: own(env, counts, a, b, known)
 
 
 @overload(motions_free, jit_options={"_nrt": True})

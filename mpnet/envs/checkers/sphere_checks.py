@@ -73,9 +73,11 @@ def _second_order(lever, rad, dq, out):
 
 
 @njit(cache=True, borrowed=True)
-def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
+def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
     """Is the straight joint motion a -> b free everywhere along it? Returns (free,
-    configurations evaluated).
+    configurations evaluated). known: how many of its ends the caller already knows are
+    free (0; 1: a; 2: a and b, e.g. a tree's states), which are then not checked first: an
+    early exit only, as an interval is certified free only when all of it is, its ends too.
 
     Certified, not sampled. Along the motion q(t) = a + t (b - a), a point of a link moves
     at most sum_j |dq_j| rho_j(t) per unit of t, rho_j its distance from joint j's axis;
@@ -98,9 +100,9 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs):
     _second_order(m[LLEVER], m[BRADIUS], dq, bufs[LB])
     _second_order(m[GLEVER], m[GRADIUS], dq, bufs[GB])
     evaluated = 0
-    for end in (b, a):  # the ends exactly first, where a blocked motion is most often found
+    for e in range(2 - known):  # the ends not known free, exactly, first: a blocked motion is most often found there
         evaluated += 1
-        if verdict(end, m, obs, bufs, False, 0.0, dq) == HIT:
+        if verdict(b if e == 0 else a, m, obs, bufs, False, 0.0, dq) == HIT:
             return False, evaluated
     head, tail = 0, 1
     t0s[0], t1s[0] = 0.0, 1.0
@@ -132,6 +134,12 @@ def motion_free(a, b, mi, mf, ob, lower, upper, tol, buf):
     """Is the straight joint motion a -> b free everywhere along it? (free, configurations
     evaluated); see _motion_free."""
     return _motion_free(a, b, unpack(mi, mf), unpack_obstacles(ob), lower, upper, tol, unpack_buffers(mi, buf))
+
+
+@njit(cache=True, borrowed=True)
+def motion_free_known(a, b, mi, mf, ob, lower, upper, tol, buf, known):
+    """motion_free, `known` of its ends (1: a; 2: a and b) already known to be free."""
+    return _motion_free(a, b, unpack(mi, mf), unpack_obstacles(ob), lower, upper, tol, unpack_buffers(mi, buf), known)
 
 
 @njit(cache=True)

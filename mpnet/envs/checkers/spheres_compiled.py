@@ -40,6 +40,16 @@ def motion_free(env, counts, a, b):  # SphereChecker._motion_free
     return ok
 
 
+@njit(cache=True, borrowed=True)
+def motion_free_known(env, counts, a, b, known):
+    _, ints, floats, lo, hi, lower, upper, scratch, _ = env
+    if hi[0, 1] != 0.0:
+        return False
+    ok, n = S.motion_free_known(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch, known)
+    counts[2] += n
+    return ok
+
+
 @njit(cache=True)  # S.motions_free allocates its answers
 def motions_free(env, counts, A, B, out):  # SphereChecker._motions_free
     _, ints, floats, lo, hi, lower, upper, scratch, _ = env
@@ -51,4 +61,4 @@ def motions_free(env, counts, A, B, out):  # SphereChecker._motions_free
     counts[2] += n
 
 
-register(CompiledKind(NAME, state_free, motion_free, motions_free))
+register(CompiledKind(NAME, state_free, motion_free, motions_free, motion_free_known=motion_free_known))

@@ -64,6 +64,23 @@ def test_motions_answer_as_the_two_scan_kernels_did(checkers):
     assert got == RECORDED
 
 
+def test_a_motion_from_known_free_ends_answers_the_same_and_checks_them_no_more(checkers):
+    """motion_free_known (the compiled RRT-Connect's: a tree's states are free) gives
+    motion_free's answers, evaluating one configuration fewer per known free end; the ends'
+    own checks are an early exit only (an interval is certified free only when all of it is,
+    its ends included), so an end wrongly said known still blocks the motion."""
+    _, ch = checkers[2]
+    mi, mf, ob, lo, up = ch._args
+    a, b = _motions(5, lo, up, 300)
+    ends = C.states_free(a, mi, mf, ob, lo, up, ch._buf) & C.states_free(b, mi, mf, ob, lo, up, ch._buf)
+    assert 50 < ends.sum() < len(a)
+    for i in range(len(a)):
+        ok, n = C.motion_free(a[i], b[i], mi, mf, ob, lo, up, CERTIFY_TOL, ch._buf)
+        for known in (1, 2):
+            got, m = C.motion_free_known(a[i], b[i], mi, mf, ob, lo, up, CERTIFY_TOL, ch._buf, known)
+            assert got == ok and (m == n - known if ends[i] else not got)
+
+
 @njit(cache=True)
 def _verdicts(qs, hs, dqs, mi, mf, ob, buf):
     """(growing verdict, plain verdict) of each row."""

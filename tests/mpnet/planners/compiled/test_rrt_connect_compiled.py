@@ -80,6 +80,24 @@ def test_invalid_endpoints_fail_fast(start, goal):
     assert res.status == INVALID_QUERY and res.path is None
 
 
+@pytest.mark.parametrize("env", ["s2d", "panda_mbm"])
+def test_a_search_from_a_state_in_collision_finds_no_path(env):
+    """The search's motions do not test the trees' states first (known free), so it checks
+    its roots itself: a caller that does not (the expert) gets no path from a blocked start or
+    goal, at once, not after its budget."""
+    spec = get_spec(env)
+    if env == "s2d":
+        ws, start, goal = WALL, (0.0, 0.0), (10.0, 0.0)  # the start inside the wall
+    else:
+        ws = Workspace("box", "file", [[0.09, 0.0, 1.0]], [[0.1, 0.1, 0.1]])  # a box around the hand at zero
+        start, goal = np.zeros(spec.state_dim), np.array([1.5, 0.0, 0.0, -1.5, 0.0, 1.5, 0.8])  # the goal turned away
+    checker = spec.make_checker(ws)
+    assert not checker.is_valid(list(start)) and checker.is_valid(list(goal))
+    for a, b in ((start, goal), (goal, start)):
+        found = R.RRTConnectSearch().run(checker.compiled_env(), spec, a, b, np.array([1], np.uint64), max_rounds=2000)
+        assert found.path is None and found.rounds == 0
+
+
 def test_unreachable_goal_times_out_within_its_budget():
     """A goal boxed in by four walls: the budget ends the search, and the trees, grown past
     their first capacity, keep every state they had."""
