@@ -103,8 +103,11 @@ def roots_free(env, counts, start, goal):
     """Are both roots free? Checked once a search (counted as state checks): a motion's
     check skips a tree's state (motion_free_known), and without its early exit a search
     from a blocked root would spend its whole budget finding nothing."""
-    counts[0] += 2
-    return state_free(env, counts, start) and state_free(env, counts, goal)
+    for q in (start, goal):
+        counts[0] += 1
+        if not state_free(env, counts, q):
+            return False
+    return True
 
 
 @njit(cache=True, borrowed=True)

@@ -133,7 +133,7 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
 def motion_free(a, b, mi, mf, ob, lower, upper, tol, buf):
     """Is the straight joint motion a -> b free everywhere along it? (free, configurations
     evaluated); see _motion_free."""
-    return _motion_free(a, b, unpack(mi, mf), unpack_obstacles(ob), lower, upper, tol, unpack_buffers(mi, buf))
+    return motion_free_known(a, b, mi, mf, ob, lower, upper, tol, buf, 0)
 
 
 @njit(cache=True, borrowed=True)

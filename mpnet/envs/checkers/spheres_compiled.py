@@ -31,16 +31,6 @@ def state_free(env, counts, q):  # SphereChecker._state_free
 
 
 @njit(cache=True, borrowed=True)
-def motion_free(env, counts, a, b):  # SphereChecker._motion_free
-    _, ints, floats, lo, hi, lower, upper, scratch, _ = env
-    if hi[0, 1] != 0.0:
-        return False
-    ok, n = S.motion_free(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch)
-    counts[2] += n
-    return ok
-
-
-@njit(cache=True, borrowed=True)
 def motion_free_known(env, counts, a, b, known):
     _, ints, floats, lo, hi, lower, upper, scratch, _ = env
     if hi[0, 1] != 0.0:
@@ -48,6 +38,11 @@ def motion_free_known(env, counts, a, b, known):
     ok, n = S.motion_free_known(a, b, ints, floats, lo[0], lower, upper, hi[0, 0], scratch, known)
     counts[2] += n
     return ok
+
+
+@njit(cache=True, borrowed=True)
+def motion_free(env, counts, a, b):  # SphereChecker._motion_free
+    return motion_free_known(env, counts, a, b, 0)
 
 
 @njit(cache=True)  # S.motions_free allocates its answers
