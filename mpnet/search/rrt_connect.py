@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mpnet.search import rrt_kernels as K
+from mpnet.search.kd_tree import kd_arrays, kd_grown
 
 SLICE_S = 0.005  # a slice of the search lasts about this long once its rate is known
 FIRST_SLICE = 32  # iterations of the first slice: most arm queries connect within it
@@ -71,8 +72,8 @@ class RRTConnectSearch:
     @staticmethod
     def _arrays(cap: int, d: int) -> tuple:
         """The trees' arrays for `cap` states each: nodes (2, cap, d), parents (2, cap), the
-        nodes column by column (2, d, cap) and nearest's distances (cap,)."""
-        return np.empty((2, cap, d)), np.zeros((2, cap), np.int64), np.empty((2, d, cap)), np.empty(cap)
+        nodes column by column (2, d, cap), nearest's distances (cap,) and the k-d trees."""
+        return np.empty((2, cap, d)), np.zeros((2, cap), np.int64), np.empty((2, d, cap)), np.empty(cap), kd_arrays(cap)
 
     def _buffers(self, d: int, room: int) -> tuple:
         """The trees' arrays (_arrays), kept between queries."""
@@ -82,19 +83,19 @@ class RRTConnectSearch:
 
     def _grown(self) -> tuple:
         """The trees' arrays at twice their capacity, every state and parent kept."""
-        nodes, parents, cols, _ = self._trees
+        nodes, parents, cols, _, kd = self._trees
         cap = nodes.shape[1]
         more = self._arrays(2 * cap, nodes.shape[2])
         more[0][:, :cap], more[1][:, :cap], more[2][:, :, :cap] = nodes, parents, cols
-        self._trees = more
+        self._trees = (*more[:4], kd_grown(kd, 2 * cap))
         return self._trees
 
     def _roots(self, start, goal, room: int) -> tuple:
         """The trees' arrays with start and goal their roots."""
-        nodes, parents, cols, dist = self._buffers(len(start), room)
+        nodes, parents, cols, dist, kd = self._buffers(len(start), room)
         nodes[0, 0], nodes[1, 0] = start, goal
         cols[0, :, 0], cols[1, :, 0] = start, goal
-        return nodes, parents, cols, dist
+        return nodes, parents, cols, dist, kd
 
     def run(
         self, env, spec, start, goal, rng, deadline: float = math.inf, max_rounds: int | None = None, counts=None
@@ -107,7 +108,7 @@ class RRTConnectSearch:
         t0 = time.perf_counter()
         lower, upper, weights, reach, room = self.space_of(spec)
         start, goal = np.asarray(start, float), np.asarray(goal, float)
-        nodes, parents, cols, dist = self._roots(start, goal, room)
+        nodes, parents, cols, dist, kd = self._roots(start, goal, room)
         state = K.new_state()
         counts = np.zeros(3, np.int64) if counts is None else counts
         sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
@@ -120,11 +121,11 @@ class RRTConnectSearch:
                 if chunk <= 0:
                     break
             outcome = K.grow(
-                env, counts, weights, lower, upper, reach, rng, nodes, parents, cols, dist, state, chunk, room, sample,
-                diff,
+                env, counts, weights, lower, upper, reach, rng, nodes, parents, cols, dist, kd, state, chunk, room,
+                sample, diff,
             )  # fmt: skip
             if outcome == K.FULL:
-                nodes, parents, cols, dist = self._grown()
+                nodes, parents, cols, dist, kd = self._grown()
                 continue
             now = time.perf_counter()
             if outcome == K.CONNECTED or now >= deadline:

@@ -8,8 +8,9 @@ tree checks the motion nearest -> new, the goal tree the new state and then new 
 a tree's states are known free, so a motion's check does not test them first: the roots
 are checked once);
 if that tree moved, the other tree is grown toward the state just added until it reaches it
-(connected) or is trapped. Nearest neighbours by a linear scan of the tree (OMPL: GNAT),
-exact and cheap at the sizes these trees reach within a budget.
+(connected) or is trapped. Nearest neighbours by a linear scan of a small tree, and of a tree
+of KD_MIN states or more by its k-d tree (mpnet.search.kd_tree; OMPL: GNAT), which finds the
+node the scan finds: the same search either way, the hard queries' big trees cheaper.
 
 A search runs in slices (`grow`, at most `iterations` samples a call) so that the caller
 checks the clock between calls (numba has no clock); the trees and the turn live in the
@@ -24,6 +25,9 @@ import numpy as np
 
 from mpnet.envs.checkers.compiled_env import bounded_dims, canonical, motion_free_known, state_free, wrap_difference
 from mpnet.jit import njit
+from mpnet.search.kd_tree import kd_insert, kd_nearest, kd_reset
+
+KD_MIN = 128  # a tree of at least this many states is searched by its k-d tree (kd_tree), a smaller one scanned
 
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
 # grow's outcome
@@ -111,12 +115,15 @@ def roots_free(env, counts, start, goal):
 
 
 @njit(cache=True, borrowed=True)
-def _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, t, target, d):
+def _extend(env, counts, weights, reach, nodes, parents, cols, dist, kd, state, t, target, d):
     """OMPL's growTree: tree t's nearest node moved toward target by at most `reach`, added
     when its motion is free. TRAPPED, ADVANCED (moved, target not reached) or REACHED. d,
-    dist: scratch; cols: the trees column by column (grow)."""
+    dist: scratch; cols: the trees column by column (grow); kd: their k-d trees (grow)."""
     n = state[t]
-    i = nearest(env, weights, nodes[t], cols[t], n, target, d, dist)
+    euclidean = bounded_dims(env, d.shape[0]) == d.shape[0]
+    i = kd_nearest(kd, t, cols, target) if euclidean and n >= KD_MIN else -1
+    if i < 0:
+        i = nearest(env, weights, nodes[t], cols[t], n, target, d, dist)
     near = nodes[t, i]
     new = nodes[t, n]
     dist = distance(env, weights, near, target, d)  # d: target - near, the shorter way
@@ -152,23 +159,30 @@ def _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, t, t
     parents[t, n] = i
     for k in range(new.shape[0]):
         cols[t, k, n] = new[k]
+    if euclidean:
+        kd_insert(kd, t, n, cols)
     state[t] = n + 1
     return REACHED if reached else ADVANCED
 
 
 @njit(cache=True, borrowed=True)
 def grow(
-    env, counts, weights, lower, upper, reach, rng, nodes, parents, cols, dist, state, iterations, room, sample, d
+    env, counts, weights, lower, upper, reach, rng, nodes, parents, cols, dist, kd, state, iterations, room, sample, d
 ):  # noqa: E501
     """Up to `iterations` rounds of RRT-Connect on the trees (nodes (2, cap, d), parents
-    (2, cap), cols (2, d, cap): the nodes column by column, for nearest; state: see
-    N0..JOIN1; each tree's root placed by the caller in nodes and cols; sample, d: scratch of a
-    state's length; dist: scratch of cap). Returns
+    (2, cap), cols (2, d, cap): the nodes column by column, for nearest; kd: their k-d trees
+    (kd_tree.kd_arrays), started here at the first round; state: see N0..JOIN1; each tree's
+    root placed by the caller in nodes and cols; sample, d: scratch of a state's length; dist:
+    scratch of cap). Returns
     CONNECTED (state[JOIN0], state[JOIN1]: the start tree's and the goal tree's nodes that
     meet, the same state: the connecting tree's last step reached its target exactly),
     RUNNING (iterations spent) or FULL (a tree within `room` nodes of its capacity: the
     caller grows the arrays). state[ROUNDS] counts the rounds run."""
     cap = nodes.shape[1]
+    if state[ROUNDS] == 0:
+        for t in range(2):
+            kd_reset(kd, t)
+            kd_insert(kd, t, 0, cols)
     for _ in range(iterations):
         if state[N0] + room >= cap or state[N1] + room >= cap:
             return FULL
@@ -177,15 +191,15 @@ def grow(
         state[ROUNDS] += 1
         for k in range(sample.shape[0]):
             sample[k] = uniform(rng, lower[k], upper[k])
-        if _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, t, sample, d) == TRAPPED:
+        if _extend(env, counts, weights, reach, nodes, parents, cols, dist, kd, state, t, sample, d) == TRAPPED:
             continue
         added = state[t] - 1
         for k in range(sample.shape[0]):  # the other tree's target: the state just added (the sample is spent)
             sample[k] = nodes[t, added, k]
         o = 1 - t
-        g = _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, o, sample, d)
+        g = _extend(env, counts, weights, reach, nodes, parents, cols, dist, kd, state, o, sample, d)
         while g == ADVANCED:
-            g = _extend(env, counts, weights, reach, nodes, parents, cols, dist, state, o, sample, d)
+            g = _extend(env, counts, weights, reach, nodes, parents, cols, dist, kd, state, o, sample, d)
         if g == REACHED:
             if t == 0:
                 state[JOIN0], state[JOIN1] = added, state[o] - 1
