@@ -22,6 +22,7 @@ from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
 from mpnet.data.shipped import copy_testset, find_testset
 from mpnet.data.store import ArtifactError, content_key, ensure, partial_dir, read_manifest
+from mpnet.envs.scenes.generators import env_split_ids
 from mpnet.envs.spec import TestSet
 from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import ProblemFileError, dump_problems, load_problems
@@ -168,6 +169,8 @@ def ensure_testset_artifact(run: RunSettings, progress: bool = True):
     spec = run.env.spec
     key_config = testset_key_config(run)
     sizes = dict(run.test_sizes)
+    for split, (count, _) in sizes.items():
+        _check_ids(spec, split, count, f"scale.test.{split}.workspaces")
 
     def build(folder: Path) -> dict:
         from ompl import util as ou
@@ -243,7 +246,18 @@ def _data(run: RunSettings):
             f"config key planner: env {run.env.name} has no workspace generator, so no data to train networks on "
             "(planners without networks plan its problem files)"
         )
+    _check_ids(run.env.spec, "seen", run.data.train_workspaces, "scale.train.workspaces")
+    for split, (count, _) in run.test_sizes.items():  # before the dataset's hours, not after
+        _check_ids(run.env.spec, split, count, f"scale.test.{split}.workspaces")
     return run.data
+
+
+def _check_ids(spec, split: str, count: int, key: str) -> None:
+    """A count of workspaces the env's generator can make for the split (UsageError naming the key)."""
+    try:
+        env_split_ids(spec, split, count)
+    except ValueError as e:
+        raise UsageError(f"config key {key}: env {spec.name}: {e}") from None
 
 
 def models_key_config(run: RunSettings) -> dict:

@@ -22,7 +22,7 @@ import numpy as np
 from mpnet.data.expert import ExpertPaths, chunks_of, expert_paths, save_chunk, summary
 from mpnet.data.store import ArtifactError
 from mpnet.envs.scenes.clouds import clouds
-from mpnet.envs.scenes.generators import extra_ids, make_workspaces, split_ids, split_sizes
+from mpnet.envs.scenes.generators import env_split_ids, extra_ids, make_workspaces
 from mpnet.envs.spec import EnvSpec
 from mpnet.settings import EXPERT
 
@@ -112,7 +112,7 @@ def build_dataset(
     """Write data.npz into folder; returns the manifest fields. resume_dir: where finished
     chunks of expert paths are kept, so that a build cut short resumes; plan=False: every
     chunk must be there already (the merge of a sharded build; MissingChunks otherwise)."""
-    train = make_workspaces(spec, split_ids("seen", p.train_workspaces, split_sizes(spec)), "train", p.data_seed)
+    train = make_workspaces(spec, env_split_ids(spec, "seen", p.train_workspaces), "train", p.data_seed)
     paths = expert_paths_of(spec, p, train, jobs=jobs, progress=progress, resume_dir=resume_dir, plan=plan)
     extra = make_workspaces(spec, extra_ids(p.ae_workspaces), "extra", p.data_seed)
     total = spec.cloud_size(p.points_per_block)
@@ -145,7 +145,7 @@ def build_expert_shard(
 ) -> ExpertPaths:
     """Shard (i, shards) of the dataset's expert paths, planned into resume_dir (chunks
     already there are kept); build_dataset with the same resume_dir assembles them."""
-    ids = split_ids("seen", p.train_workspaces, split_sizes(spec))
+    ids = env_split_ids(spec, "seen", p.train_workspaces)
     mine = sorted(i for c in chunks_of(len(ids), p.expert_chunk, shard).values() for i in c)
     made = dict(zip(mine, make_workspaces(spec, [ids[i] for i in mine], "train", p.data_seed)))
     train = [made.get(i) for i in range(len(ids))]  # only this shard's workspaces are made

@@ -14,7 +14,7 @@ import itertools
 import numpy as np
 
 from mpnet.envs.ompl_space import is_solvable
-from mpnet.envs.scenes.generators import make_workspace, split_ids, split_sizes
+from mpnet.envs.scenes.generators import env_split_ids, make_workspace
 from mpnet.envs.spec import EnvSpec, TestSet
 from mpnet.envs.workspace import Query, Workspace
 
@@ -67,7 +67,7 @@ def make_testset(
     workspaces: list[Workspace] = []
     queries: list[Query] = []
     for split, (n_ws, n_q) in splits.items():
-        for i in split_ids(split, n_ws, split_sizes(spec)):
+        for i in env_split_ids(spec, split, n_ws):
             ws = make_workspace(spec, i, split, seed)
             workspaces.append(ws)
             queries += make_queries(spec, ws, n_q, seed, split, solvable_s, blocked_only=blocked_only)

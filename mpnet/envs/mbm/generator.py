@@ -76,6 +76,7 @@ class MBMScenes:
 
     VERSION = 2  # in the data and test set keys: bumped when a change can change a scene or query (2: compiled IK)
     split_sizes = (7000, 700)  # training (seen) ids 0-6999, unseen 7000-7699: 1000 and 100 per family
+    more_seen = True  # a scene of any id: training goes on at 7700 (split_ids), 7700 % 7 == 0 keeps the families even
 
     def __init__(self, robot, scenes: str, ik_attempts: int = 200, scene_attempts: int = 200, goal_failures: int = 3):
         self.robot, self.scenes = robot, scenes  # scenes: the robot's family file in data_files/mbm

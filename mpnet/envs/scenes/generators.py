@@ -55,14 +55,21 @@ def c3d_layouts(seed: int, count: int = N_TRAIN + N_UNSEEN) -> tuple[np.ndarray,
     return centres, np.array(rows)
 
 
-def split_ids(split: str, count: int, sizes: tuple[int, int] = (N_TRAIN, N_UNSEEN)) -> list[int]:
+def split_ids(
+    split: str, count: int, sizes: tuple[int, int] = (N_TRAIN, N_UNSEEN), more_seen: bool = False
+) -> list[int]:
     """The first `count` workspace ids of a split, for a generator with `sizes` = (training
-    workspaces, unseen ones): ids 0.. are training (seen), the unseen ones follow."""
+    workspaces, unseen ones): ids 0.. are training (seen), the unseen ones follow. more_seen:
+    the generator makes a workspace of any id, so training goes on past the unseen block
+    (n_train + n_unseen, ...) once its n_train are taken: a larger dataset's first n_train
+    workspaces are a smaller one's, and the unseen split stays out of training."""
     n_train, n_unseen = sizes
     if split == "seen":
-        if count > n_train:
+        if count <= n_train:
+            return list(range(count))
+        if not more_seen:
             raise ValueError(f"the seen split has {n_train} workspaces, {count} asked")
-        return list(range(count))
+        return list(range(n_train)) + list(range(n_train + n_unseen, count + n_unseen))
     if split == "unseen":
         if count > n_unseen:
             raise ValueError(f"the unseen split has {n_unseen} workspaces, {count} asked")
@@ -74,6 +81,12 @@ def split_sizes(spec) -> tuple[int, int]:
     """(training, unseen) workspaces of an env's generator: the original's 100 and 10 unless
     the generator says otherwise (`split_sizes`)."""
     return getattr(spec.generator, "split_sizes", (N_TRAIN, N_UNSEEN))
+
+
+def env_split_ids(spec, split: str, count: int) -> list[int]:
+    """split_ids for an env's generator: its split sizes, and training ids past the unseen
+    block where it makes any id (its `more_seen`)."""
+    return split_ids(split, count, split_sizes(spec), bool(getattr(spec.generator, "more_seen", False)))
 
 
 class OriginalLayouts:

@@ -198,6 +198,22 @@ def test_override_mistakes_are_one_line_with_the_fix(args, line, run_cli, tmp_pa
 
 
 @pytest.mark.slow  # the CLI in subprocesses
+def test_more_workspaces_than_the_env_makes_is_one_line_naming_the_key(tmp_path, run_cli):
+    """s2d's layouts are the original's 100 + 10: asking for more was a traceback from deep in
+    the build."""
+    base = ("+env=s2d", "scale=tiny", "progress=false", f"cache_dir={tmp_path / 'c'}")
+    for prog, key, more in (
+        ("harness.data", "scale.train.workspaces", "scale.train.workspaces=101"),
+        ("harness.data", "scale.test.unseen.workspaces", "scale.test.unseen.workspaces=11"),
+    ):
+        p = run_cli(prog, *base, more, f"hydra.run.dir={tmp_path / 'r'}", check=False)
+        assert p.returncode != 0 and "Traceback" not in p.stderr, p.stderr
+        lines = p.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"error: config key {key}: env s2d: the "), p.stderr
+        assert lines[0].endswith(" asked") and not (tmp_path / "c").exists()
+
+
+@pytest.mark.slow  # the CLI in subprocesses
 def test_cli_user_errors_are_one_line(tmp_path, run_cli):
     """The filesystem and file cases through the CLI: an output dir under a regular file
     (Hydra's traceback before), a cache under one, a problem file with a NaN nested in a

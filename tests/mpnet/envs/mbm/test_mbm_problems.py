@@ -98,6 +98,23 @@ def test_split_ids_follow_the_generator_s_sizes():
         split_ids("unseen", 701, (n_train, n_unseen))
 
 
+def test_training_goes_on_past_the_unseen_block_where_the_generator_makes_any_scene():
+    """A dataset larger than the seen split (issue 65's 500k paths) takes ids after the unseen
+    block: the first 7000 are a smaller dataset's, no unseen scene is trained on, and the
+    families stay even (7700 % 7 == 0); an env whose layouts are fixed refuses."""
+    from mpnet.envs.scenes.generators import env_split_ids
+
+    ids = env_split_ids(SPEC, "seen", 7003)
+    assert ids[:7000] == list(range(7000)) and ids[7000:] == [7700, 7701, 7702]
+    assert env_split_ids(SPEC, "seen", 12) == list(range(12)) and env_split_ids(SPEC, "unseen", 2) == [7000, 7001]
+    assert [i % 7 for i in ids[6993:7003]] == [0, 1, 2, 3, 4, 5, 6, 0, 1, 2]
+    assert not set(env_split_ids(SPEC, "seen", 20000)) & set(env_split_ids(SPEC, "unseen", 700))
+    with pytest.raises(ValueError, match="the seen split has 100 workspaces, 101 asked"):
+        env_split_ids(get_spec("s2d"), "seen", 101)
+    with pytest.raises(ValueError, match="the unseen split has 700 workspaces"):
+        env_split_ids(SPEC, "unseen", 701)
+
+
 AUDITED_BUILD = """
 import json, runpy, sys
 opened = []
