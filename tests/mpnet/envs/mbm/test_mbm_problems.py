@@ -133,6 +133,7 @@ def test_the_training_set_is_built_without_any_mbm_problem(tmp_path, repo):
     test set) opens no YAML but the configs, Hydra's own and the package's env files, scene
     families and robot model: never a MoveIt scene or request."""
     import json
+    import os
     import subprocess
     import sys
 
@@ -147,6 +148,7 @@ def test_the_training_set_is_built_without_any_mbm_problem(tmp_path, repo):
             f"cache_dir={tmp_path}",
         ],
         cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(repo)},  # this checkout's code, whichever one is installed
         capture_output=True,
         text=True,
         timeout=600,

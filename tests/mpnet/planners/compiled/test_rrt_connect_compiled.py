@@ -98,6 +98,21 @@ def test_a_search_from_a_state_in_collision_finds_no_path(env):
         assert found.path is None and found.rounds == 0
 
 
+def test_warm_up_compiles_the_rounds_even_from_a_blocked_root(monkeypatch):
+    """harness.compile_kernels warms the search up from random states, which on an arm are
+    mostly blocked: a search from a blocked root returns before its rounds' kernel, which every
+    process that planned first then compiled again (~40 s an arm). warm_up calls it anyway."""
+    calls = []
+    grow = K.grow
+    monkeypatch.setattr(K, "grow", lambda *a: calls.append(a[13]) or grow(*a))  # a[13]: the rounds asked
+    spec = get_spec("s2d")
+    checker = spec.make_checker(WALL)
+    start, goal = np.array([0.0, 0.0]), np.array([10.0, 0.0])  # the start inside the wall
+    assert not checker.is_valid(list(start))
+    R.RRTConnectSearch().warm_up(checker.compiled_env(), spec, start, goal)
+    assert calls == [0]  # compiled for the env's types, no round run
+
+
 def test_unreachable_goal_times_out_within_its_budget():
     """A goal boxed in by four walls: the budget ends the search, and the trees, grown past
     their first capacity, keep every state they had."""
