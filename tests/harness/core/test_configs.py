@@ -217,6 +217,19 @@ def test_uniform_expert_pairs_are_another_dataset_and_only_for_the_expert(settin
         settings(["+env=panda_mbm", "env.expert.pairs=bogus"])
 
 
+def test_scenes_per_batch_is_a_scale_key_in_the_models_key_only_where_set(settings):
+    """scale.fit.scenes_per_batch (Pnet's batches drawn from a few scenes each) is a key a
+    command can set (it was read but not declared: `+scale.fit...` was refused as unknown);
+    unset, the networks' key is what it was."""
+    from harness.artifacts.ensure import models_key_config
+
+    plain = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr"]))
+    grouped = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr", "scale.fit.scenes_per_batch=2"]))
+    assert "scenes_per_batch" not in plain and grouped == {**plain, "scenes_per_batch": 2}
+    with pytest.raises(UsageError, match="^config key scale.fit.scenes_per_batch"):
+        settings(["+env=s2d", "+planner=mpnet_nr", "scale.fit.scenes_per_batch=0"])
+
+
 def test_the_experts_run_budget_is_in_the_data_key_and_only_rrt_connects(settings):
     """env.expert.run_iterations (panda_mbm's): in the data key where set, absent where not (the
     datasets built before it keep their keys); the test set's reference is unchanged; with the
