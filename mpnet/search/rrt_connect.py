@@ -136,19 +136,18 @@ class RRTConnectSearch:
         return Searched(path, int(state[K.ROUNDS]), int(state[K.N0] + state[K.N1]), counts)
 
     def warm_up(self, env, spec, start, goal) -> None:
-        """The search's kernels compiled (or loaded from numba's cache): one round, the rounds'
-        kernel itself (a search from a blocked root returns before it, and random states on an
-        arm mostly are blocked: every process that planned first had compiled it again, ~40 s on
-        an arm), and a path read back (the two roots joined)."""
-        self.run(env, spec, start, goal, np.zeros(1, np.uint64), max_rounds=1)
+        """The search's kernels compiled (or loaded from numba's cache): the roots' check, the
+        rounds' kernel called for no round (a search from a blocked root never reaches it, and
+        random states on an arm mostly are blocked: every process that planned first had
+        compiled it again, ~40 s on an arm), and a path read back (the two roots joined)."""
         lower, upper, weights, reach, room = self.space_of(spec)
-        start = np.asarray(start, float)
-        nodes, parents, cols, dist, kd = self._roots(start, np.asarray(goal, float), room)
-        state, scratch = K.new_state(), (np.empty(start.shape[0]), np.empty(start.shape[0]))
-        no_rounds = 0  # grow compiled for these types, nothing run
+        start, goal = np.asarray(start, float), np.asarray(goal, float)
+        nodes, parents, cols, dist, kd = self._roots(start, goal, room)
+        state, counts = K.new_state(), np.zeros(3, np.int64)
+        K.roots_free(env, counts, start, goal)
         K.grow(
-            env, np.zeros(3, np.int64), weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents, cols,
-            dist, kd, state, no_rounds, room, *scratch,
+            env, counts, weights, lower, upper, reach, np.zeros(1, np.uint64), nodes, parents, cols, dist, kd, state,
+            0, room, np.empty(start.shape[0]), np.empty(start.shape[0]),
         )  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0
         K.solution(nodes, parents, state)
