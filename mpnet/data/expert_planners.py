@@ -45,7 +45,7 @@ def rrt_star_path(
     from ompl import base as ob
     from ompl import geometric as og
 
-    from mpnet.envs.ompl_space import make_problem
+    from mpnet.envs.ompl_space import deadline_condition, make_problem
 
     si, pdef, to_tuple, keep = make_problem(spec, checker, start, goal)
     planner = og.RRTstar(si)
@@ -53,9 +53,7 @@ def rrt_star_path(
     planner.setup()
     spent, count = _budget(iterations)
     planner.solve(
-        ob.plannerOrTerminationCondition(
-            ob.timedPlannerTerminationCondition(max_seconds), ob.PlannerTerminationCondition(spent)
-        )
+        ob.plannerOrTerminationCondition(deadline_condition(max_seconds), ob.PlannerTerminationCondition(spent))
     )
     if count[0] <= iterations and clock is not None:  # the clock ended it, not the count
         clock.append(1)
@@ -116,7 +114,7 @@ def rrt_connect_path(
     from ompl import base as ob
     from ompl import geometric as og
 
-    from mpnet.envs.ompl_space import make_problem
+    from mpnet.envs.ompl_space import deadline_condition, make_problem
 
     keep = []  # each run's setup lives until the expert returns (OMPL only references it)
 
@@ -129,7 +127,7 @@ def rrt_connect_path(
         planner.setProblemDefinition(pdef)
         planner.setup()
         if run_iterations is None:
-            planner.solve(ob.timedPlannerTerminationCondition(max_seconds))
+            planner.solve(deadline_condition(max_seconds))
         else:
             planner.solve(ob.PlannerTerminationCondition(_budget(run_iterations)[0]))
         return (si, pdef.getSolutionPath(), to_tuple) if pdef.hasExactSolution() else None

@@ -8,7 +8,7 @@ import time
 from ompl import base as ob
 from ompl import geometric as og
 
-from mpnet.envs.ompl_space import make_problem, set_ompl_seed
+from mpnet.envs.ompl_space import deadline_condition, make_problem, set_ompl_seed
 from mpnet.motion import path_cost
 from mpnet.planners.base import (
     APPROXIMATE,
@@ -104,13 +104,17 @@ class OmplPlanner:
         planner.setProblemDefinition(pdef)
         planner.setup()
 
-        watch = BestCostWatch(planner, t0, self.stop, target) if self.algorithm in OPTIMIZING else None
         # stop=time stops a margin short of the budget: a path handed back after it is a timeout.
         share, least_s = TIME_STOP_MARGIN
         plan_s = budget_s - (max(share * budget_s, least_s) if self.stop == "time" else 0.0)
-        timed = ob.timedPlannerTerminationCondition(max(0.0, plan_s - (time.perf_counter() - t0)))
-        # No period argument: a periodic condition runs on a thread and aborts at exit.
-        ptc = timed if watch is None else ob.plannerOrTerminationCondition(timed, ob.PlannerTerminationCondition(watch))
+        # The budget is kept on the trial's own (monotonic) clock, never OMPL's wall clock; no
+        # period argument: a periodic condition runs on a thread and aborts at exit.
+        clock = time.perf_counter
+        if self.algorithm in OPTIMIZING:
+            watch = BestCostWatch(planner, t0, self.stop, target, t0 + plan_s, clock)
+            ptc = ob.PlannerTerminationCondition(watch)
+        else:
+            watch, ptc = None, deadline_condition(max(0.0, plan_s - (clock() - t0)), clock)
         status = planner.solve(ptc)
         exact = pdef.hasExactSolution()
         path = partial = None
@@ -123,7 +127,7 @@ class OmplPlanner:
         if watch is not None:  # an optimizing planner
             cost = planner.bestCost().value()
             stats["best_cost"] = cost if math.isfinite(cost) else None
-            stats["progress"] = watch.seen(cost, time.perf_counter() - t0)
+            stats["progress"] = watch.seen(cost, clock() - t0)
         if watch is not None:  # AORRTC keeps the termination condition, which holds the watch: the cycle broken
             watch.planner = None
         del planner, pdef, si, keep
@@ -131,7 +135,7 @@ class OmplPlanner:
             # stop=cost claims a solution only at the target: a longer path is not one
             path, partial = None, ({APPROXIMATE: path} if self.keep_partial else None)
         if path is None:
-            timed_out = time.perf_counter() - t0 >= budget_s * 0.999
+            timed_out = clock() - t0 >= budget_s * 0.999
             return Result(None, TIMEOUT if timed_out else NO_SOLUTION, stats, partial)
         return Result(path, EXACT, stats)
 
@@ -141,10 +145,14 @@ class BestCostWatch:
     also records each new best cost with its time. (OMPL 2.0.1's Python binding cannot take
     the problem's intermediate-solution callback: its std::function over State pointers has no
     converter; the poll sees an improvement at the next iteration, microseconds later.)
-    stop: "first" (any solution), "cost" (best cost <= target) or "time" (never: the budget ends it)."""
+    stop: "first" (any solution), "cost" (best cost <= target) or "time" (never); whatever the
+    stop, `clock()` reaching `end` ends the solve (the budget, on the trial's clock)."""
 
-    def __init__(self, planner, t0: float, stop: str, target: float | None):
+    def __init__(
+        self, planner, t0: float, stop: str, target: float | None, end: float = math.inf, clock=time.perf_counter
+    ):
         self.planner, self.t0, self.stop, self.target = planner, t0, stop, target
+        self.end, self.clock = end, clock
         self.last = math.inf
         self.progress: list[list[float]] = []
 
@@ -156,9 +164,12 @@ class BestCostWatch:
         return self.progress
 
     def __call__(self) -> bool:
+        now = self.clock()
         cost = self.planner.bestCost().value()
         if cost < self.last:
-            self.seen(cost, time.perf_counter() - self.t0)
+            self.seen(cost, now - self.t0)
+        if now >= self.end:
+            return True
         if self.stop == "first":
             return math.isfinite(cost)
         return self.stop == "cost" and cost <= self.target

@@ -296,3 +296,36 @@ def test_an_optimizing_planner_is_freed_after_its_solve():
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=root)
     assert p.returncode == 0, p.stderr
     assert "leaked" not in p.stderr, p.stderr[-2000:]
+
+
+class ScaledTime:
+    """A stand-in for the `time` module whose perf_counter runs at `rate` x the real clock: the
+    trial's clock disagreeing with the wall clock, as after NTP or a resumed VM steps the latter."""
+
+    def __init__(self, rate: float):
+        self.rate, self.t0 = rate, time.perf_counter()
+
+    def perf_counter(self) -> float:
+        return self.t0 + self.rate * (time.perf_counter() - self.t0)
+
+
+# A valid goal at the origin walled in on all four sides: no planner reaches it.
+RING = Workspace("ring", "file", [[0, 3], [0, -3], [3, 0], [-3, 0]], [[8, 2], [8, 2], [2, 8], [2, 8]])
+
+
+@pytest.mark.parametrize("algorithm", ["rrt_connect", "bit_star"])
+def test_the_budget_is_kept_on_the_trials_clock_not_on_ompls_wall_clock(monkeypatch, algorithm):
+    """CI failed on a machine whose wall clock ran ahead: OMPL's timed condition (wall clock)
+    stopped the planner early and the trial's clock called it a no_solution, not a timeout."""
+    from mpnet.planners import classical
+
+    planner = OmplPlanner(algorithm, algorithm)
+    p = problem("s2d", RING, (-10.0, -10.0), (0.0, 0.0))
+    planner.solve(p, 0.05)  # loads the checker's kernels
+    for rate, least_s, most_s in [(0.5, 0.6, 5.0), (20.0, 0.0, 0.2)]:
+        monkeypatch.setattr(classical, "time", ScaledTime(rate))
+        t = time.perf_counter()
+        res = planner.solve(p, 0.3)
+        real_s = time.perf_counter() - t
+        assert res.status == TIMEOUT and res.path is None
+        assert least_s <= real_s <= most_s, (rate, real_s)
