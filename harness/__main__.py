@@ -21,7 +21,7 @@ def main(cfg: DictConfig) -> None:
     from hydra.types import RunMode
 
     from harness.bench import bench_in_child, bench_or_exit
-    from harness.log import spawning
+    from harness.log import starting
 
     hydra_cfg = hydra.core.hydra_config.HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
@@ -31,9 +31,10 @@ def main(cfg: DictConfig) -> None:
     if hydra_cfg.mode != RunMode.MULTIRUN:
         bench_or_exit(cfg, run_dir, overrides=overrides)
         return
-    # OMPL's RNG takes its seed once per process: each job of a sweep (several may run in
-    # one process: Hydra's basic launcher, a joblib worker) runs in a fresh interpreter.
-    with spawning() as ctx:
+    # Each job of a sweep (several may run in one process: Hydra's basic launcher, a joblib
+    # worker) runs in a process of its own, forked before this one has planned or loaded a
+    # kernel (starting: else a fresh interpreter), so no job sees another's state.
+    with starting() as ctx:
         container = OmegaConf.to_container(cfg, resolve=True)
         child = ctx.Process(target=bench_in_child, args=(container, str(run_dir), overrides, os.getpid()))
         child.start()

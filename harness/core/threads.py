@@ -34,6 +34,11 @@ def single_threaded() -> None:
     """Every thread pool of this process (and of those it starts) at one thread: the
     variables set for libraries not yet loaded; the pools of those already loaded limited."""
     os.environ.update(dict.fromkeys(THREAD_VARS, "1"))
+    from tqdm import tqdm
+
+    # no monitor thread (it retunes a slow bar's refresh): left running after a data build, it
+    # kept the bench from forking its log process (harness.log.process.starting)
+    tqdm.monitor_interval = 0
     if any(m in sys.modules for m in ("numpy", "scipy", "torch", "sklearn")):
         from threadpoolctl import threadpool_limits
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing as mp
+import os
 import signal
 import time
 from pathlib import Path
@@ -51,13 +52,18 @@ def judge(spec, ws, rec: dict, validation_step: float) -> dict:
     return out
 
 
-def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, log_kwargs: dict) -> None:
-    from harness.log.writer import TrialLog
-
+def _serve(
+    inbox, conn, run_dir: str, run: dict, spec, validation_step: float, log_kwargs: dict, parents_ends=()
+) -> None:
     # The parent decides when to stop: a Ctrl-C or a scheduler's SIGTERM sent to the whole
     # process group must not kill the log before it has written what it received.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    for end in parents_ends:  # forked: the parent's ends closed here, so its death ends the pipe
+        end.close()
+    rss0 = _restart_peak_rss() if parents_ends else 0.0
+    from harness.log.writer import TrialLog
+
     try:
         log = TrialLog(run_dir, run, spec, **log_kwargs)
     except Exception as e:  # noqa: BLE001  (reported to the parent, which raises it)
@@ -84,7 +90,41 @@ def _serve(inbox, conn, run_dir: str, run: dict, spec, validation_step: float, l
                 log.flush()
             elif kind == "close":
                 break
-    conn.send(("closed", {"tally": tally, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb()}))
+    conn.send(("closed", {"tally": tally, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb() - rss0}))
+
+
+def _restart_peak_rss() -> float:
+    """A forked child's resident memory now (MB), its peak restarted there (Linux clear_refs):
+    the peak less it is the memory the log added to the pages it shares with the bench."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return float("nan")
+
+
+def one_thread() -> bool:
+    """Does this process run a single thread? Only then may it fork: the copy is whole, with no
+    lock held by a thread that is not there (OMPL and the thread pools start theirs later, or
+    never). A forked child has its parent's imports and loaded kernels, ~1 CPU-s less a child."""
+    try:
+        return len(os.listdir("/proc/self/task")) == 1
+    except OSError:
+        return False
+
+
+@contextlib.contextmanager
+def starting():
+    """The context to start a child in: fork while this process runs one thread, else spawn
+    (spawning)."""
+    if one_thread():
+        yield mp.get_context("fork")
+    else:
+        with spawning() as ctx:
+            yield ctx
 
 
 def _widen(conn, size: int = 1 << 20) -> None:
@@ -135,7 +175,8 @@ class LogProcess:
     ):
         # Queries go down a one-way pipe widened to hold hundreds of them, so the loop never
         # waits on a burst of slow writes (a Rerun batch); replies come up a second pipe.
-        with spawning() as ctx:  # never fork a process that has started OMPL's threads
+        with starting() as ctx:  # never fork a process that has started threads (OMPL's, a pool's)
+            forked = ctx.get_start_method() == "fork"
             inbox, self._outbox = ctx.Pipe(duplex=False)
             self._conn, reply = ctx.Pipe(duplex=False)
             _widen(self._outbox)
@@ -144,6 +185,7 @@ class LogProcess:
                 name="trial-log",
                 daemon=True,
                 args=(inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}),
+                kwargs={"parents_ends": (self._outbox, self._conn) if forked else ()},
             )
             self._proc.start()
         inbox.close()

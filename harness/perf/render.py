@@ -282,7 +282,9 @@ def write(out: Path, rows: list[dict], errors: list[str], info: dict, settings: 
             "Harness / planning: per query, the planning loop's own time around the planner (building the "
             "problem, bookkeeping, the hand-off to the log process) over the planner's time_s. The log process "
             "re-checks and writes each query beside the loop (its CPU per query). Peak RSS: the planning "
-            "process and the log process of each run (VmHWM); a bench run's peak is at most their sum.",
+            "process and the log process of each run (VmHWM; a log process forked from the planning one: "
+            "its peak less the pages it started with, shared with the planning process); a bench run's peak "
+            "is at most their sum.",
         ]
         g = growth(pl)
         fig = out / "figures" / "perf_growth.png"

@@ -84,6 +84,9 @@ def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp
     csv_file, deadline = killed / "queries.csv", time.time() + 120
     while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 10):
         time.sleep(0.005)
+    # the CSV gets a batch's lines as they are judged, the MCAP its chunk when the batch ends
+    while time.time() < deadline and not read_log(killed / "trials.mcap", ["/query"])[0]:
+        time.sleep(0.005)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     first = paths(killed)
@@ -97,11 +100,12 @@ def test_kill_9_of_the_process_group_then_resume_equals_an_uninterrupted_run(tmp
 
 
 def _log_child(pid: int) -> int:
-    """The spawned trial-log process among pid's children (not multiprocessing's resource tracker)."""
+    """The trial-log process among pid's children (forked or spawned; not multiprocessing's
+    resource tracker)."""
     for _ in range(500):
         for child in subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split():
             cmd = open(f"/proc/{child}/cmdline", "rb").read().replace(b"\0", b" ")
-            if b"multiprocessing.spawn" in cmd and b"resource_tracker" not in cmd:
+            if b"resource_tracker" not in cmd:
                 return int(child)
         time.sleep(0.01)
     raise AssertionError("no trial-log process")
@@ -121,3 +125,31 @@ def test_a_killed_log_process_is_one_line_and_resume_finishes(tmp_path, run_cli,
     assert "resume=true" in err
     run_cli(*args, "resume=true")
     assert len(paths(tmp_path / "run")) == QUERIES
+
+
+def test_a_forked_log_outlives_its_bench_and_finishes_the_file(tmp_path, workdir, sweeps_cache):
+    """The bench (one thread) forks its log process, which must not keep the bench's ends of
+    their pipes: with them it never saw the bench die (kill -9 of the bench alone) and waited on
+    forever; without them it finalises what it received into a file the stock reader indexes."""
+    run = tmp_path / "run"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", *KILLED, f"cache_dir={sweeps_cache}", f"hydra.run.dir={run}"],
+        cwd=workdir,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    csv_file, deadline = run / "queries.csv", time.time() + 120
+    while time.time() < deadline and not (csv_file.exists() and len(csv_file.read_text().splitlines()) > 5):
+        time.sleep(0.005)
+    log = _log_child(proc.pid)
+    assert b"multiprocessing" not in open(f"/proc/{log}/cmdline", "rb").read()  # forked, not spawned
+    proc.kill()
+    proc.wait()
+    for _ in range(1000):
+        if not os.path.exists(f"/proc/{log}") or open(f"/proc/{log}/stat").read().split()[2] == "Z":
+            break
+        time.sleep(0.01)
+    else:
+        os.kill(log, signal.SIGKILL)
+        raise AssertionError("the log process did not see its bench die")
+    assert 0 < len(stock_queries(run / "trials.mcap")) < QUERIES
