@@ -183,7 +183,7 @@ def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
 
 
 def bench_in_child(container: dict, run_dir: str, overrides: list[str] | None = None, parent: int | None = None):
-    """A sweep's job in its own interpreter (harness.__main__). It stops as at a Ctrl-C (every
+    """A sweep's job in its own process (harness.__main__: forked or spawned). It stops as at a Ctrl-C (every
     finished query kept, exit 130) on SIGTERM and when the sweep's process ends: a sweep killed
     by a scheduler or `kill` otherwise left its job planning on, unseen, beside the runs after it
     (a killed sweep's BIT* job took a core for 30 minutes while the next sweep's runs were timed)."""

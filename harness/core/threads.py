@@ -6,7 +6,7 @@ cores with four CPU-burning processes beside it, s2d MPNet-NR's encoding took 10
 with scipy's OpenBLAS at two threads, 0.24 ms at one. A pool limited after it loaded is not
 enough: numba's kernels load scipy's own OpenBLAS later, which reads OPENBLAS_NUM_THREADS when
 it loads. So every entry point that times something calls `single_threaded()` before numpy,
-scipy, torch or numba load; spawned processes (a sweep's jobs, the log process) inherit it.
+scipy, torch or numba load; child processes (a sweep's jobs, the log process; forked or spawned) inherit it.
 """
 
 from __future__ import annotations
