@@ -20,7 +20,7 @@ def step_errors(spec, data, params: dict, pnet_path) -> dict:
     """Mean and median step error toward path ends and intermediate waypoints, on the validation
     paths of a fit with `params` (the split is by path, seeded: every recipe holds out the same)."""
     from mpnet.models.checkpoint import load_pnet_numpy
-    from mpnet.models.datamodule import resampled, split_indices, waypoint_pairs
+    from mpnet.models.pairs import resampled, split_indices, waypoint_pairs
 
     paths, ws = data.paths.paths(), np.asarray(data.paths.workspace)
     long = [i for i, p in enumerate(paths) if len(p) >= 2]

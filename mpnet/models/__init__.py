@@ -22,10 +22,10 @@ _LAZY = {
     "PnetModule": "mpnet.models.modules",
     "MPNetDataModule": "mpnet.models.datamodule",
     "CloudDataModule": "mpnet.models.datamodule",
-    "waypoint_pairs": "mpnet.models.datamodule",
-    "resample_path": "mpnet.models.datamodule",
-    "split_indices": "mpnet.models.datamodule",
-    "Pairs": "mpnet.models.datamodule",
+    "waypoint_pairs": "mpnet.models.pairs",
+    "resample_path": "mpnet.models.pairs",
+    "split_indices": "mpnet.models.pairs",
+    "Pairs": "mpnet.models.pairs",
 }
 
 

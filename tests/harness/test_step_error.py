@@ -8,15 +8,16 @@ import numpy as np
 import pytest
 import torch
 
+from mpnet import models  # its LightningModules load on first use, not as pytest collects
 from mpnet.envs import get_spec
-from mpnet.models import Enet, MPNetDataModule, Pnet, PnetModule, waypoint_pairs
+from mpnet.models import Enet, Pnet, waypoint_pairs
 
 
 def _checkpoint(path, state_dim: int, cloud_dim: int):
     import lightning as L
 
     torch.manual_seed(0)
-    module = PnetModule(
+    module = models.PnetModule(
         Pnet(4 + 2 * state_dim, state_dim, (16,), dropout=0.1),
         Enet(cloud_dim, (8,), 4),
         freeze_encoder=False,
@@ -43,7 +44,7 @@ def test_the_step_error_reads_the_fits_held_out_paths_both_ways(tmp_path):
     out = step_errors(spec, data, params, tmp_path / "pnet.ckpt")
     # the same paths a fit's datamodule holds out (split by path, seeded)
     pairs = waypoint_pairs(paths, ws, space=spec.space)
-    dm = MPNetDataModule(
+    dm = models.MPNetDataModule(
         clouds.reshape(3, -1),
         pairs.ws_index,
         pairs.x_t,

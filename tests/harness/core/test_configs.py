@@ -334,7 +334,7 @@ def test_every_recipe_option_is_checked_against_its_schema_entry():
 def test_the_goal_pairs_choices_are_the_librarys():
     """The recipe's goal_pairs takes what mpnet.models.datamodule.waypoint_pairs does."""
     from harness.core.schema import OPTIONS
-    from mpnet.models.datamodule import GOALS
+    from mpnet.models.pairs import GOALS
 
     assert next(f for f in OPTIONS if f.name == "goal_pairs").metadata["choices"] == GOALS
 

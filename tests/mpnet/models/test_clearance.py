@@ -10,10 +10,11 @@ import torch
 
 from harness.core.cli import UsageError
 from harness.log.facts import network_variant
+from mpnet import models  # its LightningModules load on first use, not as pytest collects
 from mpnet.envs.checkers.spheres import sphere_model
 from mpnet.envs.scenes.generators import make_workspaces
 from mpnet.envs.specs import get_spec
-from mpnet.models import Enet, Pnet, PnetModule
+from mpnet.models import Enet, Pnet
 from mpnet.models.clearance import Clearance, _ball_distance, _box_distance, _cylinder_distance
 
 
@@ -117,10 +118,10 @@ def test_the_loss_needs_its_scenes_and_is_saved_with_the_module(panda):
     dof = model.model.dof
     torch.manual_seed(0)
     kw = _scales(model)
-    net = PnetModule(
+    net = models.PnetModule(
         Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), collision_loss=10.0, **kw
     )
-    plain = PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), **kw)
+    plain = models.PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), **kw)
     plain.load_state_dict(net.state_dict())
     q = torch.tensor(np.random.default_rng(2).uniform(model.lower, model.upper, (8, dof)), dtype=torch.float32)
     batch = {"clouds": torch.randn(2, 30), "ws": torch.tensor([0, 1] * 4), "wsid": torch.tensor([3, 4])}
@@ -142,7 +143,7 @@ def test_the_loss_needs_its_scenes_and_is_saved_with_the_module(panda):
     assert torch.isclose(total, mse + 10.0 * depth)
     assert net.hparams["collision_loss"] == 10.0 and "collision_loss" not in plain.hparams
     with pytest.raises(ValueError, match="collision_loss"):
-        PnetModule(Pnet(4 + 2 * dof, dof, (16, 8)), Enet(30, (16,), 4), collision_loss=-1.0, **kw)
+        models.PnetModule(Pnet(4 + 2 * dof, dof, (16, 8)), Enet(30, (16,), 4), collision_loss=-1.0, **kw)
 
 
 @pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
@@ -157,12 +158,14 @@ def test_collision_motion_measures_states_along_the_step(panda):
 
     def module(**more):
         torch.manual_seed(0)
-        net = PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), **kw, **more)
+        net = models.PnetModule(
+            Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4), **kw, **more
+        )
         net.attach_clearance(clearance)
         return net
 
     one, three = module(), module(collision_motion=3)
-    plain = PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4),
+    plain = models.PnetModule(Pnet(4 + 2 * dof, dof, (16, 8), dropout=0.0, bounded=True), Enet(30, (16,), 4),
                        **{k: v for k, v in kw.items() if k != "collision_loss"})  # fmt: skip
     plain.load_state_dict(one.state_dict())
     q = torch.tensor(np.random.default_rng(5).uniform(model.lower, model.upper, (8, dof)), dtype=torch.float32)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpnet.models.datamodule import waypoint_pairs
+from mpnet.models.pairs import waypoint_pairs
 
 
 def _rows(p):

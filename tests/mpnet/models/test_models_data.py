@@ -7,7 +7,8 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpnet.models import CloudDataModule, MPNetDataModule, resample_path, split_indices, waypoint_pairs
+from mpnet import models  # its DataModules load on first use, not as pytest collects
+from mpnet.models import resample_path, split_indices, waypoint_pairs
 from tests.mpnet.models._helpers import _pair_data
 
 # --------------------------------------------------------------------------- data modules
@@ -89,7 +90,7 @@ def test_resample_path_refuses_a_step_that_is_not_positive():
 
 def test_mpnet_datamodule_batches():
     clouds, ws, x_t, x_goal, x_next = _pair_data(n=300)
-    dm = MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=64, val_fraction=0.25, seed=1)
+    dm = models.MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=64, val_fraction=0.25, seed=1)
     assert (dm.state_dim, dm.cloud_dim) == (2, 120)
     assert len(dm.val_indices) == 75
     dm.setup("fit")
@@ -103,10 +104,10 @@ def test_mpnet_datamodule_batches():
     np.testing.assert_allclose(seen[0]["x_next"].numpy(), x_next[rows], rtol=1e-6)
     assert sum(len(b["x_t"]) for b in dm.train_dataloader()) == 225
     with pytest.raises(ValueError):
-        MPNetDataModule(clouds, ws + 100, x_t, x_goal, x_next, 8, 0.1, 0)
+        models.MPNetDataModule(clouds, ws + 100, x_t, x_goal, x_next, 8, 0.1, 0)
     with pytest.raises(ValueError):
-        MPNetDataModule(clouds, ws, x_t, x_goal[:-1], x_next, 8, 0.1, 0)
-    cdm = CloudDataModule(clouds, batch_size=5, val_fraction=0.25, seed=0)
+        models.MPNetDataModule(clouds, ws, x_t, x_goal[:-1], x_next, 8, 0.1, 0)
+    cdm = models.CloudDataModule(clouds, batch_size=5, val_fraction=0.25, seed=0)
     cdm.setup("fit")
     assert [tuple(b.shape) for b in cdm.val_dataloader()] == [(3, 120)]
 

@@ -5,23 +5,12 @@ import math
 import subprocess
 import sys
 
-import lightning as L
 import numpy as np
 import pytest
 import torch
 
-from mpnet.models import (
-    CloudDataModule,
-    ContractiveAE,
-    Decoder,
-    Enet,
-    EnetModule,
-    MPNetDataModule,
-    Pnet,
-    PnetModule,
-    load_enet_checkpoint,
-    load_pnet_checkpoint,
-)
+from mpnet import models  # its LightningModules load on first use, not as pytest collects
+from mpnet.models import ContractiveAE, Decoder, Enet, Pnet, load_enet_checkpoint, load_pnet_checkpoint
 from tests.mpnet.models._helpers import _pair_data
 
 SCALES_2D = {"state_scale": [20.0, 20.0], "cloud_scale": 20.0}  # the s2d bounds: [-20, 20]^2
@@ -31,7 +20,9 @@ SCALES_2D = {"state_scale": [20.0, 20.0], "cloud_scale": 20.0}  # the s2d bounds
 
 
 def _trainer(tmp_path):
-    return L.Trainer(
+    import lightning
+
+    return lightning.Trainer(
         max_epochs=2,
         accelerator="cpu",
         logger=False,
@@ -42,12 +33,12 @@ def _trainer(tmp_path):
     )
 
 
-def _ae_loss(module: EnetModule, clouds: np.ndarray) -> float:
+def _ae_loss(module: "models.EnetModule", clouds: np.ndarray) -> float:
     with torch.no_grad():
         return float(module.losses(torch.from_numpy(clouds))[0])
 
 
-def _pnet_loss(module: PnetModule, data) -> float:
+def _pnet_loss(module: "models.PnetModule", data) -> float:
     clouds, ws, x_t, x_goal, x_next = (torch.as_tensor(a) for a in data)
     batch = {"clouds": clouds.float(), "ws": ws, "x_t": x_t.float(), "x_goal": x_goal.float(), "x_next": x_next.float()}
     with torch.no_grad():
@@ -56,21 +47,25 @@ def _pnet_loss(module: PnetModule, data) -> float:
 
 @pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_train_enet_then_pnet_and_reload(tmp_path):
-    L.seed_everything(0)
+    import lightning
+
+    lightning.seed_everything(0)
     data = _pair_data()
     clouds = data[0]
     # a low-rank family of clouds, so the autoencoder has something to learn in 2 epochs
     rng = np.random.default_rng(0)
     ae_clouds = (rng.normal(size=(512, 3)) @ rng.normal(size=(3, 120)) * 4).astype(np.float32)
     enet = Enet(120, (32, 16), 6)
-    emod = EnetModule(ContractiveAE(enet, Decoder.mirror(enet)), lr=1e-2, lam=1e-4, optimizer="adam", cloud_scale=20.0)
+    emod = models.EnetModule(
+        ContractiveAE(enet, Decoder.mirror(enet)), lr=1e-2, lam=1e-4, optimizer="adam", cloud_scale=20.0
+    )
     before = _ae_loss(emod, ae_clouds)
     trainer = _trainer(tmp_path / "enet")
-    trainer.fit(emod, CloudDataModule(ae_clouds, batch_size=16, val_fraction=0.25, seed=0))
+    trainer.fit(emod, models.CloudDataModule(ae_clouds, batch_size=16, val_fraction=0.25, seed=0))
     assert {"train_loss", "val_loss", "train_penalty"} <= set(trainer.callback_metrics)
     assert _ae_loss(emod, ae_clouds) < 0.7 * before
     ckpt = trainer.checkpoint_callback.best_model_path
-    again = EnetModule.load_from_checkpoint(ckpt)
+    again = models.EnetModule.load_from_checkpoint(ckpt)
     assert again.hparams == emod.hparams and again.hparams["lam"] == 1e-4
     for k, v in emod.state_dict().items():
         assert torch.equal(v, again.state_dict()[k])
@@ -81,16 +76,16 @@ def test_train_enet_then_pnet_and_reload(tmp_path):
 
     # Pnet on the trained (frozen) encoder
     enc_before = {k: v.clone() for k, v in emod.encoder.state_dict().items()}
-    pmod = PnetModule(Pnet(6 + 4, 2, (64, 32, 16)), emod.encoder, lr=3e-3, optimizer="adam", **SCALES_2D)
+    pmod = models.PnetModule(Pnet(6 + 4, 2, (64, 32, 16)), emod.encoder, lr=3e-3, optimizer="adam", **SCALES_2D)
     before = _pnet_loss(pmod, data)
     trainer = _trainer(tmp_path / "pnet")
-    trainer.fit(pmod, MPNetDataModule(*data, batch_size=50, val_fraction=0.1, seed=0))
+    trainer.fit(pmod, models.MPNetDataModule(*data, batch_size=50, val_fraction=0.1, seed=0))
     assert {"train_loss", "val_loss"} <= set(trainer.callback_metrics)
     assert _pnet_loss(pmod, data) < 0.5 * before
     for k, v in pmod.encoder.state_dict().items():
         assert torch.equal(v, enc_before[k])  # frozen
     ckpt = trainer.checkpoint_callback.best_model_path
-    again = PnetModule.load_from_checkpoint(ckpt)
+    again = models.PnetModule.load_from_checkpoint(ckpt)
     assert again.hparams == pmod.hparams and again.freeze_encoder
     for k, v in pmod.state_dict().items():
         assert torch.equal(v, again.state_dict()[k])
@@ -112,11 +107,13 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
     """Training on a frozen encoder's codes, computed once, is training on the clouds."""
     torch.manual_seed(0)
     clouds, ws, x_t, x_goal, x_next = _pair_data(n=50)
-    mod = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), **SCALES_2D)
+    mod = models.PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), **SCALES_2D)
     with torch.no_grad():
         codes = mod.encode(torch.from_numpy(clouds).float()).numpy()
-    by_cloud = MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0)
-    by_code = MPNetDataModule(codes, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0, features="codes")
+    by_cloud = models.MPNetDataModule(clouds, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0)
+    by_code = models.MPNetDataModule(
+        codes, ws, x_t, x_goal, x_next, batch_size=50, val_fraction=0.2, seed=0, features="codes"
+    )
     by_cloud.setup("fit")
     by_code.setup("fit")
     (a,), (b,) = list(by_cloud.val_dataloader()), list(by_code.val_dataloader())
@@ -124,17 +121,17 @@ def test_precomputed_codes_give_the_same_loss_as_clouds():
     with torch.no_grad():
         la, lb = mod.batch_loss(a, stochastic=False)[0], mod.batch_loss(b, stochastic=False)[0]
     assert torch.allclose(la, lb, rtol=1e-5, atol=1e-7)
-    end_to_end = PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), freeze_encoder=False, **SCALES_2D)
+    end_to_end = models.PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), freeze_encoder=False, **SCALES_2D)
     with pytest.raises(ValueError, match="frozen"):
         end_to_end.batch_loss(b, stochastic=False)
     with pytest.raises(ValueError):
-        MPNetDataModule(codes, ws, x_t, x_goal, x_next, 8, 0.1, 0, features="pixels")
+        models.MPNetDataModule(codes, ws, x_t, x_goal, x_next, 8, 0.1, 0, features="pixels")
 
 
 def test_pnet_module_end_to_end_and_checks():
     torch.manual_seed(0)
     enet = Enet(120, (16,), 4)
-    mod = PnetModule(
+    mod = models.PnetModule(
         Pnet(4 + 6, 3, (16, 8)), enet, freeze_encoder=False, state_scale=[20.0, 20.0, math.pi], cloud_scale=20.0
     )
     opt = mod.configure_optimizers()
@@ -144,13 +141,15 @@ def test_pnet_module_end_to_end_and_checks():
     batch = (torch.randn(5, 120), torch.randn(5, 3), torch.randn(5, 3), torch.randn(5, 3))
     mod.batch_loss(batch, stochastic=True)[0].backward()
     assert all(p.grad is not None for p in enet.parameters())
-    frozen = PnetModule(Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi], cloud_scale=20.0)
+    frozen = models.PnetModule(
+        Pnet(4 + 6, 3, (16, 8)), Enet(120, (16,), 4), state_scale=[20, 20, math.pi], cloud_scale=20.0
+    )
     n_opt = sum(p.numel() for grp in frozen.configure_optimizers().param_groups for p in grp["params"])
     assert n_opt == sum(p.numel() for p in frozen.pnet.parameters())
     with pytest.raises(ValueError):
-        PnetModule(Pnet(11, 3, (16,)), Enet(120, (16,), 4), **SCALES_2D)
+        models.PnetModule(Pnet(11, 3, (16,)), Enet(120, (16,), 4), **SCALES_2D)
     with pytest.raises(ValueError):
-        PnetModule(Pnet(10, 3, (16,)), Enet(120, (16,), 4), optimizer="sgd", **SCALES_2D)
+        models.PnetModule(Pnet(10, 3, (16,)), Enet(120, (16,), 4), optimizer="sgd", **SCALES_2D)
 
 
 @pytest.mark.slow
@@ -168,8 +167,8 @@ def test_input_noise_moves_only_the_training_states():
     module and a negative noise is refused."""
     torch.manual_seed(0)
     batch = (torch.randn(64, 120), torch.randn(64, 2), torch.randn(64, 2), torch.randn(64, 2))
-    noisy = PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), input_noise=3.0, **SCALES_2D)
-    plain = PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), **SCALES_2D)
+    noisy = models.PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), input_noise=3.0, **SCALES_2D)
+    plain = models.PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), **SCALES_2D)
     plain.load_state_dict(noisy.state_dict())
     with torch.no_grad():
         clean = plain.batch_loss(batch, stochastic=False)[0]
@@ -177,4 +176,4 @@ def test_input_noise_moves_only_the_training_states():
         assert not torch.equal(noisy.batch_loss(batch, stochastic=False, noise=noisy.input_noise)[0], clean)
     assert noisy.hparams["input_noise"] == 3.0 and "input_noise" not in plain.hparams
     with pytest.raises(ValueError, match="input_noise"):
-        PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), input_noise=-1.0, **SCALES_2D)
+        models.PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), input_noise=-1.0, **SCALES_2D)

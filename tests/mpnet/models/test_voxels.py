@@ -10,9 +10,9 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mpnet import models  # its LightningModules load on first use, not as pytest collects
 from mpnet.models.checkpoint import load_pnet_checkpoint, load_pnet_numpy
 from mpnet.models.enet_kernel import EnetKernel
-from mpnet.models.modules import PnetModule
 from mpnet.models.networks import ContractiveAE, Decoder, Enet, Normalizer, NumpyEnet, Pnet
 from mpnet.models.voxels import grid_cells, occupancy, occupancy_into
 
@@ -99,7 +99,7 @@ def test_a_checkpoint_rebuilds_the_voxel_encoder(tmp_path):
     import lightning as L
 
     enet, pnet = _voxel_nets(3)
-    module = PnetModule(pnet, enet, freeze_encoder=False, state_scale=[3.0] * 7, cloud_scale=[1.0, 1.0, 1.0])
+    module = models.PnetModule(pnet, enet, freeze_encoder=False, state_scale=[3.0] * 7, cloud_scale=[1.0, 1.0, 1.0])
     trainer = L.Trainer(max_epochs=0, logger=False, enable_checkpointing=False, enable_progress_bar=False)
     trainer.strategy.connect(module)
     path = tmp_path / "pnet.ckpt"
@@ -131,13 +131,13 @@ def test_the_paper_encoder_keeps_its_config():
 
 
 def test_a_batch_of_grids_gives_the_loss_of_its_clouds():
-    """Training reads each workspace's grid computed once (PnetModule.grids, the planner's
+    """Training reads each workspace's grid computed once (models.PnetModule.grids, the planner's
     numpy occupancy); the same batch as clouds, voxelised by torch, gives the same loss and
     the same encoder gradient."""
     from mpnet.models.datamodule import MPNetDataModule
 
     enet, pnet = _voxel_nets(5)
-    module = PnetModule(pnet, enet, freeze_encoder=False, state_scale=[3.0] * 7, cloud_scale=[1.5, 1.5, 1.5])
+    module = models.PnetModule(pnet, enet, freeze_encoder=False, state_scale=[3.0] * 7, cloud_scale=[1.5, 1.5, 1.5])
     rng = np.random.default_rng(6)
     clouds = rng.uniform(-1.8, 1.8, (4, 180)).astype(np.float32)
     ws = np.repeat(np.arange(4), 5)
