@@ -100,15 +100,33 @@ def write_readme(folder: Path, lines: list[str]) -> None:
     print("\n".join(lines))
 
 
+def _status_mb(key: str) -> float | None:
+    """A memory line of /proc/self/status (VmHWM, VmRSS) in MB; None where there is none."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) / 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
 def peak_rss_mb() -> float:
     """This process's peak resident memory in MB: VmHWM, which (unlike ru_maxrss) restarts
     at exec, so a spawned process does not count the pages of the parent it was forked from."""
     import resource
 
+    peak = _status_mb("VmHWM")
+    return peak if peak is not None else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def restart_peak_rss() -> float:
+    """This process's resident memory now (MB), its peak (VmHWM) restarted there (Linux
+    clear_refs); NaN where that cannot be done. A forked child's peak less it is what the child
+    added to the pages it shares with its parent."""
     try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        return float("nan")
+    rss = _status_mb("VmRSS")
+    return rss if rss is not None else float("nan")

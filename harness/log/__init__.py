@@ -15,7 +15,7 @@ from __future__ import annotations
 from harness.log.csv import CSV_FIXED, CSV_NAME
 from harness.log.mcap_io import MCAP_NAME, LoggedMessage, plain, read_log
 from harness.log.painters import Painter, painter_for, rect_outlines, register
-from harness.log.process import LogProcess, LogProcessDied, judge, spawning, starting
+from harness.log.process import LogProcess, LogProcessDied, judge, starting
 from harness.log.rerun import RRD_NAME
 from harness.log.schemas import FORMAT, QUERY_FIELDS, RUN_FIELDS, run_segments, scene_update_schema
 from harness.log.tally import Tally
@@ -44,6 +44,5 @@ __all__ = [
     "register",
     "run_segments",
     "scene_update_schema",
-    "spawning",
     "starting",
 ]

@@ -20,7 +20,7 @@ import signal
 import time
 from pathlib import Path
 
-from harness.core.provenance import peak_rss_mb
+from harness.core.provenance import peak_rss_mb, restart_peak_rss
 from harness.log.tally import Tally
 from mpnet.motion import path_cost, verify_path
 
@@ -61,7 +61,7 @@ def _serve(
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     for end in parents_ends:  # forked: the parent's ends closed here, so its death ends the pipe
         end.close()
-    rss0 = _restart_peak_rss() if parents_ends else 0.0
+    rss0 = restart_peak_rss() if parents_ends else 0.0
     from harness.log.writer import TrialLog
 
     try:
@@ -91,19 +91,6 @@ def _serve(
             elif kind == "close":
                 break
     conn.send(("closed", {"tally": tally, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb() - rss0}))
-
-
-def _restart_peak_rss() -> float:
-    """A forked child's resident memory now (MB), its peak restarted there (Linux clear_refs):
-    the peak less it is the memory the log added to the pages it shares with the bench."""
-    try:
-        Path("/proc/self/clear_refs").write_text("5")
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return float("nan")
 
 
 def one_thread() -> bool:

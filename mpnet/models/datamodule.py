@@ -5,7 +5,7 @@
   ``clouds`` holds each distinct workspace of the batch once and ``ws`` indexes into it
   (``features="codes"``: per-workspace Enet codes instead of clouds, under the key ``codes``).
 - :class:`CloudDataModule`: flattened point clouds for the autoencoder; a batch is (B, D).
-- :func:`waypoint_pairs` (mpnet.models.pairs, re-exported): expert paths -> Pnet samples.
+- Their samples come from :func:`mpnet.models.pairs.waypoint_pairs` (expert paths -> Pnet samples).
 
 All values stay raw (workspace coordinates); the LightningModules normalise. The train/val
 split is a pure function of ``seed`` (and ``groups``, when given: whole groups, e.g. whole
@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset, Sampler
 
-from mpnet.models.pairs import GOALS, Pairs, resample_path, resampled, split_indices, waypoint_pairs
+from mpnet.models.pairs import split_indices
 
 
 def _identity(batch):
@@ -263,10 +263,4 @@ __all__ = [
     "PairDataset",
     "SceneBatches",
     "CloudDataset",
-    "split_indices",
-    "waypoint_pairs",
-    "resample_path",
-    "resampled",
-    "Pairs",
-    "GOALS",
 ]

@@ -109,12 +109,12 @@ class OmplPlanner:
         plan_s = budget_s - (max(share * budget_s, least_s) if self.stop == "time" else 0.0)
         # The budget is kept on the trial's own (monotonic) clock, never OMPL's wall clock; no
         # period argument: a periodic condition runs on a thread and aborts at exit.
-        clock = time.perf_counter
+        clock, end = time.perf_counter, t0 + plan_s
         if self.algorithm in OPTIMIZING:
-            watch = BestCostWatch(planner, t0, self.stop, target, t0 + plan_s, clock)
+            watch = BestCostWatch(planner, t0, self.stop, target, end, clock)
             ptc = ob.PlannerTerminationCondition(watch)
         else:
-            watch, ptc = None, deadline_condition(max(0.0, plan_s - (clock() - t0)), clock)
+            watch, ptc = None, deadline_condition(end - clock(), clock)
         status = planner.solve(ptc)
         exact = pdef.hasExactSolution()
         path = partial = None

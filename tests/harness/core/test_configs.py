@@ -332,7 +332,7 @@ def test_every_recipe_option_is_checked_against_its_schema_entry():
 
 
 def test_the_goal_pairs_choices_are_the_librarys():
-    """The recipe's goal_pairs takes what mpnet.models.datamodule.waypoint_pairs does."""
+    """The recipe's goal_pairs takes what mpnet.models.pairs.waypoint_pairs does."""
     from harness.core.schema import OPTIONS
     from mpnet.models.pairs import GOALS
 
