@@ -13,7 +13,7 @@ from mpnet.envs.arm.model import ArmModel, load_arm_model
 from mpnet.envs.checkers.collision import PLANNING_MARGIN, CollisionChecker, PointChecker
 from mpnet.envs.checkers.pybullet_arm import PybulletArmChecker
 from mpnet.envs.checkers.rigid import FclRigidChecker, RigidChecker
-from mpnet.envs.checkers.spheres import SphereChecker, obstacle_arrays, sphere_model
+from mpnet.envs.checkers.spheres import SphereChecker, SweptSphereChecker, obstacle_arrays, sphere_model
 from mpnet.envs.spaces import EuclideanSpace, SE2Space, StateSpace
 from mpnet.envs.workspace import Workspace
 
@@ -104,10 +104,11 @@ class RectangleRobot(Robot):
 class ArmRobot(Robot):
     """A serial arm built from its data description (mpnet.envs.arm.model): the state is the
     planned joint vector. spheres: the compiled sphere covering, certified motions (the
-    default); pybullet: the collision meshes, sampled motions (the judge of every success)."""
+    default); spheres_swept: the same with a tighter motion bound (fewer configurations a
+    motion, a planning choice); pybullet: the collision meshes, sampled motions (the judge of every success)."""
 
     kind = "arm"
-    checkers = {"spheres": SphereChecker, "pybullet": PybulletArmChecker}
+    checkers = {"spheres": SphereChecker, "spheres_swept": SweptSphereChecker, "pybullet": PybulletArmChecker}
     default_backend = "spheres"
     judge_backend = "pybullet"
     posed_obstacles = True

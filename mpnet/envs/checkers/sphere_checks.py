@@ -10,17 +10,56 @@ from __future__ import annotations
 
 import numpy as np
 
-from mpnet.envs.checkers.sphere_kernels import FREE, HIT, NEAR, NEAR_HIT, _dist2, unpack_obstacles, verdict
+from mpnet.envs.arm.kinematics import forward
+from mpnet.envs.checkers.sphere_bounds import SWEPT, growth, growth_from, lever_second_order, swept_second_order
+from mpnet.envs.checkers.sphere_kernels import (
+    FREE,
+    HIT,
+    NEAR,
+    NEAR_HIT,
+    _axes,
+    _dist2,
+    _place,
+    unpack_obstacles,
+    verdict,
+)
 from mpnet.envs.checkers.sphere_layout import (
+    AXDIR,
+    AXIS,
+    AXPOINT,
+    BLOCAL,
+    BOUND,
     BRADIUS,
+    COORD,
     DQ,
+    GA,
     GB,
+    GCENTRES,
     GLEVER,
+    GLOCAL,
+    GNJ,
     GRADIUS,
+    GREL,
+    GROUP_FRAME,
+    GSPEED,
+    KIND,
+    LA,
     LB,
+    LCENTRES,
+    LINK_FRAME,
     LLEVER,
+    LNJ,
+    LREL,
+    LSPEED,
+    ORIGIN,
+    PAIR_B,
+    PAIR_J0,
+    PARENT,
+    POSE,
+    PRIS,
     QUEUE,
     QVEC,
+    SDQ,
     T0S,
     T1S,
     TOP,
@@ -60,16 +99,46 @@ def _states_into(qs, mi, mf, ob, lower, upper, buf, out):
 
 
 @njit(cache=True, borrowed=True)
-def _second_order(lever, rad, dq, out):
-    """B = sum_j |dq_j| sum_{k > j} |dq_k| (R_k + rad) per row: how much a point's distance
-    from joint j's axis can change per unit of the interval (joints after j move it)."""
-    D = dq.shape[0]
-    for i in range(lever.shape[0]):
-        later, s = 0.0, 0.0
-        for j in range(D - 1, -1, -1):
-            s += dq[j] * later
-            later += dq[j] * (lever[i, j] + rad[i])
-        out[i] = s
+def _steps(a, b, m, bufs):
+    """The motion a -> b's joint steps (signed and absolute) and its bound's second-order terms."""
+    sdq, dq = bufs[SDQ], bufs[DQ]
+    for d in range(a.shape[0]):
+        sdq[d] = b[d] - a[d]
+        dq[d] = abs(sdq[d])
+    if m[BOUND] == SWEPT:
+        swept_second_order(m[LLEVER], m[BRADIUS], m[LNJ], dq, bufs[LA])
+        swept_second_order(m[GLEVER], m[GRADIUS], m[GNJ], dq, bufs[GA])
+    else:
+        lever_second_order(m[LLEVER], m[BRADIUS], dq, bufs[LB])
+        lever_second_order(m[GLEVER], m[GRADIUS], dq, bufs[GB])
+
+
+@njit(cache=True, borrowed=True)
+def interval_growth(a, b, t, h, mi, mf, buf, links, groups, pairs):
+    """How far each link's and group's bounding sphere can move (the model's bound) in the
+    interval [t - h, t + h] of the motion a -> b: what a motion's verdict grows them by, into
+    links (L,) and groups (G,); pairs (P,): link b's growth relative to link a for a pair whose
+    a is b's ancestor (-1 for the others). For audits and tests."""
+    m, bufs = unpack(mi, mf), unpack_buffers(mi, buf)
+    _steps(a, b, m, bufs)
+    q, pose, ap, au, pris = bufs[QVEC], bufs[POSE], bufs[AXPOINT], bufs[AXDIR], bufs[PRIS]
+    for d in range(a.shape[0]):
+        q[d] = a[d] + t * (b[d] - a[d])
+    forward(q, m[PARENT], m[ORIGIN], m[KIND], m[AXIS], m[COORD], pose)
+    _axes(m, pose, ap, au, pris)
+    grow = (h, bufs[DQ], ap, au, pris, bufs[SDQ])
+    lc, gc, bound = bufs[LCENTRES], bufs[GCENTRES], m[BOUND]
+    for li in range(links.shape[0]):
+        _place(pose, m[LINK_FRAME][li], m[BLOCAL], li, lc, li)
+        links[li] = growth(bound, lc, li, m[BRADIUS], m[LNJ], grow, bufs[LSPEED], bufs[LB], bufs[LA], bufs[LREL])
+    for g in range(groups.shape[0]):
+        _place(pose, m[GROUP_FRAME][g], m[GLOCAL], g, gc, g)
+        groups[g] = growth(bound, gc, g, m[GRADIUS], m[GNJ], grow, bufs[GSPEED], bufs[GB], bufs[GA], bufs[GREL])
+    for pi in range(pairs.shape[0]):
+        j0, lb = m[PAIR_J0][pi], m[PAIR_B][pi]
+        pairs[pi] = -1.0
+        if j0 >= 0:
+            pairs[pi] = growth_from(bound, lb, m[BRADIUS], m[LLEVER], j0, grow, bufs[LSPEED], bufs[LREL])
 
 
 @njit(cache=True, borrowed=True)
@@ -79,12 +148,9 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
     free (0; 1: a; 2: a and b, e.g. a tree's states), which are then not checked first: an
     early exit only, as an interval is certified free only when all of it is, its ends too.
 
-    Certified, not sampled. Along the motion q(t) = a + t (b - a), a point of a link moves
-    at most sum_j |dq_j| rho_j(t) per unit of t, rho_j its distance from joint j's axis;
-    rho_j changes only through the joints after j, by at most sum_{k>j} |dq_k| R_k per unit
-    of t (R_k: the static lever, the lengths of the fixed offsets from joint k to the point).
-    So within [m - h, m + h] a point moves at most h sum_j |dq_j| rho_j(m) + h^2 / 2 B from
-    where it is at m. An interval is free when its midpoint is free with every sphere (and
+    Certified, not sampled. Within an interval [m - h, m + h] of the motion
+    q(t) = a + t (b - a), a sphere moves at most a bound from where it is at m (the model's:
+    sphere_bounds). An interval is free when its midpoint is free with every sphere (and
     group and link bounding sphere) grown by that much; intervals that are only NEAR are
     halved; a HIT at any midpoint, a NEAR interval whose largest growth is below `tol`
     metres, or more than QUEUE pending intervals, and the motion is called blocked. Joint
@@ -95,10 +161,7 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
         if not (lower[d] <= a[d] <= upper[d] and lower[d] <= b[d] <= upper[d]):
             return False, 0
     q, dq, t0s, t1s = bufs[QVEC], bufs[DQ], bufs[T0S], bufs[T1S]
-    for d in range(D):
-        dq[d] = abs(b[d] - a[d])
-    _second_order(m[LLEVER], m[BRADIUS], dq, bufs[LB])
-    _second_order(m[GLEVER], m[GRADIUS], dq, bufs[GB])
+    _steps(a, b, m, bufs)
     evaluated = 0
     for e in range(2 - known):  # the ends not known free, exactly, first: a blocked motion is most often found there
         evaluated += 1

@@ -29,28 +29,34 @@ import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
 from mpnet.envs.checkers.hull_kernels import BULLET_MARGIN, JUDGE_TOLERANCE, hull_gap
+from mpnet.envs.checkers.sphere_bounds import growth, growth_from, growths
 from mpnet.envs.checkers.sphere_layout import (
     AXDIR,
     AXIS,
     AXPOINT,
     BLOCAL,
+    BOUND,
     BRADIUS,
     CENTRES,
     COORD,
     FIRST,
+    GA,
     GB,
     GCENTRES,
     GEXTRA,
     GLEVER,
     GLOCAL,
+    GNJ,
     GPLACED,
     GRADIUS,
+    GREL,
     GROUP_FRAME,
     GROUP_S0,
     GROUP_S1,
     GSPEED,
     HULL,
     KIND,
+    LA,
     LB,
     LCENTRES,
     LEXTRA,
@@ -61,8 +67,10 @@ from mpnet.envs.checkers.sphere_layout import (
     LINK_H1,
     LINK_HR,
     LLEVER,
+    LNJ,
     LOCAL,
     LPLACED,
+    LREL,
     LSPEED,
     ORIGIN,
     PAIR_A,
@@ -75,6 +83,7 @@ from mpnet.envs.checkers.sphere_layout import (
     POSE,
     PRIS,
     RADIUS,
+    SDQ,
     TABLE_F,
     TABLE_I,
     TABLE_SUM,
@@ -157,54 +166,6 @@ def _outside(p, o, bounds, row, reach):
     return False
 
 
-# The growth helpers are inlined (numba's IR): called hundreds of times a verdict with the
-# motion's tuple, they were a tenth of a motion check as calls. Inlining more (the placements,
-# the tests) made every kernel that inlines the checks compile ~3x longer (a first arm command
-# 70 -> 204 s) for no measured gain.
-@njit(cache=True, borrowed=True, inline="always")
-def _speed(c, i, rad, j, grow):
-    """How fast a point within rad of c[i] moves per unit of joint j's step: its distance
-    from joint j's axis now plus rad (1 for a prismatic joint)."""
-    _, dq, ap, au, pris = grow
-    if pris[j] != 0.0:
-        return 1.0
-    vx, vy, vz = c[i, 0] - ap[j, 0], c[i, 1] - ap[j, 1], c[i, 2] - ap[j, 2]
-    t = vx * au[j, 0] + vy * au[j, 1] + vz * au[j, 2]
-    rho2 = vx * vx + vy * vy + vz * vz - t * t
-    return math.sqrt(rho2 if rho2 > 0.0 else 0.0) + rad[i]
-
-
-@njit(cache=True, borrowed=True, inline="always")
-def _growth(c, i, rad, Bv, g, grow, sp):
-    """How far any point within rad of point c[i] can move in the current half interval:
-    h sum_j |dq_j| (rho_j + rad) + h^2 / 2 B, where rho_j is c[i]'s distance from joint j's
-    axis now (see _motion_free). grow = (h, |dq| (D,), axis points (D, 3), axis
-    directions (D, 3), prismatic flags (D,)). Each joint's speed is kept in sp[i] for
-    _growth_from (a square root per joint: the same number, not computed twice)."""
-    h, dq = grow[0], grow[1]
-    a = 0.0
-    for j in range(dq.shape[0]):
-        if dq[j] != 0.0:
-            sp[i, j] = _speed(c, i, rad, j, grow)
-            a += dq[j] * sp[i, j]
-    return h * a + 0.5 * h * h * Bv[g]
-
-
-@njit(cache=True, borrowed=True, inline="always")
-def _growth_from(sp, i, rad, lever, j0, grow):
-    """_growth counting only joints j0.. (those between a link and a link below it: how far
-    a point of the lower link moves relative to the upper one), from the speeds _growth kept
-    in sp[i], its second-order term computed here from the static levers."""
-    h, dq = grow[0], grow[1]
-    first, later, second = 0.0, 0.0, 0.0
-    for j in range(dq.shape[0] - 1, j0 - 1, -1):
-        second += dq[j] * later
-        later += dq[j] * (lever[i, j] + rad[i])
-        if dq[j] != 0.0:
-            first += dq[j] * sp[i, j]
-    return h * first + 0.5 * h * h * second
-
-
 @njit(cache=True, borrowed=True)
 def _place_groups(li, m, bufs, grow, growing, need):
     """The centres of link li's groups, once per configuration, and, in a motion where `need`
@@ -221,8 +182,9 @@ def _place_groups(li, m, bufs, grow, growing, need):
                 gextra[g] = 0.0
         placed = 1.0 if growing else 2.0
     if placed == 1.0 and need:
+        bound, gc, gr, gnj, gs, gb, ga = m[BOUND], bufs[GCENTRES], m[GRADIUS], m[GNJ], bufs[GSPEED], bufs[GB], bufs[GA]
         for g in range(m[LINK_G0][li], m[LINK_G1][li]):
-            gextra[g] = _growth(bufs[GCENTRES], g, m[GRADIUS], bufs[GB], g, grow, bufs[GSPEED])
+            gextra[g] = growth(bound, gc, g, gr, gnj, grow, gs, gb, ga, bufs[GREL])
         placed = 2.0
     bufs[LPLACED][li] = placed
 
@@ -384,14 +346,18 @@ def verdict(q, m, obs, bufs, growing, h, dq):
     ap, au, pris = bufs[AXPOINT], bufs[AXDIR], bufs[PRIS]
     if growing:
         _axes(m, pose, ap, au, pris)
-    grow = (h, dq, ap, au, pris)
+    bound, lspeed, lrel = m[BOUND], bufs[LSPEED], bufs[LREL]
+    grow = (h, dq, ap, au, pris, bufs[SDQ])
     L = link_g0.shape[0]
-    top = 0.0
     for li in range(L):
         _place(pose, m[LINK_FRAME][li], m[BLOCAL], li, lcentres, li)
-        lextra[li] = _growth(lcentres, li, bradius, bufs[LB], li, grow, bufs[LSPEED]) if growing else 0.0
-        top = max(top, lextra[li])
+        lextra[li] = 0.0
         bufs[LPLACED][li] = 0.0
+    if growing:
+        growths(bound, lcentres, bradius, m[LNJ], grow, lspeed, bufs[LB], bufs[LA], lrel, lextra)
+    top = 0.0
+    for li in range(L):
+        top = max(top, lextra[li])
     bufs[GPLACED][:] = 0.0
     bufs[TOP][0] = top
     on = 1.0 if growing else 0.0  # 0 once a grown contact is found: plain from there on
@@ -436,7 +402,7 @@ def verdict(q, m, obs, bufs, growing, h, dq):
         # between them: b grows by that, a not at all. Otherwise both grow by their own motion.
         rel = on != 0.0 and j0 >= 0
         if rel:
-            ra, rb = 0.0, _growth_from(bufs[LSPEED], b, bradius, m[LLEVER], j0, grow)
+            ra, rb = 0.0, growth_from(bound, b, bradius, m[LLEVER], j0, grow, lspeed, lrel)
         else:
             ra, rb = lextra[a] * on, lextra[b] * on
         if m[PAIR_EXACT][pi]:
@@ -458,7 +424,10 @@ def verdict(q, m, obs, bufs, growing, h, dq):
             for ga in range(link_g0[a], link_g1[a]):
                 a_grow = max(a_grow, gextra[ga] * on)
         for gb in range(link_g0[b], link_g1[b]):
-            pg[gb] = _growth_from(bufs[GSPEED], gb, gradius, m[GLEVER], j0, grow) if rel else gextra[gb] * on
+            if rel:
+                pg[gb] = growth_from(bound, gb, gradius, m[GLEVER], j0, grow, bufs[GSPEED], bufs[GREL])
+            else:
+                pg[gb] = gextra[gb] * on
             # a group of b out of reach of a's bounding sphere is out of reach of each of its groups
             if _apart(gcentres, gb, gradius, lcentres, a, bradius, pg[gb] + a_grow):
                 pg[gb] = -1.0

@@ -83,12 +83,16 @@ LINK_H0 = _field(MODEL, "link_h0", INTS, "L")
 LINK_H1 = _field(MODEL, "link_h1", INTS, "L")
 LINK_HR = _field(MODEL, "link_hr", FLOATS, "L")
 HULL = _field(MODEL, "hull", FLOATS, "V", 3)
+LNJ = _field(MODEL, "lnj", INTS, "L")  # the joints that move a link's frame: coordinates 0 .. lnj - 1
+GNJ = _field(MODEL, "gnj", INTS, "G")  # a group's
+BOUND = _field(MODEL, "bound", INTS)  # the motion bound: sphere_bounds.LEVER or SWEPT
 
 # Scratch: poses (pose[F] is forward's spare); sphere, link and group centres; link and group
-# placed flags; link and group growth and second-order terms; a joint vector and the motion's
-# joint steps; the joints' axes (points, directions, prismatic flags); the largest growth;
-# the motion queue's interval ends; a pair's groups' growth; each link's and group's speed
-# per joint in the current interval (_growth's terms, which _growth_from reads back).
+# placed flags; link and group growth; a joint vector and the motion's joint steps; the
+# joints' axes (points, directions, prismatic flags); the largest growth; the motion queue's
+# interval ends; a pair's groups' growth; the bounds' terms (sphere_bounds): LEVER's second
+# order and each link's and group's speed per joint in the current interval (which
+# growth_from reads back), SWEPT's signed steps, second order and growth per first joint.
 POSE = _field(SCRATCH, "pose", BUF, "F + 1", 3, 4)
 CENTRES = _field(SCRATCH, "centres", BUF, "S", 3)
 LCENTRES = _field(SCRATCH, "lcentres", BUF, "L", 3)
@@ -97,8 +101,6 @@ LPLACED = _field(SCRATCH, "lplaced", BUF, "L")
 GPLACED = _field(SCRATCH, "gplaced", BUF, "G")
 LEXTRA = _field(SCRATCH, "lextra", BUF, "L")
 GEXTRA = _field(SCRATCH, "gextra", BUF, "G")
-LB = _field(SCRATCH, "lb", BUF, "L")
-GB = _field(SCRATCH, "gb", BUF, "G")
 QVEC = _field(SCRATCH, "q", BUF, "D")
 DQ = _field(SCRATCH, "dq", BUF, "D")
 AXPOINT = _field(SCRATCH, "ap", BUF, "D", 3)
@@ -108,8 +110,15 @@ TOP = _field(SCRATCH, "top", BUF, 1)
 T0S = _field(SCRATCH, "t0s", BUF, QUEUE)
 T1S = _field(SCRATCH, "t1s", BUF, QUEUE)
 PG = _field(SCRATCH, "pg", BUF, "G")
+LB = _field(SCRATCH, "lb", BUF, "L")
+GB = _field(SCRATCH, "gb", BUF, "G")
 LSPEED = _field(SCRATCH, "lspeed", BUF, "L", "D")
 GSPEED = _field(SCRATCH, "gspeed", BUF, "G", "D")
+SDQ = _field(SCRATCH, "sdq", BUF, "D")
+LA = _field(SCRATCH, "la", BUF, "L", "D")
+GA = _field(SCRATCH, "ga", BUF, "G", "D")
+LREL = _field(SCRATCH, "lrel", BUF, "L", "D + 1")
+GREL = _field(SCRATCH, "grel", BUF, "G", "D + 1")
 
 # mi's header: each field's start, end and sizes, MODEL's then SCRATCH's
 _SLOTS = np.cumsum([0] + [2 + len(f.shape) for f in MODEL + SCRATCH]).tolist()

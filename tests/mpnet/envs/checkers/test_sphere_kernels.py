@@ -16,7 +16,6 @@ from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers import sphere_layout as L
 from mpnet.envs.checkers.compiled_env import motion_free, motions_free, state_free
-from mpnet.envs.checkers.sphere_checks import _second_order
 from mpnet.envs.checkers.spheres import CERTIFY_TOL
 from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.specs import get_spec
@@ -82,26 +81,28 @@ def test_a_motion_from_known_free_ends_answers_the_same_and_checks_them_no_more(
 
 
 @njit(cache=True)
-def _verdicts(qs, hs, dqs, mi, mf, ob, buf):
-    """(growing verdict, plain verdict) of each row."""
+def _verdicts(a, b, hs, mi, mf, ob, buf):
+    """(growing verdict, plain verdict) of each motion's midpoint, grown by hs."""
     m, obs, bufs = L.model_views(mi, mf), K.obstacle_views(ob), L.scratch_views(mi, buf)  # this kernel counts
-    out = np.empty((qs.shape[0], 2), np.int64)
+    out = np.empty((a.shape[0], 2), np.int64)
+    qs, dqs = 0.5 * (a + b), np.abs(b - a)
     for i in range(qs.shape[0]):
-        _second_order(m[L.LLEVER], m[L.BRADIUS], dqs[i], bufs[L.LB])
-        _second_order(m[L.GLEVER], m[L.GRADIUS], dqs[i], bufs[L.GB])
+        C._steps(a[i], b[i], m, bufs)
         for plain in range(2):  # one call site: verdict is inlined once (half the compilation)
             out[i, plain] = K.verdict(qs[i], m, obs, bufs, plain == 0, 0.0 if plain else hs[i], dqs[i])
     return out
 
 
-def test_a_grown_scan_answers_hit_exactly_where_a_plain_one_does(checkers):
+@pytest.mark.parametrize("backend", ["spheres", "spheres_swept"])
+def test_a_grown_scan_answers_hit_exactly_where_a_plain_one_does(checkers, backend):
     """HIT or NEAR_HIT where the plain scan hits, NEAR or FREE where it does not; with no
-    growth there is no NEAR; a wide interval finds grown contacts."""
-    for i, (_, ch) in enumerate(checkers):
+    growth there is no NEAR; a wide interval finds grown contacts (either motion bound)."""
+    for i, (_, default) in enumerate(checkers):
+        ch = SPEC.make_checker(default.workspace, backend=backend)
         mi, mf, ob, lo, up = ch._args
         a, b = _motions(100 + i, lo, up, 400)
         hs = np.random.default_rng(i).choice([0.0, 0.03, 0.125, 0.5], 400)
-        v = _verdicts(0.5 * (a + b), hs, np.abs(b - a), mi, mf, ob, ch._buf)
+        v = _verdicts(a, b, hs, mi, mf, ob, ch._buf)
         hit = v[:, 1] == K.HIT
         assert set(v[:, 1]) <= {K.FREE, K.HIT}
         assert (np.isin(v[:, 0], [K.HIT, K.NEAR_HIT]) == hit).all()

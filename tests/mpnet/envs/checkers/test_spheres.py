@@ -75,7 +75,7 @@ def test_the_kernels_views_are_the_model_fields_the_layout_names():
     views tile it exactly; a field of the wrong shape is refused."""
     m = sphere_model("panda")
     views = L.model_views(m.mi, m.mf)
-    assert len(views) == len(L.MODEL) and L.HULL == len(L.MODEL) - 1
+    assert len(views) == len(L.MODEL) and L.BOUND == len(L.MODEL) - 1
     for i, field in enumerate(L.MODEL):
         assert np.array_equal(views[i], getattr(m, field.name)), field.name
     scratch = L.scratch_views(m.mi, m.buffers())
