@@ -73,7 +73,7 @@ def bench_checker(spec, backend: str, workspaces: int = 3, seed: int = 0) -> dic
 
 KEYS = ("states_per_s", "states_per_s_batched", "motions_per_s", "motions_per_s_batched")
 HEAD = (
-    "env     backend   states/s median (p90)   batched states/s        motions/s median (p90)   "
+    "env     backend       states/s median (p90)   batched states/s        motions/s median (p90)   "
     "batched motions/s        configurations/s median (p90)"
 )
 
@@ -104,7 +104,7 @@ def table(rows: list[dict]) -> list[str]:
         conf = r.get("configurations_per_s")
         cells.append(f"{conf[0]:>10,.0f} ({conf[1]:,.0f})" if conf else "")
         lines.append(
-            f"{r['env']:<7} {r['backend']:<9} {cells[0]:<23} {cells[1]:<23} {cells[2]:<24} {cells[3]:<24} {cells[4]}"
+            f"{r['env']:<7} {r['backend']:<13} {cells[0]:<23} {cells[1]:<23} {cells[2]:<24} {cells[3]:<24} {cells[4]}"
         )
     return lines
 
