@@ -117,6 +117,8 @@ GSPEED = _field(SCRATCH, "gspeed", BUF, "G", "D")
 SDQ = _field(SCRATCH, "sdq", BUF, "D")
 LA = _field(SCRATCH, "la", BUF, "L", "D")
 GA = _field(SCRATCH, "ga", BUF, "G", "D")
+# SWEPT's growth from each joint on: column j0 < nj written by each growing verdict; the others,
+# column D too (a pair with no joint between its links), are never written and stay 0
 LREL = _field(SCRATCH, "lrel", BUF, "L", "D + 1")
 GREL = _field(SCRATCH, "grel", BUF, "G", "D + 1")
 
