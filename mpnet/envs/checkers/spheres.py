@@ -229,8 +229,9 @@ class SphereModel:
         """(n, dof): a bound on how far each point (local coordinates in frame frame_of[i])
         moves per unit of each joint: for a revolute joint, its distance from the joint's
         axis, bounded by the lengths of the fixed offsets from the joint to the point (the
-        triangle inequality, in any configuration); for a prismatic joint, 1."""
-        frames = self.model.kinematics.frames
+        triangle inequality, in any configuration, a prismatic joint on the way counted at its
+        farthest limit); for a prismatic joint, 1."""
+        frames, limits = self.model.kinematics.frames, self.model.limits
         out = np.zeros((len(frame_of), dof))
         for i, f in enumerate(frame_of):
             reach = float(np.linalg.norm(local[i]))
@@ -239,6 +240,8 @@ class SphereModel:
                 fr = frames[k]
                 if fr.coordinate >= 0:
                     out[i, fr.coordinate] = 1.0 if fr.kind == PRISMATIC else reach
+                    if fr.kind == PRISMATIC:  # it slides what is below it along its axis
+                        reach += max(abs(v) for v in limits[fr.coordinate])
                 reach += float(np.linalg.norm(fr.origin[:3, 3]))
                 k = fr.parent
         return out

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from mpnet.envs.arm.kinematics import forward
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers.sphere_bounds import LEVER, SWEPT
-from mpnet.envs.checkers.spheres import SphereChecker, SweptSphereChecker, sphere_model
+from mpnet.envs.checkers.spheres import SphereChecker, SphereModel, SweptSphereChecker, sphere_model
 from mpnet.envs.mbm.files import load_mbm
 from mpnet.envs.specs import get_spec
 
@@ -135,3 +135,22 @@ def test_the_swept_checker_agrees_in_fewer_configurations(mbm_dir):
             assert lever.states_valid(states).all()
     assert total > 1000 and same >= 0.995 * total
     assert configurations["spheres_swept"] <= 0.8 * configurations["spheres"]
+
+
+def test_a_lever_counts_a_prismatic_joint_below_its_joint_at_its_farthest_limit():
+    """A point 0.1 m out from a revolute joint, beyond a prismatic joint that slides up to
+    0.5 m: it can be 0.6 m from the revolute axis, so its lever is 0.6, not the fixed offset's
+    0.1 (no shipped model has such a chain: their levers are unchanged)."""
+    from types import SimpleNamespace
+
+    from mpnet.envs.arm.model import PRISMATIC, REVOLUTE
+
+    def frame(parent, kind, coordinate, x):
+        origin = np.eye(4)
+        origin[0, 3] = x
+        return SimpleNamespace(parent=parent, kind=kind, coordinate=coordinate, origin=origin)
+
+    chain = [frame(-1, REVOLUTE, 0, 0.0), frame(0, PRISMATIC, 1, 0.1)]
+    fake = SimpleNamespace(model=SimpleNamespace(kinematics=SimpleNamespace(frames=chain), limits=[(-3, 3), (0, 0.5)]))
+    levers = SphereModel._levers(fake, np.array([1]), np.zeros((1, 3)), 2)
+    assert np.allclose(levers, [[0.6, 1.0]])
