@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
-from mpnet.envs.checkers.sphere_bounds import SWEPT, growth, growth_from, lever_second_order, swept_second_order
+from mpnet.envs.checkers.sphere_bounds import SWEPT, growth_from, growths, lever_second_order, swept_second_order
 from mpnet.envs.checkers.sphere_kernels import (
     FREE,
     HIT,
@@ -130,10 +130,10 @@ def interval_growth(a, b, t, h, mi, mf, buf, links, groups, pairs):
     lc, gc, bound = bufs[LCENTRES], bufs[GCENTRES], m[BOUND]
     for li in range(links.shape[0]):
         _place(pose, m[LINK_FRAME][li], m[BLOCAL], li, lc, li)
-        links[li] = growth(bound, lc, li, m[BRADIUS], m[LNJ], grow, bufs[LSPEED], bufs[LB], bufs[LA], bufs[LREL])
     for g in range(groups.shape[0]):
         _place(pose, m[GROUP_FRAME][g], m[GLOCAL], g, gc, g)
-        groups[g] = growth(bound, gc, g, m[GRADIUS], m[GNJ], grow, bufs[GSPEED], bufs[GB], bufs[GA], bufs[GREL])
+    growths(bound, lc, m[BRADIUS], m[LNJ], grow, bufs[LSPEED], bufs[LB], bufs[LA], bufs[LREL], links)
+    growths(bound, gc, m[GRADIUS], m[GNJ], grow, bufs[GSPEED], bufs[GB], bufs[GA], bufs[GREL], groups)
     for pi in range(pairs.shape[0]):
         j0, lb = m[PAIR_J0][pi], m[PAIR_B][pi]
         pairs[pi] = -1.0

@@ -11,6 +11,7 @@ has no sphere touching anything anywhere along it, at any resolution.
 
 from __future__ import annotations
 
+import copy
 import json
 from functools import cache
 
@@ -44,9 +45,9 @@ def read_spheres(model: ArmModel) -> dict:
 class SphereModel:
     """A model's spheres and kinematics as the kernels' arrays (see sphere_kernels)."""
 
-    def __init__(self, model: ArmModel, bound: int = LEVER):
+    def __init__(self, model: ArmModel):
         kin = model.kinematics
-        self.bound = bound  # the motion bound (sphere_bounds): LEVER or SWEPT
+        self.bound = LEVER  # the motion bound (sphere_bounds): sphere_model gives SWEPT's
         doc = read_spheres(model)
         self.model = model
         frames = kin.frames
@@ -337,7 +338,14 @@ def _bounds(sets: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 @cache
 def sphere_model(name: str, bound: int = LEVER) -> SphereModel:
-    return SphereModel(load_arm_model(name), bound)
+    """The model of arm `name` with motion bound `bound`: another bound is the same model (its
+    spheres, levers and pair tables shared, not built again) packed with that bound."""
+    if bound == LEVER:
+        return SphereModel(load_arm_model(name))
+    other = copy.copy(sphere_model(name))
+    other.bound = bound
+    other._pack()
+    return other
 
 
 def pack_obstacles(ws: Workspace, margin: float) -> np.ndarray:
