@@ -4,6 +4,11 @@ sphere's swept reach is free, or a state on it is hit).
 
 The kernels here inline sphere_kernels' (verdict, ...) and sphere_layout's (unpack, ...);
 mpnet.jit's cache stamps them with those files' text, so a change there recompiles these too.
+
+Compile time: numba compiles a kernel once per argument types, and a literal (`0`) is a type of
+its own, so `known` is always passed as int64 (`np.int64(0)`): one compilation of the motion
+check (three once, ~25 s each); a plain verdict is one kernel (_plain_verdict), not a copy
+inlined into each check; every kernel that reaches verdict's code compiles it again.
 """
 
 from __future__ import annotations
@@ -69,12 +74,19 @@ from mpnet.envs.checkers.sphere_layout import (
 from mpnet.jit import njit
 
 
+@njit(cache=True, borrowed=True)
+def _plain_verdict(q, m, obs, bufs):
+    """verdict's plain check of q, compiled once for every caller (a state, a batch, a motion's
+    ends): each inlined copy of verdict costs every kernel that reaches it seconds of compiling."""
+    return verdict(q, m, obs, bufs, False, 0.0, q)
+
+
 @njit(cache=True, borrowed=True, inline="always")
 def _state_free(q, m, obs, lower, upper, bufs):
     for d in range(q.shape[0]):
         if not lower[d] <= q[d] <= upper[d]:
             return False
-    return verdict(q, m, obs, bufs, False, 0.0, q) != HIT
+    return _plain_verdict(q, m, obs, bufs) != HIT
 
 
 @njit(cache=True, borrowed=True)
@@ -142,7 +154,7 @@ def interval_growth(a, b, t, h, mi, mf, buf, links, groups, pairs):
 
 
 @njit(cache=True, borrowed=True)
-def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
+def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known):
     """Is the straight joint motion a -> b free everywhere along it? Returns (free,
     configurations evaluated). known: how many of its ends the caller already knows are
     free (0; 1: a; 2: a and b, e.g. a tree's states), which are then not checked first: an
@@ -165,7 +177,7 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
     evaluated = 0
     for e in range(2 - known):  # the ends not known free, exactly, first: a blocked motion is most often found there
         evaluated += 1
-        if verdict(b if e == 0 else a, m, obs, bufs, False, 0.0, dq) == HIT:
+        if _plain_verdict(b if e == 0 else a, m, obs, bufs) == HIT:
             return False, evaluated
     head, tail = 0, 1
     t0s[0], t1s[0] = 0.0, 1.0
@@ -196,7 +208,7 @@ def _motion_free(a, b, m, obs, lower, upper, tol, bufs, known=0):
 def motion_free(a, b, mi, mf, ob, lower, upper, tol, buf):
     """Is the straight joint motion a -> b free everywhere along it? (free, configurations
     evaluated); see _motion_free."""
-    return motion_free_known(a, b, mi, mf, ob, lower, upper, tol, buf, 0)
+    return motion_free_known(a, b, mi, mf, ob, lower, upper, tol, buf, np.int64(0))
 
 
 @njit(cache=True, borrowed=True)
@@ -217,7 +229,7 @@ def _motions_into(A, B, mi, mf, ob, lower, upper, tol, buf, out):
     m, obs, bufs = unpack(mi, mf), unpack_obstacles(ob), unpack_buffers(mi, buf)
     total = 0
     for i in range(A.shape[0]):
-        ok, n = _motion_free(A[i], B[i], m, obs, lower, upper, tol, bufs)
+        ok, n = _motion_free(A[i], B[i], m, obs, lower, upper, tol, bufs, np.int64(0))
         total += n
         out[i] = ok
     return total

@@ -42,7 +42,7 @@ def motion_free_known(env, counts, a, b, known):
 
 @njit(cache=True, borrowed=True)
 def motion_free(env, counts, a, b):  # SphereChecker._motion_free
-    return motion_free_known(env, counts, a, b, 0)
+    return motion_free_known(env, counts, a, b, np.int64(0))  # int64, not a literal: see sphere_checks
 
 
 @njit(cache=True)  # S.motions_free allocates its answers
