@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import torch
@@ -17,8 +18,9 @@ pytestmark = pytest.mark.slow  # the training CLI in subprocesses
 LONG_PNET = ("scale.fit.pnet_epochs=100000", "scale.model.pnet_hidden=[2048,2048]")
 
 
-def _args(cache, *extra):
-    return ["harness.train", "+env=s2d", "scale=tiny", f"cache_dir={cache}", f"hydra.run.dir={cache / 'run'}", *extra]
+def _args(cache, *extra, run_dir=None):
+    run = run_dir or cache / "run"
+    return ["harness.train", "+env=s2d", "scale=tiny", f"cache_dir={cache}", f"hydra.run.dir={run}", *extra]
 
 
 def _interrupt_in_pnet(repo, cache) -> tuple[int, str]:
@@ -51,7 +53,7 @@ def _interrupt_in_pnet(repo, cache) -> tuple[int, str]:
     return p.returncode, err.decode()
 
 
-def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli):
+def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli, sweeps_cache):
     cache = tmp_path / "a"
     rc, err = _interrupt_in_pnet(repo, cache)
     (enet,) = [d for d in (cache / "enet").iterdir() if d.is_dir()]
@@ -66,23 +68,29 @@ def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli):
     assert f"Enet: cached in {enet}" in resumed.stderr
     assert (enet / "manifest.json").stat().st_mtime_ns == stamp
 
-    straight = run_cli(*_args(tmp_path / "b", "progress=false"), timeout=600)
-    assert "Enet: cached" not in straight.stderr
-    pnets = [
-        torch.load(p.stdout.split("trained: ", 1)[1].split()[0] + "/pnet.ckpt", weights_only=True)["state_dict"]
-        for p in (resumed, straight)
-    ]
+    # a fit not cut short: the session's of the same key, built once by whichever test needs it first
+    # (its Enet cached before or not, the same Pnet: test_enet_artifact_trains_what_one_fit_did)
+    straight = run_cli(*_args(sweeps_cache, "progress=false", run_dir=tmp_path / "straight"), timeout=600)
+    folders = [_folder(p.stdout) for p in (resumed, straight)]
+    assert folders[0].name == folders[1].name and folders[0] != folders[1]
+    pnets = [torch.load(f / "pnet.ckpt", weights_only=True)["state_dict"] for f in folders]
     assert pnets[0].keys() == pnets[1].keys() and all(torch.equal(pnets[0][k], pnets[1][k]) for k in pnets[0])
 
 
-def test_enet_artifact_trains_what_one_fit_did(tmp_path, settings):
+def _folder(stdout: str) -> Path:
+    """The models folder `harness.train` printed (`trained: F ...` or `cached: F ...`)."""
+    line = next(x for x in stdout.splitlines() if x.startswith(("trained: ", "cached: ")))
+    return Path(line.split(": ", 1)[1].split()[0])
+
+
+def test_enet_artifact_trains_what_one_fit_did(tmp_path, settings, sweeps_cache):
     """Enet cached on its own, then Pnet: the same Pnet as one fit of both with no artifact
     between (Pnet's fit starts from the random state Enet's left, kept in the artifact)."""
     from harness.artifacts.ensure import ensure_dataset
     from harness.artifacts.fit import _fit_autoencoder, _fit_pnet, _quiet_lightning, fit_enet, fit_models, load_encoder
     from mpnet.data.dataset import load_dataset
 
-    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}"])
+    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={sweeps_cache}"])  # the session's data; fits here
     spec, params, lightning = run.env.spec, run.models, run.lightning
     data = load_dataset(*ensure_dataset(run, progress=False)[:2])
     one, enet, models = (tmp_path / n for n in ("one", "enet", "models"))
@@ -106,7 +114,7 @@ def _pnet(folder):
     return torch.load(folder / "pnet.ckpt", weights_only=True)["state_dict"]
 
 
-def test_a_fit_cut_short_goes_on_from_its_last_epoch(tmp_path, settings, monkeypatch, capsys):
+def test_a_fit_cut_short_goes_on_from_its_last_epoch(tmp_path, settings, monkeypatch, capsys, sweeps_cache):
     """A fit stopped after its second epoch (a killed job, a session's end) resumes from the
     epoch kept in its partial folder and trains the Pnet a fit run straight through trains,
     bit for bit; a kept epoch that does not load is dropped with a warning, not used."""
@@ -114,7 +122,7 @@ def test_a_fit_cut_short_goes_on_from_its_last_epoch(tmp_path, settings, monkeyp
     from harness.artifacts.ensure import ensure_dataset
     from mpnet.data.dataset import load_dataset
 
-    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={tmp_path}", "scale.fit.pnet_epochs=4"])
+    run = settings(["+env=s2d", "scale=tiny", f"cache_dir={sweeps_cache}", "scale.fit.pnet_epochs=4"])  # its data
     spec, params, lightning = run.env.spec, {**run.models, "patience": 10}, run.lightning
     data = load_dataset(*ensure_dataset(run, progress=False)[:2])
     straight, cut, work, damaged, work2 = (tmp_path / n for n in ("straight", "cut", "work", "damaged", "work2"))
