@@ -53,16 +53,18 @@ def _data(folder):
 
 
 @pytest.mark.slow
-def test_sharded_data_build_merges_into_the_unsharded_dataset(tmp_path, run_cli):
+def test_sharded_data_build_merges_into_the_unsharded_dataset(tmp_path, run_cli, sweeps_cache):
     tiny = ("harness.data", "+env=s2d", "scale=tiny", "progress=false")
-    run_cli(*tiny, f"cache_dir={tmp_path / 'one'}", f"hydra.run.dir={tmp_path / 'run'}")
+    # the unsharded build: the session's (built once, by whichever test needs it first)
+    one = run_cli(*tiny, f"cache_dir={sweeps_cache}", f"hydra.run.dir={tmp_path / 'run'}").stdout
+    (unsharded,) = [Path(x.split(": ", 1)[1]) for x in one.splitlines() if x.startswith(("built: ", "cached: "))]
     sharded = (*tiny, f"cache_dir={tmp_path / 'sharded'}", "shards=3")
     # three shards for two workspaces: shard 2 has none, and must still finish
     run_cli(*sharded, "hydra/launcher=local", f"hydra.sweep.dir={tmp_path / 'sweep'}", "-m", "shard=0,1,2")
     assert not list((tmp_path / "sharded").glob("data/*/data.npz"))  # shards never build the artifact
     assert {p.name for p in (tmp_path / "sweep" / "s2d" / "data").iterdir()} == {"shard0", "shard1", "shard2"}
     run_cli(*sharded, "merge=true", f"hydra.run.dir={tmp_path / 'merge'}")
-    assert _data(tmp_path / "sharded") == _data(tmp_path / "one")
+    assert _data(tmp_path / "sharded") == _data_at(unsharded)
     assert not list((tmp_path / "sharded").glob("data/.*.partial"))  # the merge cleans up
 
 

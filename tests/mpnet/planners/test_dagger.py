@@ -4,6 +4,7 @@ in the models key; a round built and trained end to end at tiny scale."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -85,12 +86,14 @@ def test_a_dagger_round_trains_on_the_expert_paths_and_the_labelled_rollouts(tmp
 
 
 @pytest.mark.slow  # trains at tiny scale in a subprocess
-def test_bounded_networks_train_on_symmetric_bounds(tmp_path, run_cli):
+def test_bounded_networks_train_on_symmetric_bounds(tmp_path, run_cli, sweeps_cache):
     """s2d's bounds are centred on 0: the centred normaliser keeps no offset, and a bounded
-    Pnet's module once refused it ("needs the centred normaliser")."""
-    run_cli(
+    Pnet's module once refused it ("needs the centred normaliser"). (The session's cache: its
+    data and Enet are the other tiny s2d networks'.)"""
+    out = run_cli(
         "harness.train", "+env=s2d", "scale=tiny", "+planner=mpnet_nr", "+planner.networks.bounded=true",
-        "progress=false", f"cache_dir={tmp_path / 'cache'}", f"hydra.run.dir={tmp_path / 'r'}",
-    )  # fmt: skip
-    (manifest,) = [json.loads(p.read_text()) for p in (tmp_path / "cache" / "models").glob("*/manifest.json")]
+        "progress=false", f"cache_dir={sweeps_cache}", f"hydra.run.dir={tmp_path / 'r'}",
+    ).stdout  # fmt: skip
+    (folder,) = [Path(x.split(": ", 1)[1]) for x in out.splitlines() if x.startswith(("trained: ", "cached: "))]
+    manifest = json.loads((folder / "manifest.json").read_text())
     assert manifest["config"]["bounded"] is True
