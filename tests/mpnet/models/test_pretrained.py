@@ -5,6 +5,7 @@ A set plans exactly as the checkpoint it was exported from, and stands in for it
 the dataset being built."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -99,7 +100,7 @@ def test_damaged_set_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
+def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings, sweeps_cache):
     """Tiny s2d trained, exported, and both planning the tiny test set: the same paths. Other
     networks exported beside it, as docs/mpnet.md exports the paper's recipe for +env=panda_mbm
     (hours of training: s2d's tiny networks stand in; s2d's recipe is the paper's)."""
@@ -108,12 +109,13 @@ def test_exported_set_plans_as_its_checkpoint(tmp_path, run_cli, settings):
     from mpnet.planners.base import Problem
     from mpnet.planners.mpnet import from_checkpoint
 
-    cache = tmp_path / "cache"
+    cache = sweeps_cache  # the session's tiny s2d networks (trained once, by whichever test needs them first)
     args = ["-m", "+env=s2d", "scale=tiny", "progress=false", f"cache_dir={cache}", f"hydra.sweep.dir={tmp_path / 'r'}"]
     out = run_cli("harness.export_weights", *args, f"export_dir={tmp_path / 'sets'}").stdout  # a sweep, as documented
     assert "exported: " in out and (tmp_path / "sets" / "testsets" / "s2d-tiny" / "seen.json").exists()
-    (models,) = [d for d in (cache / "models").iterdir() if d.is_dir()]
-    (data,) = [d for d in (cache / "data").iterdir() if d.is_dir()]
+    models = cache / "models" / read_meta(tmp_path / "sets" / "pretrained" / "s2d-tiny")["key"]  # the set's own
+    data = Path(json.loads((models / "manifest.json").read_text())["data_folder"])
+    assert models.is_dir() and data.parent == cache / "data"
     built = json.loads((data / "manifest.json").read_text())["expert"]["paths"]
     # other networks go beside the env's, not over them; the paper's recipe is s2d's own (one set)
     for planner in (["+planner=mpnet_nr_paper"], ["+planner=mpnet_nr", "+planner.networks.dropout=0.25"]):
