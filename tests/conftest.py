@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
-KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the session's kernels compile
-PLANAR_LOCK = "MPNET_BENCH_TESTS_PLANAR_LOCK"  # held while the planar envs' kernels compile (they go first)
+KERNELS_LOCK = "MPNET_BENCH_TESTS_KERNELS_LOCK"  # held while the arms' kernels compile
+PLANAR_LOCK = "MPNET_BENCH_TESTS_PLANAR_LOCK"  # held while the planar envs' kernels compile (every test waits)
 KERNELS_WAIT_S = 900  # a test waits no longer for them: past it, it compiles what it needs itself
 ARM_ENVS = ("arm7", "panda_mbm")  # a command naming one of them waits for the arms' kernels
 # in a test's id, its folders aside (uses_arm): it uses the arm's kernels
@@ -32,72 +32,69 @@ os.environ["MPNET_BENCH_ROBOTS"] = str(_USER_CACHE / "mpnet-bench" / "test-robot
 
 def pytest_configure(config):
     """The controller (not an xdist worker) compiles numba's kernels in the background
-    (`python -m harness.compile_kernels`, the planar envs' first), while the workers run the
-    tests: on a fresh clone, every process would otherwise compile them, an arm's for about a
-    minute, each of the first ones at once. The compile holds two locks: the planar envs' until
-    their kernels are on disk (~40 s; every test waits for it: the first tests had compiled
-    them again beside it), the whole compile's until the arms' are too, which `run_cli` waits on
-    before a command on an arm (wait_for_kernels); a test planning in-process on an arm loads
-    what is compiled, or compiles what is not yet (at worst what it did before)."""
+    (`python -m harness.compile_kernels`) while the workers run the tests: on a fresh clone, every
+    process would otherwise compile them, an arm's for about a minute, each of the first ones at
+    once. Two compiles at once, each holding a lock until its kernels are on disk: the planar
+    envs' (~40 s; every test waits for it: the first tests had compiled them again beside it)
+    and the arms' (which `run_cli` waits on before a command on an arm: wait_for_kernels; a
+    test planning in-process on an arm loads what is compiled, or compiles what is not yet).
+    Side by side, not one after the other: while every test waits for the planar kernels, the
+    arms' compile has the other core (it had idled for those ~40 s)."""
     if config.pluginmanager.hasplugin("xdist"):
         config.pluginmanager.register(WorkSteal(), "mpnet-bench-worksteal")
     if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly or "not slow" in config.option.markexpr:
         return  # the fast loop's few kernels compile in its own tests sooner
-    fd, lock = tempfile.mkstemp(prefix="mpnet-bench-kernels-", suffix=".lock")
-    fcntl.flock(fd, fcntl.LOCK_EX)  # held by the compile's copy of fd until it exits
-    planar_fd, planar = tempfile.mkstemp(prefix="mpnet-bench-planar-", suffix=".lock")
-    fcntl.flock(planar_fd, fcntl.LOCK_EX)  # held by the compile's copy until it closes it
-    log = Path(lock).with_suffix(".log")
-    with log.open("w") as out:
-        proc = subprocess.Popen(
-            [sys.executable, "-c", COMPILE, str(planar_fd), ",".join(ARM_ENVS)],
-            cwd=REPO_ROOT,
-            pass_fds=(fd, planar_fd),
-            stdout=out,
-            stderr=out,
-        )
-    os.close(fd)
-    os.close(planar_fd)
-    config._kernels = (proc, log)
-    os.environ[KERNELS_LOCK] = lock  # the workers inherit them
-    os.environ[PLANAR_LOCK] = planar
+    config._kernels = []
+    for env_var, prefix, arms in ((PLANAR_LOCK, "planar", False), (KERNELS_LOCK, "kernels", True)):
+        fd, lock = tempfile.mkstemp(prefix=f"mpnet-bench-{prefix}-", suffix=".lock")
+        fcntl.flock(fd, fcntl.LOCK_EX)  # held by the compile's copy of fd until it exits
+        log = Path(lock).with_suffix(".log")
+        with log.open("w") as out:
+            proc = subprocess.Popen(
+                [sys.executable, "-c", COMPILE, ",".join(ARM_ENVS), str(arms)],
+                cwd=REPO_ROOT,
+                pass_fds=(fd,),
+                stdout=out,
+                stderr=out,
+            )
+        os.close(fd)
+        config._kernels.append((proc, log))
+        os.environ[env_var] = lock  # the workers inherit them
 
 
-# harness.compile_kernels for the planar envs, their lock released (argv[1]: its fd), then the arms
-COMPILE = """import os, sys
+# harness.compile_kernels for the planar envs (argv[2] False) or the arms (argv[1]: their names)
+COMPILE = """import sys
 from harness.compile_kernels import main
 from mpnet.envs.specs import generated
-arms = sys.argv[2].split(",")
-rc = main([e for e in generated() if e not in arms])
-os.close(int(sys.argv[1]))
-sys.exit(rc or main([e for e in generated() if e in arms]))
+arms, want = sys.argv[1].split(","), sys.argv[2] == "True"
+sys.exit(main([e for e in generated() if (e in arms) == want]))
 """
 
 
 def pytest_unconfigure(config):
-    """The background compile stopped if the session ended first (what it compiled stays
-    cached), and said if it failed."""
+    """The background compiles stopped if the session ended first (what they compiled stays
+    cached), and said if one failed."""
     if not hasattr(config, "_kernels"):
         return
-    proc, log = config._kernels
-    failed = proc.poll() not in (None, 0)
-    proc.terminate()
-    proc.wait()
-    if failed:
-        text = f"harness.compile_kernels failed (exit {proc.returncode}): {log.read_text()[-2000:]}"
-        reporter = config.pluginmanager.get_plugin("terminalreporter")
-        if reporter is not None:
-            reporter.write_line(text, red=True)
-        else:
-            print(text, file=sys.stderr)
-    log.unlink(missing_ok=True)
+    for proc, log in config._kernels:
+        failed = proc.poll() not in (None, 0)
+        proc.terminate()
+        proc.wait()
+        if failed:
+            text = f"harness.compile_kernels failed (exit {proc.returncode}): {log.read_text()[-2000:]}"
+            reporter = config.pluginmanager.get_plugin("terminalreporter")
+            if reporter is not None:
+                reporter.write_line(text, red=True)
+            else:
+                print(text, file=sys.stderr)
+        log.unlink(missing_ok=True)
     Path(os.environ.pop(KERNELS_LOCK)).unlink(missing_ok=True)
     Path(os.environ.pop(PLANAR_LOCK)).unlink(missing_ok=True)
 
 
 def wait_for_kernels(timeout_s: float = KERNELS_WAIT_S, which: str = KERNELS_LOCK) -> None:
-    """Until the session's background compile has finished (at once when there is none), or
-    timeout_s; which=PLANAR_LOCK: until the planar envs' kernels are compiled."""
+    """Until the session's background compile of the arms' kernels has finished (at once when there
+    is none), or timeout_s; which=PLANAR_LOCK: the planar envs' kernels."""
     lock = os.environ.get(which)
     if not lock or not Path(lock).exists():
         return
