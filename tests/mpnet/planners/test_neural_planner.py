@@ -410,7 +410,9 @@ def test_anytime_stops_at_the_budget():
     anytime(stuck, 0.05)  # the checks' kernels loaded first (run alone, their load took the whole budget)
     res = anytime(stuck, 0.3)
     assert not res.solved and res.status == "timeout" and res.stats["restarts"] >= 2
-    assert 80 * res.stats["restarts"] < res.stats["pnet_calls"] <= 80 * (res.stats["restarts"] + 1)
+    # each run before the last makes its 80 calls; the last, cut by the budget, 0 to 80 (0 when the
+    # budget ends as it starts: seen once in a loaded run, 138,240 calls at 1,728 restarts)
+    assert 80 * res.stats["restarts"] <= res.stats["pnet_calls"] <= 80 * (res.stats["restarts"] + 1)
 
 
 def test_anytime_that_ran_out_is_a_timeout_even_if_its_last_run_failed_before_the_deadline(monkeypatch):
