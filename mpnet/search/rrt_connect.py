@@ -8,8 +8,7 @@ stream, so its paths are RRT-Connect's in kind, not OMPL's state for state.
 The clock is read between compiled slices of the search (numba has none): each slice is sized
 to take about SLICE_S at the mean rate so far, so a budget is overrun by about a slice (the
 rounds slow as the trees grow: a few times SLICE_S at worst; the first slice is FIRST_SLICE
-rounds whatever they take; the trees' arrays are doubled only when that should end within
-the budget). A budget in rounds (`max_rounds`) ends the search at exactly that
+rounds whatever they take). A budget in rounds (`max_rounds`) ends the search at exactly that
 many rounds, whatever the machine: the paths then depend on the seed alone.
 """
 
@@ -113,7 +112,7 @@ class RRTConnectSearch:
         state = K.new_state()
         counts = np.zeros(3, np.int64) if counts is None else counts
         sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
-        chunk, outcome, doubling_s = FIRST_SLICE, K.RUNNING, 0.0
+        chunk, outcome = FIRST_SLICE, K.RUNNING
         if not K.roots_free(env, counts, start, goal):  # the motions' checks skip the trees' states
             return Searched(None, 0, 2, counts)
         while True:
@@ -126,15 +125,8 @@ class RRTConnectSearch:
                 sample, diff,
             )  # fmt: skip
             if outcome == K.FULL:
-                # Doubling the trees is not a slice: it took 40-140 ms at 65,536 states with another
-                # process on the machine. It starts only if it should end within the budget (about
-                # twice the last one's time: twice the states), and the slice after it is sized
-                # from the time then left.
-                now = time.perf_counter()
-                if now + 2 * doubling_s >= deadline:
-                    break
                 nodes, parents, cols, dist, kd = self._grown()
-                doubling_s = time.perf_counter() - now
+                continue
             now = time.perf_counter()
             if outcome == K.CONNECTED or now >= deadline:
                 break
