@@ -1,12 +1,21 @@
-"""The end-to-end CLI tests' readers: a run's trial log read back, its successes re-checked."""
+"""The end-to-end CLI tests' readers: a run's trial log read back, its successes re-checked, the
+artifact folder a command printed."""
 
 import json
+from pathlib import Path
 
 from mcap.reader import make_reader
 
 from mpnet.envs import get_spec
 from mpnet.envs.workspace import Workspace
 from mpnet.motion import verify_path
+
+
+def printed_folder(stdout: str) -> Path:
+    """The artifact folder harness.train or harness.data printed (`trained: F`, `built: F` or
+    `cached: F`, its one such line)."""
+    (line,) = [x for x in stdout.splitlines() if x.startswith(("trained: ", "built: ", "cached: "))]
+    return Path(line.split(": ", 1)[1].split()[0])
 
 
 def read_mcap(path):

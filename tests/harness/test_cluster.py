@@ -17,6 +17,7 @@ from harness.core.cli import UsageError
 from harness.core.config import lightning_params
 from harness.core.settings import settings_of
 from mpnet.data.expert import chunks_of
+from tests.harness._cli import printed_folder
 
 
 def _topics(path) -> list[tuple[str, dict]]:
@@ -56,8 +57,7 @@ def _data(folder):
 def test_sharded_data_build_merges_into_the_unsharded_dataset(tmp_path, run_cli, sweeps_cache):
     tiny = ("harness.data", "+env=s2d", "scale=tiny", "progress=false")
     # the unsharded build: the session's (built once, by whichever test needs it first)
-    one = run_cli(*tiny, f"cache_dir={sweeps_cache}", f"hydra.run.dir={tmp_path / 'run'}").stdout
-    (unsharded,) = [Path(x.split(": ", 1)[1]) for x in one.splitlines() if x.startswith(("built: ", "cached: "))]
+    unsharded = printed_folder(run_cli(*tiny, f"cache_dir={sweeps_cache}", f"hydra.run.dir={tmp_path / 'run'}").stdout)
     sharded = (*tiny, f"cache_dir={tmp_path / 'sharded'}", "shards=3")
     # three shards for two workspaces: shard 2 has none, and must still finish
     run_cli(*sharded, "hydra/launcher=local", f"hydra.sweep.dir={tmp_path / 'sweep'}", "-m", "shard=0,1,2")

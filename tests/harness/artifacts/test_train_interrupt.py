@@ -7,10 +7,11 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 import torch
+
+from tests.harness._cli import printed_folder
 
 pytestmark = pytest.mark.slow  # the training CLI in subprocesses
 
@@ -71,16 +72,10 @@ def test_ctrl_c_in_pnet_keeps_enet_and_resumes(tmp_path, repo, run_cli, sweeps_c
     # a fit not cut short: the session's of the same key, built once by whichever test needs it first
     # (its Enet cached before or not, the same Pnet: test_enet_artifact_trains_what_one_fit_did)
     straight = run_cli(*_args(sweeps_cache, "progress=false", run_dir=tmp_path / "straight"), timeout=600)
-    folders = [_folder(p.stdout) for p in (resumed, straight)]
+    folders = [printed_folder(p.stdout) for p in (resumed, straight)]
     assert folders[0].name == folders[1].name and folders[0] != folders[1]
     pnets = [torch.load(f / "pnet.ckpt", weights_only=True)["state_dict"] for f in folders]
     assert pnets[0].keys() == pnets[1].keys() and all(torch.equal(pnets[0][k], pnets[1][k]) for k in pnets[0])
-
-
-def _folder(stdout: str) -> Path:
-    """The models folder `harness.train` printed (`trained: F ...` or `cached: F ...`)."""
-    line = next(x for x in stdout.splitlines() if x.startswith(("trained: ", "cached: ")))
-    return Path(line.split(": ", 1)[1].split()[0])
 
 
 def test_enet_artifact_trains_what_one_fit_did(tmp_path, settings, sweeps_cache):

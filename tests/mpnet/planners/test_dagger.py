@@ -4,7 +4,6 @@ in the models key; a round built and trained end to end at tiny scale."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +14,7 @@ from mpnet.envs import get_spec
 from mpnet.envs.scenes.generators import make_workspace
 from mpnet.planners.base import Problem
 from mpnet.planners.dagger import visited
+from tests.harness._cli import printed_folder
 
 
 class _Rollout:
@@ -94,6 +94,5 @@ def test_bounded_networks_train_on_symmetric_bounds(tmp_path, run_cli, sweeps_ca
         "harness.train", "+env=s2d", "scale=tiny", "+planner=mpnet_nr", "+planner.networks.bounded=true",
         "progress=false", f"cache_dir={sweeps_cache}", f"hydra.run.dir={tmp_path / 'r'}",
     ).stdout  # fmt: skip
-    (folder,) = [Path(x.split(": ", 1)[1]) for x in out.splitlines() if x.startswith(("trained: ", "cached: "))]
-    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest = json.loads((printed_folder(out) / "manifest.json").read_text())
     assert manifest["config"]["bounded"] is True
