@@ -8,8 +8,12 @@ stream, so its paths are RRT-Connect's in kind, not OMPL's state for state.
 The clock is read between compiled slices of the search (numba has none): each slice is sized
 to take about SLICE_S at the mean rate so far, so a budget is overrun by about a slice (the
 rounds slow as the trees grow: a few times SLICE_S at worst; the first slice is FIRST_SLICE
-rounds whatever they take). A budget in rounds (`max_rounds`) ends the search at exactly that
-many rounds, whatever the machine: the paths then depend on the seed alone.
+rounds whatever they take). Doubling the trees' arrays is not a slice: it starts only when it
+should end within the budget (about twice the last doubling's time: twice the memory), else the
+search ends there, its trees full (a doubling of ~100 MB took 0.24-0.29 s on this machine, where
+fresh memory is first touched under the kernel's huge-page compaction). A budget in rounds
+(`max_rounds`) ends the search at exactly that many rounds, whatever the machine: the paths then
+depend on the seed alone.
 """
 
 from __future__ import annotations
@@ -39,12 +43,14 @@ def tree_range(spec, given: float | None = None) -> float:
 @dataclass
 class Searched:
     """One search's outcome: the path (None: no connection within the budget), the rounds
-    run, the trees' states, and the checks (states, motions, configurations evaluated)."""
+    run, the trees' states, the checks (states, motions, configurations evaluated), and
+    whether it ended with its trees full (doubling them would not have ended within the budget)."""
 
     path: np.ndarray | None
     rounds: int
     tree_states: int
     counts: np.ndarray
+    full: bool = False
 
 
 class RRTConnectSearch:
@@ -112,7 +118,7 @@ class RRTConnectSearch:
         state = K.new_state()
         counts = np.zeros(3, np.int64) if counts is None else counts
         sample, diff = np.empty(start.shape[0]), np.empty(start.shape[0])
-        chunk, outcome = FIRST_SLICE, K.RUNNING
+        chunk, outcome, doubling_s, full = FIRST_SLICE, K.RUNNING, 0.0, False
         if not K.roots_free(env, counts, start, goal):  # the motions' checks skip the trees' states
             return Searched(None, 0, 2, counts)
         while True:
@@ -125,15 +131,19 @@ class RRTConnectSearch:
                 sample, diff,
             )  # fmt: skip
             if outcome == K.FULL:
+                now = time.perf_counter()
+                if now + 2 * doubling_s >= deadline:
+                    full = True
+                    break
                 nodes, parents, cols, dist, kd = self._grown()
-                continue
+                doubling_s = time.perf_counter() - now
             now = time.perf_counter()
             if outcome == K.CONNECTED or now >= deadline:
                 break
             per = max(now - t0, 1e-9) / state[K.ROUNDS]
             chunk = int(max(1, min(SLICE_S, deadline - now) / per))
         path = K.solution(nodes, parents, state) if outcome == K.CONNECTED else None
-        return Searched(path, int(state[K.ROUNDS]), int(state[K.N0] + state[K.N1]), counts)
+        return Searched(path, int(state[K.ROUNDS]), int(state[K.N0] + state[K.N1]), counts, full)
 
     def warm_up(self, env, spec, start, goal) -> None:
         """The search's kernels compiled (or loaded from numba's cache): the roots' check, the

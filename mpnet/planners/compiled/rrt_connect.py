@@ -63,7 +63,7 @@ class CompiledRRTConnect:
             found = self.search.run(env, problem.spec, problem.start, problem.goal, rng, t0 + budget_s, counts=counts)
         finally:  # counted even when stopped by an exception
             add_counts(checker, counts)
-        stats = {"iterations": found.rounds, "tree_states": found.tree_states}
+        stats = {"iterations": found.rounds, "tree_states": found.tree_states, "trees_full": found.full}
         if found.path is None:
             return Result(None, TIMEOUT, stats)
         return Result(found.path.tolist(), EXACT, stats)
