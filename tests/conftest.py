@@ -28,6 +28,11 @@ os.environ.setdefault("NUMBA_CACHE_DIR", str(_USER_CACHE / "mpnet-bench" / "test
 # Robots installed by harness.fetch_mbm (the UR5's, the Fetch's) are not the suite's: its robot folder
 # is an empty one (a test that installs a robot gives its own), so a run here and on CI see the same envs
 os.environ["MPNET_BENCH_ROBOTS"] = str(_USER_CACHE / "mpnet-bench" / "test-robots")
+# Where bytecode may not be written (PYTHONDONTWRITEBYTECODE), pytest rewrote every test module's
+# asserts afresh in every worker of every run (~3.7 s a worker, half a warm worker's collection):
+# the suite's processes keep Python's bytecode, in the __pycache__ folders git ignores (a prefix
+# elsewhere, sys.pycache_prefix, would also recompile every installed package once, ~7 s a process)
+sys.dont_write_bytecode = False
 
 
 def pytest_configure(config):

@@ -212,7 +212,10 @@ def test_the_borrowed_views_are_read_only_by_borrowed_kernels(repo):
     bad = []
     files = _sources(repo) + sorted((repo / "tests").rglob("*.py")) + sorted((repo / "docs").rglob("*.py"))
     for p in files:
-        tree = ast.parse(p.read_text(), str(p))
+        text = p.read_text()
+        if not any(view in text for view in BORROWED_VIEWS):  # parsed only where a view is named
+            continue
+        tree = ast.parse(text, str(p))
         for fn in [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)]:
             reads = [
                 n

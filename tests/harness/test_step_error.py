@@ -29,6 +29,7 @@ def _checkpoint(path, state_dim: int, cloud_dim: int):
     trainer.save_checkpoint(path)
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_the_step_error_reads_the_fits_held_out_paths_both_ways(tmp_path):
     from harness.step_error import step_errors
 

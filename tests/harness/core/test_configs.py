@@ -80,6 +80,7 @@ def test_every_env_and_planner_builds(env, planner, env_configs, planner_configs
     assert main.name == cfg.planner.name
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_envs_of_problem_files_only_say_what_they_lack(run_cli, mbm_dir):
     """mbm_ur5 and mbm_fetch: their robots' files are installed by harness.fetch_mbm (the suite's
     robot folder is empty), so `python -m harness +env=mbm_ur5 +planner=rrt_connect problems=...`

@@ -211,6 +211,7 @@ def test_benchmark_db_configs_segments_versions(tmp_path):
     con.close()
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_benchmark_db_keeps_variants_apart(tmp_path):
     """One planner run with two checkers, and on a subset of the same problems: each variant is
     a planner of its own, named by the settings that differ, and none has more runs than its
@@ -249,6 +250,7 @@ def test_benchmark_db_keeps_variants_apart(tmp_path):
     }
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_benchmark_db_names_a_planner_in_two_envs_plainly(tmp_path):
     """Planner Arena groups runs by name within an experiment (an env), so one planner's runs in
     two envs are not variants of each other: each env's runs are named `bit_star`. Before, every

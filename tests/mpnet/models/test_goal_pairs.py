@@ -72,6 +72,7 @@ def test_scene_batches_see_every_sample_once_from_few_scenes():
         SceneBatches(ws, 10, 0)
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_the_datamodule_batches_by_scene_when_asked():
     from mpnet.models.datamodule import MPNetDataModule
 

@@ -132,6 +132,7 @@ def test_live_checkers_hold_worlds_of_their_own():
     assert a.world.pb.getNumBodies(physicsClientId=a.world.client) == 3
 
 
+@pytest.mark.slow  # over ~1.3 s: out of the fast loop
 def test_a_world_let_go_is_emptied_and_lent_again_without_leaking():
     """A collected checker's world goes to the next checker, its old obstacles removed, its
     collision shapes reused (pybullet never frees one), so thousands of workspaces cost one world."""
