@@ -218,6 +218,40 @@ def test_quat_matrix_is_a_rotation():
     assert np.allclose(quat_matrix(yaw_quat(math.pi / 2)) @ [1, 0, 0], [0, 1, 0])
 
 
+# The clouds drawn by the numpy sampler before it was compiled (5c77dc9's digests: sha256 of the
+# float32 cloud, spec.cloud(ws, 200, 0)): Enet's networks were trained on these points, so the
+# compiled sampler must draw the same ones, double for double
+CLOUD_DIGESTS = {
+    "bookshelf_small_panda/0001": "3956ecd26b12e5b8",
+    "bookshelf_small_panda/0002": "a3e1b0cb31cefd37",
+    "box_panda/0001": "32c01fc577ed8ad2",
+    "box_panda/0002": "ba655bc4360fe842",
+    "table_pick_panda/0001": "e3c27e36f4aadcfd",
+    "table_pick_panda/0002": "66998c192b749506",
+    "mixed": "9b673bf3819e40bd",
+}
+
+
+def test_the_compiled_cloud_draws_the_points_numpy_drew(mbm_dir):
+    """Known answers: MotionBenchMaker's scenes (boxes, cylinders) and a rotated box, cylinder
+    and sphere, as the numpy sampler drew them."""
+    import hashlib
+
+    def digest(a):
+        return hashlib.sha256(np.ascontiguousarray(a, np.float32).tobytes()).hexdigest()[:16]
+
+    spec = get_spec("panda_mbm")
+    got = {ws.id: digest(spec.cloud(ws, 200, 0)) for ws in load_mbm(mbm_dir, spec).workspaces}
+    prims = [
+        Primitive("box", (0.1, -0.2, 0.3), (0.2, 0.5, 0.05), (0.1, 0.2, 0.3, 0.9)),
+        Primitive.cylinder((0.4, 0.1, 0.2), 0.05, 0.3, (0.3, -0.1, 0.2, 0.9)),
+        Primitive.sphere((-0.3, 0.2, 0.6), 0.07),
+        Primitive("box", (0.0, 0.0, -0.1), (2.0, 2.0, 0.02)),
+    ]
+    got["mixed"] = digest(surface_cloud(prims, 3001, np.random.default_rng(11)))
+    assert got == CLOUD_DIGESTS
+
+
 def test_cloud_has_a_fixed_size_and_shares_points_by_area():
     big, small = Primitive("box", (0, 0, 0), (1, 1, 1)), Primitive("box", (5, 0, 0), (0.1, 0.1, 0.1))
     pts = surface_cloud([big, small], 1000, np.random.default_rng(0))
