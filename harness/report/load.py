@@ -45,6 +45,7 @@ class TrialFile:
     finalised: bool = True
     label: str | None = None  # the --label of its directory: its planner is shown as `planner [label]`
     recipe: bool = False  # the label is its networks' recipe (recipe_label), not a --label
+    variant: bool = False  # the label names the settings that tell its planner's runs apart (label_variants)
 
     @property
     def planner(self) -> str:
@@ -171,9 +172,11 @@ def variant_names(files: list[TrialFile], within_env: bool = False) -> list[str]
     variants = [_variant(tf.run) for tf in files]
     parsed = {v: json.loads(v) for v in variants}  # each distinct variant parsed once
     envs = [str(tf.run.get("env")) for tf in files]
+    # a run given with --label (or its recipe's) is a planner of its own under that label, whatever
+    # its settings: two revisions' runs of one planner were one planner of twice its runs
+    names = [labelled(str(tf.run["planner"]), None if tf.variant else tf.label) for tf in files]
     keys = [
-        (e if within_env else "", str(tf.run["planner"]), parsed[v].get("problems") is None)
-        for e, tf, v in zip(envs, files, variants)
+        (e if within_env else "", name, parsed[v].get("problems") is None) for e, name, v in zip(envs, names, variants)
     ]
     in_env: dict[tuple, list[dict]] = {}  # a key's variants in each env
     for k, e, v in dict.fromkeys(zip(keys, envs, variants)):
@@ -208,7 +211,7 @@ def label_variants(files: list[TrialFile]) -> None:
     for tf, name in zip(bare, variant_names(bare, within_env=True)):
         planner = str(tf.run["planner"])
         if name != planner:
-            tf.label = name[len(planner) + 2 : -1]
+            tf.label, tf.variant = name[len(planner) + 2 : -1], True
 
 
 def load(
