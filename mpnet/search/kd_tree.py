@@ -47,14 +47,13 @@ def kd_arrays(cap: int) -> tuple:
     )
 
 
-def kd_grown(kd: tuple, cap: int) -> tuple:
-    """The arrays for `cap` states a tree, every kd node kept (the search's arrays doubled)."""
-    more = kd_arrays(cap)
+def kd_grown(kd: tuple, into: tuple) -> tuple:
+    """`into` (kd_arrays of a larger capacity) holding every kd node of kd: the search's arrays doubled."""
     m = kd[0].shape[1]
-    for old, new in zip(kd[:5], more[:5]):
+    for old, new in zip(kd[:5], into[:5]):
         new[:, :m] = old
-    more[5][:] = kd[5]
-    return more
+    into[5][:] = kd[5]
+    return into
 
 
 @njit(cache=True, borrowed=True)

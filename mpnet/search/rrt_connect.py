@@ -10,17 +10,22 @@ to take about SLICE_S at the mean rate so far, so a budget is overrun by about a
 rounds slow as the trees grow: a few times SLICE_S at worst; the first slice is FIRST_SLICE
 rounds whatever they take). Doubling the trees' arrays is not a slice: it starts only when it
 should end within the budget (about twice the last doubling's time: twice the memory), else the
-search ends there, its trees full (a doubling of ~100 MB took 0.24-0.29 s on this machine, where
-fresh memory is first touched under the kernel's huge-page compaction). A budget in rounds
+search ends there, its trees full. The arrays live in small pages (_small_pages), so that a
+doubling takes what its size predicts (in huge pages, under the kernel's compaction, one took
+0.19-0.71 s at 262,144-524,288 states, 23-40 ms in small pages). A budget in rounds
 (`max_rounds`) ends the search at exactly that many rounds, whatever the machine: the paths then
 depend on the seed alone.
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import math
+import mmap
 import time
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -78,8 +83,17 @@ class RRTConnectSearch:
     @staticmethod
     def _arrays(cap: int, d: int) -> tuple:
         """The trees' arrays for `cap` states each: nodes (2, cap, d), parents (2, cap), the
-        nodes column by column (2, d, cap), nearest's distances (cap,) and the k-d trees."""
-        return np.empty((2, cap, d)), np.zeros((2, cap), np.int64), np.empty((2, d, cap)), np.empty(cap), kd_arrays(cap)
+        nodes column by column (2, d, cap), nearest's distances (cap,) and the k-d trees, in
+        small pages (_small_pages)."""
+        arrays = (
+            np.empty((2, cap, d)),
+            np.zeros((2, cap), np.int64),
+            np.empty((2, d, cap)),
+            np.empty(cap),
+            kd_arrays(cap),
+        )
+        _small_pages(*arrays[:4], *arrays[4])
+        return arrays
 
     def _buffers(self, d: int, room: int) -> tuple:
         """The trees' arrays (_arrays), kept between queries."""
@@ -93,7 +107,7 @@ class RRTConnectSearch:
         cap = nodes.shape[1]
         more = self._arrays(2 * cap, nodes.shape[2])
         more[0][:, :cap], more[1][:, :cap], more[2][:, :, :cap] = nodes, parents, cols
-        self._trees = (*more[:4], kd_grown(kd, 2 * cap))
+        self._trees = (*more[:4], kd_grown(kd, more[4]))
         return self._trees
 
     def _roots(self, start, goal, room: int) -> tuple:
@@ -161,6 +175,37 @@ class RRTConnectSearch:
         )  # fmt: skip
         state[K.JOIN0], state[K.JOIN1] = 0, 0
         K.solution(nodes, parents, state)
+
+
+def _small_pages(*arrays: np.ndarray) -> None:
+    """The arrays' memory in the kernel's small pages (madvise MADV_NOHUGEPAGE; Linux only, else
+    nothing). Why: numpy asks for huge pages for arrays of 4 MB and more, and where the kernel
+    then compacts memory to find them (transparent huge pages' defrag `madvise`, as here), a
+    doubling of the trees first touched its fresh memory in 0.19-0.71 s at 262,144-524,288
+    states, against 23-40 ms in small pages: a doubling's time must be what its size predicts,
+    or it overruns the search's budget (RRTConnectSearch.run)."""
+    advise = _madvise()
+    if advise is None:
+        return
+    page = mmap.PAGESIZE
+    for a in arrays:
+        start = -(-a.ctypes.data // page) * page  # the whole pages inside the array
+        end = (a.ctypes.data + a.nbytes) // page * page
+        if end > start:
+            advise(start, end - start, mmap.MADV_NOHUGEPAGE)
+
+
+@cache
+def _madvise():
+    """libc's madvise, or None where there is no MADV_NOHUGEPAGE (not Linux)."""
+    if not hasattr(mmap, "MADV_NOHUGEPAGE"):
+        return None
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return None
+    madvise = ctypes.CDLL(name, use_errno=True).madvise
+    madvise.argtypes, madvise.restype = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int], ctypes.c_int
+    return madvise
 
 
 def add_counts(checker, counts: np.ndarray) -> None:

@@ -81,7 +81,7 @@ def test_grown_arrays_keep_the_tree(env):
     big = np.zeros((2, 7, 2000))
     big[:, :, :1000] = cols
     big[1, :, 1000:] = points[1000:].T
-    kd = T.kd_grown(kd, 2000)
+    kd = T.kd_grown(kd, T.kd_arrays(2000))
     for s in range(1000, 2000):
         T.kd_insert(kd, 1, s, big)
     for q in rng.uniform(-1.2, 1.2, (200, 7)):
