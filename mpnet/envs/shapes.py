@@ -172,7 +172,7 @@ def _local_surface(kind, size, n, rng, out):
             rad = r if side else r * np.sqrt(draws[2, i])
             out[i, 0] = rad * np.cos(phi)
             out[i, 1] = rad * np.sin(phi)
-            out[i, 2] = low + span * draws[3, i] if side else (-h / 2 if draws[4, i] < 0.5 else h / 2)
+            out[i, 2] = low + span * draws[3, i] if side else (low if draws[4, i] < 0.5 else -low)
     else:
         r = size[0] / 2
         for i in range(n):

@@ -103,9 +103,11 @@ def Q(split, wid, i, ok, t, **kw):
     return dict(split=split, wid=wid, i=i, ok=ok, t=t, **kw)
 
 
-def report(tmp_path, *dirs, paper=False):
+def report(tmp_path, *dirs, paper=False, labels=()):
+    """python -m harness.report on dirs (labels: (name, dir) pairs given as --label) into tmp_path/out."""
     out = tmp_path / "out"
-    rc = main([str(d) for d in dirs] + ["--out", str(out)] + (["--paper"] if paper else []))
+    labelled = [a for name, d in labels for a in ("--label", f"{name}={d}")]
+    rc = main([str(d) for d in dirs] + labelled + ["--out", str(out)] + (["--paper"] if paper else []))
     return rc, out
 
 

@@ -255,15 +255,12 @@ def test_benchmark_db_keeps_labelled_runs_apart(tmp_path):
     """Runs given with --label (two revisions of one planner, the same settings) are planners of
     their own in the database, as in the tables: before, both were one planner of 1,400 runs in an
     experiment of 700 (reports/rrt_connect_compiled/cloud, caught by test_committed_reports)."""
-    from harness.report.__main__ import main
-
     settings = {"seed": 0, "budget_s": 10.0, "planner.name": "mpnet_nr"}
     every = [Q("seen", "0", i, True, 1.0) for i in range(4)]
     write_log(tmp_path / "before", "s2d", "mpnet_nr", 0, every, settings=settings)
     write_log(tmp_path / "after", "s2d", "mpnet_nr", 0, every, settings=settings)
-    out = tmp_path / "out"
-    args = ["--label", f"before={tmp_path / 'before'}", "--label", f"after={tmp_path / 'after'}", "--out", str(out)]
-    assert main(args) == 0
+    rc, out = report(tmp_path, labels=[("before", tmp_path / "before"), ("after", tmp_path / "after")])
+    assert rc == 0
     con = sqlite3.connect(out / "benchmark.db")
     runs = dict(
         con.execute("SELECT p.name, count(*) FROM runs r JOIN plannerConfigs p ON p.id = r.plannerid GROUP BY p.id")
