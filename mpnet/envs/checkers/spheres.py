@@ -25,6 +25,7 @@ from mpnet.envs.checkers import sphere_layout
 from mpnet.envs.checkers.collision import SampledConfigurations
 from mpnet.envs.checkers.hull_kernels import BULLET_MARGIN
 from mpnet.envs.checkers.sphere_bounds import LEVER, SWEPT
+from mpnet.envs.checkers.sphere_store import stored
 from mpnet.envs.workspace import Workspace
 
 # A motion whose spheres would still touch something with less growth than this (metres)
@@ -341,7 +342,7 @@ def sphere_model(name: str, bound: int = LEVER) -> SphereModel:
     """The model of arm `name` with motion bound `bound`: another bound is the same model (its
     spheres, levers and pair tables shared, not built again) packed with that bound."""
     if bound == LEVER:
-        return SphereModel(load_arm_model(name))
+        return stored(load_arm_model(name), SphereModel)
     other = copy.copy(sphere_model(name))
     other.bound = bound
     other._pack()
