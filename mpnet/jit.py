@@ -103,6 +103,17 @@ def reach_digest(path: str | os.PathLike) -> str:
     return h.hexdigest()
 
 
+def warm_stamps() -> None:
+    """Every module of the package parsed for its imports and hashed, as the stamps of its
+    kernels will need: a process about to fork several children (a sweep's jobs) does it once,
+    and each child inherits it (each had parsed and hashed the sources its kernels reach, ~0.3 s;
+    a file's memo is keyed on its mtime and size, so an edit after is still seen)."""
+    for p in sorted(ROOT.rglob("*.py")):
+        st = p.stat()
+        _imports(p, st.st_mtime_ns, st.st_size)
+        _file_digest(p, st.st_mtime_ns, st.st_size)
+
+
 class _ReachStamp:
     """A numba cache locator whose freshness stamp is reach_digest, not the file's own text."""
 

@@ -2,7 +2,7 @@
 trial logged. `run` assembles a job, `loop` times the queries, `summary` prints."""
 
 from harness.bench.loop import CostTarget, QueryTiming, plan_query, run_bench
-from harness.bench.run import bench, bench_in_child, bench_or_exit, seed_everything
+from harness.bench.run import bench, bench_in_child, bench_or_exit, preload_jobs, seed_everything
 from harness.bench.summary import format_summary, summarize
 
 __all__ = [
@@ -13,6 +13,7 @@ __all__ = [
     "bench",
     "bench_in_child",
     "bench_or_exit",
+    "preload_jobs",
     "seed_everything",
     "format_summary",
     "summarize",

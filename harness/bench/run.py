@@ -182,6 +182,23 @@ def bench_or_exit(cfg: DictConfig, run_dir: Path, **kwargs) -> None:
         )
 
 
+def preload_jobs() -> None:
+    """What every job of a sweep would load for itself, loaded once before they are forked
+    (harness.__main__): the kernels' source stamps (mpnet.jit.warm_stamps), scipy.linalg (numba
+    imports it as it loads a kernel: its BLAS check) and numba's own tables of what it can type
+    and lower (filled at the first kernel a process loads): ~0.9 of a job's ~1.5 s before it
+    plans. None of it is a job's state, and none starts a thread (the pools are one thread:
+    harness.core.threads), so the jobs are still forked."""
+    import scipy.linalg  # noqa: F401
+    from numba.core.registry import cpu_target
+
+    from mpnet.jit import warm_stamps
+
+    warm_stamps()
+    cpu_target.typing_context.refresh()
+    cpu_target.target_context.refresh()
+
+
 def bench_in_child(container: dict, run_dir: str, overrides: list[str] | None = None, parent: int | None = None):
     """A sweep's job in its own process (harness.__main__: forked or spawned). It stops as at a Ctrl-C (every
     finished query kept, exit 130) on SIGTERM and when the sweep's process ends: a sweep killed
