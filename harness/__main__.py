@@ -21,7 +21,7 @@ def main(cfg: DictConfig) -> None:
     from hydra.types import RunMode
 
     from harness.bench import bench_in_child, bench_or_exit, preload_jobs
-    from harness.log import starting
+    from harness.log.process import one_thread, starting
 
     hydra_cfg = hydra.core.hydra_config.HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
@@ -34,7 +34,8 @@ def main(cfg: DictConfig) -> None:
     # Each job of a sweep (several may run in one process: Hydra's basic launcher, a joblib
     # worker) runs in a process of its own, forked before this one has planned or loaded a
     # kernel (starting: else a fresh interpreter), so no job sees another's state.
-    preload_jobs()
+    if one_thread():  # the jobs will be forked (starting): they inherit it
+        preload_jobs()
     with starting() as ctx:
         container = OmegaConf.to_container(cfg, resolve=True)
         child = ctx.Process(target=bench_in_child, args=(container, str(run_dir), overrides, os.getpid()))

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpnet.envs.arm.model import ArmModel, robot_file
+from mpnet.envs.arm.model import ArmModel
 from mpnet.jit import reach_digest
 
 FOLDER = "sphere_models"  # under NUMBA_CACHE_DIR
@@ -32,17 +32,18 @@ SOURCE = Path(__file__).with_name("spheres.py")  # the module that builds the mo
 _MAGIC = b"mpnet-sphere-model-1\n"
 
 
-def model_key(model: ArmModel) -> str:
-    """The key a stored model of `model` must carry (see the module docstring)."""
+def model_key(model: ArmModel, description: Path) -> str:
+    """The key a stored model of `model` (read from the robot description file `description`)
+    must carry (see the module docstring)."""
     import scipy
 
     h = hashlib.sha256()
     h.update(f"{reach_digest(SOURCE)}\0numpy {np.__version__}\0scipy {scipy.__version__}\0".encode())
     hulled = {name for pair in model.exact_pairs for name in pair}
     meshes = [s.path for s in model.kinematics.shapes if s.link in hulled and s.path is not None]
-    files = [robot_file(f"{model.name}.yaml"), model.urdf_path, model.spheres_path, *sorted(meshes)]
+    files = [description, model.urdf_path, model.spheres_path, *sorted(meshes)]
     for f in files:
-        h.update(f"{f}\0".encode() if f is None else hashlib.sha256(Path(f).read_bytes()).digest())
+        h.update(hashlib.sha256(Path(f).read_bytes()).digest())
     return h.hexdigest()
 
 
@@ -51,13 +52,14 @@ def _place() -> Path | None:
     return Path(where) / FOLDER if where else None
 
 
-def stored(model: ArmModel, build):
+def stored(model: ArmModel, build, description: Path):
     """build(model)'s SphereModel, loaded from the store when one of this model's key is
-    there, else built and stored (when there is a store)."""
+    there, else built and stored (when there is a store). description: the robot file the
+    model was read from (its `name` need not be the file's)."""
     place = _place()
     if place is None:
         return build(model)
-    key = model_key(model)
+    key = model_key(model, description)
     path = place / f"{model.name}-{key[:20]}.pkl"
     found = _load(path, key)
     if found is not None:

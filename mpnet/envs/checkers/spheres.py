@@ -18,7 +18,7 @@ from functools import cache
 import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
-from mpnet.envs.arm.model import PRISMATIC, ArmModel, ArmModelError, load_arm_model
+from mpnet.envs.arm.model import PRISMATIC, ArmModel, ArmModelError, load_arm_model, robot_file
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers import sphere_layout
@@ -342,7 +342,7 @@ def sphere_model(name: str, bound: int = LEVER) -> SphereModel:
     """The model of arm `name` with motion bound `bound`: another bound is the same model (its
     spheres, levers and pair tables shared, not built again) packed with that bound."""
     if bound == LEVER:
-        return stored(load_arm_model(name), SphereModel)
+        return stored(load_arm_model(name), SphereModel, robot_file(f"{name}.yaml"))
     other = copy.copy(sphere_model(name))
     other.bound = bound
     other._pack()

@@ -16,11 +16,11 @@ from mpnet.envs.checkers.spheres import SphereModel
 
 
 def _copy_of_panda(folder, tag: str) -> str:
-    """The packaged Panda under another name in `folder` (its own sphere file): a model whose
-    files a test may edit."""
+    """The packaged Panda in `folder` as another robot file (its own sphere file; its `name`
+    not the file's): a model whose files a test may edit."""
     name = f"panda_store_{tag}_{uuid.uuid4().hex[:6]}"
     text = robot_file("panda.yaml").read_text()
-    text = text.replace("name: panda\n", f"name: {name}\n")
+    text = text.replace("name: panda\n", f"name: {name}_named\n")
     text = text.replace("spheres: panda_spheres.json", f"spheres: {name}.json")
     (folder / f"{name}.yaml").write_text(text)
     shutil.copy(robot_file("panda_spheres.json"), folder / f"{name}.json")
@@ -53,19 +53,31 @@ def test_a_stored_model_is_the_built_one_and_a_changed_or_damaged_store_is_built
         builds.append(model.name)
         return SphereModel(model)
 
-    model = load_arm_model(name)
-    first = stored(model, build)
+    model, description = load_arm_model(name), robots / f"{name}.yaml"
+
+    def store(model):
+        return stored(model, build, description)
+
+    first = store(model)
     (path,) = (kernels / FOLDER).iterdir()
-    again = stored(model, build)
-    assert builds == [name] and again is not first and _equal(first, again) and again.model is model
+    again = store(model)
+    named = f"{name}_named"
+    assert builds == [named] and again is not first and _equal(first, again) and again.model is model
 
     blob = bytearray(path.read_bytes())  # a flipped bit in the arrays: built again, the store replaced
     blob[-100] ^= 1
     path.write_bytes(bytes(blob))
-    assert _equal(stored(model, build), first) and builds == [name, name]
+    assert _equal(store(model), first) and builds == [named, named]
     path.write_bytes(path.read_bytes()[:-10])  # cut short
-    assert _equal(stored(model, build), first) and len(builds) == 3
-    assert stored(model, build) is not None and len(builds) == 3  # the replaced store is good
+    assert _equal(store(model), first) and len(builds) == 3
+    assert store(model) is not None and len(builds) == 3  # the replaced store is good
+
+    # its description edited (a narrower first joint), read again under the same name: built again
+    description.write_text(description.read_text().replace("  - [-2.8973, 2.8973]\n", "  - [-2.5, 2.5]\n", 1))
+    load_arm_model.cache_clear()
+    narrower = store(load_arm_model(name))
+    assert builds == [named] * 4 and narrower.lower[0] == -2.5 and first.lower[0] == -2.8973
+    load_arm_model.cache_clear()
 
     # the same robot with one sphere 0.1 mm larger: another key, its own model
     edited = _copy_of_panda(robots, "b")
@@ -73,8 +85,8 @@ def test_a_stored_model_is_the_built_one_and_a_changed_or_damaged_store_is_built
     link = next(iter(doc["links"]))
     doc["links"][link][0][3] += 1e-4
     (robots / f"{edited}.json").write_text(json.dumps(doc))
-    other = stored(load_arm_model(edited), build)
-    assert builds[-1] == edited and len(builds) == 4
+    other = stored(load_arm_model(edited), build, robots / f"{edited}.yaml")
+    assert builds[-1] == f"{edited}_named" and len(builds) == 5
     assert other.radius.max() >= first.radius.max() and not np.array_equal(other.radius, first.radius)
 
 
@@ -83,6 +95,6 @@ def test_without_a_kernel_place_nothing_is_stored(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     model = load_arm_model("panda")
     calls = []
-    assert stored(model, lambda m: calls.append(m) or "built") == "built"
-    assert stored(model, lambda m: calls.append(m) or "built") == "built"
+    for _ in range(2):
+        assert stored(model, lambda m: calls.append(m) or "built", robot_file("panda.yaml")) == "built"
     assert len(calls) == 2 and not any(tmp_path.iterdir())
