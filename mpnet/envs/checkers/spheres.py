@@ -18,7 +18,7 @@ from functools import cache
 import numpy as np
 
 from mpnet.envs.arm.kinematics import forward
-from mpnet.envs.arm.model import PRISMATIC, ArmModel, ArmModelError, load_arm_model, robot_file
+from mpnet.envs.arm.model import PRISMATIC, ArmModel, ArmModelError, load_arm_model
 from mpnet.envs.checkers import sphere_checks as C
 from mpnet.envs.checkers import sphere_kernels as K
 from mpnet.envs.checkers import sphere_layout
@@ -46,10 +46,11 @@ def read_spheres(model: ArmModel) -> dict:
 class SphereModel:
     """A model's spheres and kinematics as the kernels' arrays (see sphere_kernels)."""
 
-    def __init__(self, model: ArmModel):
+    def __init__(self, model: ArmModel, doc: dict | None = None):
+        """doc: the model's sphere set as read (None: read here, read_spheres)."""
         kin = model.kinematics
         self.bound = LEVER  # the motion bound (sphere_bounds): sphere_model gives SWEPT's
-        doc = read_spheres(model)
+        doc = read_spheres(model) if doc is None else doc
         self.model = model
         frames = kin.frames
         self.parent, self.origin, self.kind, self.axis, self.coord = kin.arrays()
@@ -342,7 +343,7 @@ def sphere_model(name: str, bound: int = LEVER) -> SphereModel:
     """The model of arm `name` with motion bound `bound`: another bound is the same model (its
     spheres, levers and pair tables shared, not built again) packed with that bound."""
     if bound == LEVER:
-        return stored(load_arm_model(name), SphereModel, robot_file(f"{name}.yaml"))
+        return stored(load_arm_model(name), SphereModel)
     other = copy.copy(sphere_model(name))
     other.bound = bound
     other._pack()
