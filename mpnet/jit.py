@@ -51,10 +51,16 @@ def _module_file(name: str) -> Path | None:
     return None
 
 
+def _version(st: os.stat_result) -> tuple[int, int, int, int]:
+    """A file's version for the memos below: its inode, mtime, ctime and size (a copy that keeps
+    an old mtime, `cp -p`, still changes the ctime, which no tool sets)."""
+    return st.st_ino, st.st_mtime_ns, st.st_ctime_ns, st.st_size
+
+
 @cache
-def _imports(path: Path, mtime_ns: int, size: int) -> tuple[Path, ...]:
+def _imports(path: Path, version: tuple) -> tuple[Path, ...]:
     """The package's files that the module at `path` imports directly (text read once per
-    version of the file: mtime and size are part of the memo key)."""
+    version of the file: _version is the memo's key)."""
     tree = ast.parse(path.read_text(), str(path))
     names: list[str] = []
     for node in ast.walk(tree):
@@ -82,12 +88,12 @@ def reach(path: str | os.PathLike) -> list[Path]:
             continue
         seen.add(p)
         st = p.stat()
-        todo += [q for q in _imports(p, st.st_mtime_ns, st.st_size) if q not in seen]
+        todo += [q for q in _imports(p, _version(st)) if q not in seen]
     return sorted(seen)
 
 
 @cache
-def _file_digest(path: Path, mtime_ns: int, size: int) -> bytes:
+def _file_digest(path: Path, version: tuple) -> bytes:
     """sha256 of one file, read once per version of it (a module's kernels share its reach)."""
     return hashlib.sha256(path.read_bytes()).digest()
 
@@ -99,7 +105,7 @@ def reach_digest(path: str | os.PathLike) -> str:
     for p in reach(path):
         rel = p.relative_to(ROOT).as_posix() if p.is_relative_to(ROOT) else p.name
         st = p.stat()
-        h.update(f"{rel}\0".encode() + _file_digest(p, st.st_mtime_ns, st.st_size))
+        h.update(f"{rel}\0".encode() + _file_digest(p, _version(st)))
     return h.hexdigest()
 
 
@@ -107,11 +113,11 @@ def warm_stamps() -> None:
     """Every module of the package parsed for its imports and hashed, as the stamps of its
     kernels will need: a process about to fork several children (a sweep's jobs) does it once,
     and each child inherits it (each had parsed and hashed the sources its kernels reach, ~0.3 s;
-    a file's memo is keyed on its mtime and size, so an edit after is still seen)."""
+    a file's memo is keyed on its version, so an edit after is still seen)."""
     for p in sorted(ROOT.rglob("*.py")):
-        st = p.stat()
-        _imports(p, st.st_mtime_ns, st.st_size)
-        _file_digest(p, st.st_mtime_ns, st.st_size)
+        version = _version(p.stat())
+        _imports(p, version)
+        _file_digest(p, version)
 
 
 class _ReachStamp:

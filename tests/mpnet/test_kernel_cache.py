@@ -106,6 +106,25 @@ def test_the_stamp_follows_imports(package):
     assert _run(package, code) == ["3", "2", "callee.py", "caller.py", "jit.py"]
 
 
+def test_an_edit_that_keeps_the_size_and_the_mtime_still_changes_the_stamp(package):
+    """A file's memo in a process (mpnet.jit._version) is not fooled by a copy that keeps the
+    old mtime (`cp -p`, rsync -a): a sweep's jobs share it with their parent (warm_stamps)."""
+    code = textwrap.dedent(
+        """
+        import os
+        from mpnet import jit
+        callee, caller = jit.ROOT / "callee.py", jit.ROOT / "caller.py"
+        jit.warm_stamps()
+        before, st = jit.reach_digest(caller), callee.stat()
+        callee.write_text(callee.read_text().replace("x + 1", "x + 2"))
+        os.utime(callee, ns=(st.st_atime_ns, st.st_mtime_ns))
+        now = callee.stat()
+        print(now.st_size == st.st_size, now.st_mtime_ns == st.st_mtime_ns, before != jit.reach_digest(caller))
+        """
+    )
+    assert _run(package, code) == ["True", "True", "True"]
+
+
 def test_the_stamp_does_not_depend_on_where_the_package_is(package, tmp_path_factory):
     other = tmp_path_factory.mktemp("elsewhere")
     shutil.copytree(package / "mpnet", other / "mpnet")
