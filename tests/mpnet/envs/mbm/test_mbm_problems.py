@@ -162,3 +162,22 @@ def test_the_training_set_is_built_without_any_mbm_problem(tmp_path, repo):
         f for f in opened if not f.startswith(allowed) and not any(s in f for s in ("/hydra/", "/.hydra/", "/robots/"))
     ]
     assert others == [] and any(f.endswith("panda_scenes.yaml") for f in opened)
+
+
+def test_problem_files_read_as_yaml_safe_load_reads_them(mbm_dir, tmp_path):
+    """The problem files' reader (libyaml's parser: ~7x faster on MBM's 1,400 files) gives the
+    documents yaml.safe_load gives, and a malformed file is one line naming it."""
+    import yaml
+
+    from mpnet.envs.mbm.files import _load_yaml
+    from mpnet.envs.spec import ProblemFileError
+
+    paths = sorted(mbm_dir.rglob("*.yaml"))
+    assert len(paths) >= 12
+    for p in paths:
+        assert _load_yaml(p) == yaml.safe_load(p.read_text(encoding="utf-8"))
+    bad = tmp_path / "scene0001.yaml"
+    bad.write_text("world: [1, 2\n")
+    with pytest.raises(ProblemFileError, match="scene0001.yaml") as e:
+        _load_yaml(bad)
+    assert "\n" not in str(e.value)
