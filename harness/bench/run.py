@@ -123,8 +123,8 @@ def bench(
     info["queries_expected"] = len(testset.queries)
     if overrides is not None:
         info["overrides"] = [str(o) for o in overrides]
-    log_process = LogProcess(
-        run_dir, info, spec, validation_step=spec.validation_step, rerun=run.rerun, resume=run.resume
+    log_process = LogProcess(  # `jobs` judge the log's backlog once planning is done (harness.log.drain)
+        run_dir, info, spec, validation_step=spec.validation_step, rerun=run.rerun, resume=run.resume, judges=run.jobs
     )
     with log_process as log:
         for ws in testset.workspaces:

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 from harness.core.provenance import peak_rss_mb, restart_peak_rss
+from harness.log.drain import HELPER_START_S, JudgeRate, ReadAhead, judge_backlog
 from harness.log.tally import Tally
 from mpnet.motion import path_cost, verify_path
 
@@ -53,7 +54,16 @@ def judge(spec, ws, rec: dict, validation_step: float) -> dict:
 
 
 def _serve(
-    inbox, conn, run_dir: str, run: dict, spec, validation_step: float, log_kwargs: dict, parents_ends=()
+    inbox,
+    conn,
+    run_dir: str,
+    run: dict,
+    spec,
+    validation_step: float,
+    log_kwargs: dict,
+    parents_ends=(),
+    judges: int = 1,
+    helper_start_s: float = HELPER_START_S,
 ) -> None:
     # The parent decides when to stop: a Ctrl-C or a scheduler's SIGTERM sent to the whole
     # process group must not kill the log before it has written what it received.
@@ -71,26 +81,43 @@ def _serve(
         return
     conn.send(("ready", (log.done, log.logged_obstacles(), log.notes)))
     workspaces: dict[tuple[str, str], object] = {}
-    tally = Tally()
+    tally, rate = Tally(), JudgeRate()
     cpu0 = time.process_time()
+
+    def write(kind: str, payload) -> None:
+        if kind == "workspace":
+            log.add_workspace(payload)
+            return
+        for rec in payload:  # one MCAP chunk per batch: a chunk index per query grew with the run
+            log.add_query(rec, flush=False)
+            tally.add(rec)
+        log.flush()
+
+    inbox, kind = ReadAhead(inbox), None  # the bench never waits on a full pipe (harness.log.drain)
     with log:
-        while True:
-            try:
-                kind, payload = inbox.recv()
-            except (EOFError, OSError):
-                return  # the parent died: `with` finalises what was received
+        while not inbox.closing:
+            kind, payload = inbox.get()
             if kind == "workspace":
                 workspaces[(payload.split, payload.id)] = payload
-                log.add_workspace(payload)
+                write(kind, payload)
             elif kind == "queries":
-                for q in payload:  # one MCAP chunk per batch: a chunk index per query grew with the run
-                    rec = judge(spec, workspaces[(q["split"], q["workspace_id"])], q, validation_step)
-                    log.add_query(rec, flush=False)
-                    tally.add(rec)
-                log.flush()
-            elif kind == "close":
+                write(kind, [rate.timed(judge, spec, workspaces[_ws_key(q)], q, validation_step) for q in payload])
+            elif kind in ("close", "eof"):
                 break
-    conn.send(("closed", {"tally": tally, "cpu_s": time.process_time() - cpu0, "peak_rss_mb": peak_rss_mb() - rss0}))
+        # the bench has closed the log (or died: everything it sent is still judged and logged),
+        # so nothing is timed any more: what is left may take a second process
+        rest = inbox.rest()
+        helper_cpu, helped = judge_backlog(
+            rest, judge, spec, workspaces, rate, validation_step, write, judges, helper_start_s
+        )
+        if (rest[-1][0] if rest else kind) == "eof":
+            return  # the parent died: `with` finalises what was received
+    cpu_s = time.process_time() - cpu0 + helper_cpu
+    conn.send(("closed", {"tally": tally, "cpu_s": cpu_s, "peak_rss_mb": peak_rss_mb() - rss0, "helped": helped}))
+
+
+def _ws_key(q: dict) -> tuple[str, str]:
+    return q["split"], q["workspace_id"]
 
 
 def one_thread() -> bool:
@@ -158,7 +185,16 @@ class LogProcess:
     a child process that also judges each query. close() returns the run's Tally."""
 
     def __init__(
-        self, run_dir: str | Path, run: dict, spec, *, validation_step: float, rerun: bool = True, resume: bool = False
+        self,
+        run_dir: str | Path,
+        run: dict,
+        spec,
+        *,
+        validation_step: float,
+        rerun: bool = True,
+        resume: bool = False,
+        judges: int = 1,
+        helper_start_s: float = HELPER_START_S,
     ):
         # Queries go down a one-way pipe widened to hold hundreds of them, so the loop never
         # waits on a burst of slow writes (a Rerun batch); replies come up a second pipe.
@@ -172,7 +208,11 @@ class LogProcess:
                 name="trial-log",
                 daemon=True,
                 args=(inbox, reply, str(run_dir), run, spec, validation_step, {"rerun": rerun, "resume": resume}),
-                kwargs={"parents_ends": (self._outbox, self._conn) if forked else ()},
+                kwargs={
+                    "parents_ends": (self._outbox, self._conn) if forked else (),
+                    "judges": judges,
+                    "helper_start_s": helper_start_s,
+                },
             )
             self._proc.start()
         inbox.close()
@@ -180,6 +220,7 @@ class LogProcess:
         self.tally = Tally()
         self.child_cpu_s = 0.0
         self.child_peak_rss_mb = float("nan")
+        self.helped = 0
         self._closed = False
         self._pending: list[dict] = []
         self._sent_at = time.perf_counter()
@@ -234,6 +275,7 @@ class LogProcess:
         self._proc.join()
         self.tally, self.child_cpu_s = payload["tally"], payload["cpu_s"]
         self.child_peak_rss_mb = payload["peak_rss_mb"]
+        self.helped = payload["helped"]  # queries a second judge took once planning was done (harness.log.drain)
         return self.tally
 
     def __enter__(self) -> LogProcess:
