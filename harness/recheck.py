@@ -8,7 +8,8 @@ with no margin, the robot model the log names. This is the arm's re-check (pybul
 DIRECT client, the arm model of the log: logs from before arm models were data re-check with
 pybullet_data's Panda as it was then), and the env's own checkers for the 2D/3D and rigid
 envs. Exit 1 on any false success or unreadable file. `--jobs N` re-checks N files at once, each
-in its own process (a sweep's files are independent); what it prints and writes is the same.
+in its own process (a sweep's files are independent), and a file's successes in several processes
+when there are fewer files than that; what it prints and writes is the same.
 """
 
 from __future__ import annotations
@@ -27,6 +28,15 @@ from mpnet.workers import process_pool
 
 def recheck_file(path: Path, step: float | None = None) -> tuple[int, list[tuple[str, str]], float]:
     """(successes re-checked, [(query id, why)] of the false ones, step used) of one log."""
+    n, false, step = _recheck_share(path, step)
+    return n, [(qid, why) for _, qid, why in false], step
+
+
+def _recheck_share(
+    path: Path, step: float | None = None, share: tuple[int, int] = (0, 1)
+) -> tuple[int, list[tuple[int, str, str]], float]:
+    """recheck_file of successes i, i + n, i + 2n, ... of the log (share (i, n): a file re-checked
+    by n processes), each false one with its success's place in the log."""
     msgs, _ = read_log(path, ("/run", "/workspace", "/query"))
     run = next((m.data for m in msgs if m.topic == "/run"), None)
     if run is None:
@@ -35,16 +45,19 @@ def recheck_file(path: Path, step: float | None = None) -> tuple[int, list[tuple
     step = step or spec.validation_step / 2
     workspaces = {(m.data["split"], m.data["workspace_id"]): m.data for m in msgs if m.topic == "/workspace"}
     built: dict[tuple, Workspace] = {}
-    n, false = 0, []
+    n, false, seen = 0, [], -1
     for m in msgs:
         q = m.data
         if m.topic != "/query" or not q.get("success"):
+            continue
+        seen += 1
+        if seen % share[1] != share[0]:
             continue
         key = (q["split"], q["workspace_id"])
         if key not in built:
             w = workspaces.get(key)
             if w is None:
-                false.append((q["query_id"], "no /workspace message for it"))
+                false.append((seen, q["query_id"], "no /workspace message for it"))
                 continue
             built[key] = (
                 Workspace.from_json(w["workspace_id"], w["split"], w["obstacles"], spec.workspace_dim),
@@ -54,7 +67,7 @@ def recheck_file(path: Path, step: float | None = None) -> tuple[int, list[tuple
         why = verify_path(logged, ws, q["path"], q["start"], q["goal"], step)
         n += 1
         if why is not None:
-            false.append((q["query_id"], why))
+            false.append((seen, q["query_id"], why))
     return n, false, step
 
 
@@ -63,7 +76,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("paths", nargs="+", metavar="PATH", help="trials.mcap files or folders searched for them")
     ap.add_argument("--step", type=float, default=None, help="sampling step (default: half the env's validation step)")
     ap.add_argument("--out", type=Path, help="also write OUT/recheck.md (a report folder: its successes, verified)")
-    ap.add_argument("--jobs", type=int, default=1, help="files re-checked at once, one process each (default 1)")
+    ap.add_argument(
+        "--jobs", type=int, default=1, help="processes: files at once, or a file's successes shared (default 1)"
+    )
     args = ap.parse_args(argv)
     if args.step is not None and not args.step > 0:
         print(f"error: --step must be a positive number, got {args.step}", file=sys.stderr)
@@ -102,23 +117,37 @@ def main(argv: list[str] | None = None) -> int:
     return 1 if bad or unreadable else 0
 
 
-def _recheck_or_error(path: Path, step: float | None):
-    """recheck_file's result, or the error that makes the file unreadable (returned, so that a
+def _recheck_or_error(path: Path, step: float | None, share: tuple[int, int] = (0, 1)):
+    """_recheck_share's result, or the error that makes the file unreadable (returned, so that a
     worker process hands it back like a result)."""
     try:
-        return recheck_file(path, step)
+        return _recheck_share(path, step, share)
     except (OSError, ValueError, KeyError, TypeError) as e:
         return e
 
 
+def _merged(parts: list):
+    """One file's result (recheck_file's) from its shares' (the first error if a share failed),
+    its false successes in the log's order."""
+    if errors := [p for p in parts if isinstance(p, Exception)]:
+        return errors[0]
+    false = sorted(x for _, f, _ in parts for x in f)
+    return sum(n for n, _, _ in parts), [(qid, why) for _, qid, why in false], parts[0][2]
+
+
 def _rechecked(files: list[Path], step: float | None, jobs: int):
     """(file, result or error) in the files' order; `jobs` > 1: that many processes, started
-    fresh (spawn), so each builds its own collision world."""
-    if jobs == 1 or len(files) == 1:
-        yield from ((f, _recheck_or_error(f, step)) for f in files)
+    fresh (spawn), so each builds its own collision world; fewer files than jobs: each file's
+    successes shared among its processes."""
+    if jobs == 1:
+        yield from ((f, _merged([_recheck_or_error(f, step)])) for f in files)
         return
-    with process_pool(min(jobs, len(files))) as pool:
-        yield from zip(files, pool.map(_recheck_or_error, files, [step] * len(files)))
+    n = max(1, jobs // len(files))
+    tasks = [(f, (i, n)) for f in files for i in range(n)]
+    with process_pool(min(jobs, len(tasks))) as pool:
+        results = pool.map(_recheck_or_error, [f for f, _ in tasks], [step] * len(tasks), [s for _, s in tasks])
+        for f in files:
+            yield f, _merged([next(results) for _ in range(n)])
 
 
 def write_report(out: Path, total: int, bad: int, unreadable: int, summary: str, lines: list[str], argv) -> Path:

@@ -115,3 +115,12 @@ def test_files_rechecked_in_parallel_report_as_one_by_one(tmp_path, capsys):
     assert "3 files, 3 successes re-checked, false successes 1, unreadable 1" in two
     assert main([str(tmp_path), "--jobs", "0"]) == 2
     assert "--jobs must be at least 1" in capsys.readouterr().err
+    # one file, its successes shared by three processes: its false ones in the log's order
+    through = [[-15.0, -15.0], [15.0, 15.0]]
+    paths = {f"w/{k}": through if k in (1, 2, 6) else around for k in range(8)}
+    write(tmp_path / "d", paths)
+    assert main([str(tmp_path / "d"), "--jobs", "1"]) == 1
+    one = capsys.readouterr().out
+    assert main([str(tmp_path / "d"), "--jobs", "3"]) == 1
+    assert capsys.readouterr().out == one and "8 successes re-checked at step 0.005, 3 false" in one
+    assert one.index("w/1: collision") < one.index("w/2: collision") < one.index("w/6: collision")
