@@ -24,7 +24,7 @@ from mpnet.envs.specs import generated, get_spec  # noqa: E402
 STATES, MOTIONS, REPEATS = 2000, 200, 5
 
 
-def bench_checker(spec, backend: str, workspaces: int = 3, seed: int = 0) -> dict:
+def bench_checker(spec, backend: str, workspaces: int = 3, seed: int = 0, repeats: int = REPEATS) -> dict:
     """Rates of one checker: states/s and motions/s, one call each and in one vectorised
     call (median, p90 over repeats x workspaces)."""
     rng = np.random.default_rng(seed)
@@ -35,7 +35,7 @@ def bench_checker(spec, backend: str, workspaces: int = 3, seed: int = 0) -> dic
         qs = np.array([spec.space.sample(rng) for _ in range(STATES)])
         ok = ch.states_valid(qs)  # warm (the arm loads its obstacles)
         free = qs[ok]
-        for _ in range(REPEATS):
+        for _ in range(repeats):
             t = time.perf_counter()
             for q in qs.tolist():
                 ch.is_valid(q)
@@ -78,13 +78,13 @@ HEAD = (
 )
 
 
-def measure(specs, workspaces: int) -> tuple[list[dict], list[str]]:
+def measure(specs, workspaces: int, repeats: int = REPEATS) -> tuple[list[dict], list[str]]:
     """One row per env x backend (its rates), and the ratio of each backend to the env's judge."""
     rows, ratios = [], []
     for spec in specs:
         rates = {}
         for backend in dict.fromkeys(spec.robot.checkers):
-            r = rates[backend] = bench_checker(spec, backend, workspaces)
+            r = rates[backend] = bench_checker(spec, backend, workspaces, repeats=repeats)
             rows.append({"env": spec.name, "backend": backend, **r})
         judge = spec.robot.judge_backend
         for backend, r in rates.items():
@@ -109,7 +109,7 @@ def table(rows: list[dict]) -> list[str]:
     return lines
 
 
-def write_report(out: Path, rows: list[dict], ratios: list[str], argv: list[str]) -> Path:
+def write_report(out: Path, rows: list[dict], ratios: list[str], argv: list[str], repeats: int = REPEATS) -> Path:
     """OUT/README.md (where it came from, the table, the ratios) and OUT/checkers.json: the
     file FINDINGS and the docs quote checker rates from."""
     from harness.core.provenance import generated_by, machine_info
@@ -123,7 +123,7 @@ def write_report(out: Path, rows: list[dict], ratios: list[str], argv: list[str]
         generated_by(f"python -m harness.bench_checkers {' '.join(argv)}", m, ", one thread, nothing else running"),
         "",
         f"Each rate: {STATES:,} random states and {MOTIONS} motions between random valid states, on each of the "
-        f"generated workspaces, {REPEATS} repeats; median (p90: the rate 90% of the repeats reached).",
+        f"generated workspaces, {repeats} repeats; median (p90: the rate 90% of the repeats reached).",
         "",
         "```",
         *table(rows),
@@ -141,6 +141,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("envs", nargs="*", default=sorted(generated()))
     ap.add_argument("--workspaces", type=int, default=3)
     ap.add_argument(
+        "--repeats", type=int, default=REPEATS, help=f"each rate measured this many times (default {REPEATS})"
+    )
+    ap.add_argument(
         "--out", type=Path, help="also write OUT/README.md and OUT/checkers.json (e.g. reports/perf/checkers)"
     )
     args = ap.parse_args(argv)
@@ -149,14 +152,18 @@ def main(argv: list[str] | None = None) -> int:
     except KeyError as e:
         print(f"bench_checkers: {e.args[0]}", file=sys.stderr)
         return 2
-    rows, ratios = measure(specs, args.workspaces)
+    if args.workspaces < 1 or args.repeats < 1:
+        print("bench_checkers: --workspaces and --repeats must be at least 1", file=sys.stderr)
+        return 2
+    rows, ratios = measure(specs, args.workspaces, args.repeats)
     print("\n".join(table(rows)))
     print("p90: the rate 90% of the repeats reached (the 10th percentile of rates).")
     for line in ratios:
         print(line)
     if args.out is not None:
         given = [*args.envs, *(["--workspaces", str(args.workspaces)] if args.workspaces != 3 else [])]
-        print(f"written: {write_report(args.out, rows, ratios, given)}")
+        given += ["--repeats", str(args.repeats)] if args.repeats != REPEATS else []
+        print(f"written: {write_report(args.out, rows, ratios, given, args.repeats)}")
     return 0
 
 
