@@ -13,9 +13,9 @@ pybullet world per workspace; a hit is always measured afresh: mpnet.envs.checke
 from __future__ import annotations
 
 import collections
-import math
 import os
 import pickle
+import resource
 import signal
 import subprocess
 import sys
@@ -25,11 +25,13 @@ import time
 import numpy as np
 
 HELPER_START_S = 1.5  # what a helper (a spawned process) costs to start, in seconds of judging
+SAY_S = 5.0  # a backlog this long (seconds of judging) is announced on stderr
 
 
 class ReadAhead:
     """The pipe's messages, read by a thread as they come: get() the next, in order;
-    `closing` once the bench's close (or the pipe's end: ("eof", None)) has been read."""
+    `closing` once the bench's close has been read, or the pipe's end (("eof", None)), or
+    something unreadable (("error", the exception)): the last message there is."""
 
     def __init__(self, conn):
         self._items: collections.deque = collections.deque()
@@ -44,9 +46,11 @@ class ReadAhead:
                 msg = conn.recv()
             except (EOFError, OSError):  # the bench died: what came is judged and logged
                 msg = ("eof", None)
+            except BaseException as e:  # noqa: BLE001  (raised by the log process, after it finalised the log)
+                msg = ("error", e)
             with self._ready:
                 self._items.append(msg)
-                self.closing = msg[0] in ("close", "eof")
+                self.closing = msg[0] in ("close", "eof", "error")
                 self._ready.notify()
             if self.closing:
                 return
@@ -102,42 +106,56 @@ def helper_share(costs: list[float], start_s: float = HELPER_START_S) -> int:
 
 
 def _start_helper(judge, spec, items: list, step: float) -> subprocess.Popen:
-    """A fresh interpreter judging `items` ((workspace, record) pairs): `python -m harness.log.drain`,
-    the work pickled down its stdin (a subprocess, not a multiprocessing child: the log process is a
+    """A fresh interpreter judging `items` ((workspace, record) pairs): _helper_main, the work
+    pickled down its stdin (a subprocess, not a multiprocessing child: the log process is a
     daemon, which multiprocessing lets have none). It sees this process's sys.path."""
+    work = pickle.dumps((judge, spec, items, step))
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
-    proc = subprocess.Popen([sys.executable, "-m", "harness.log.drain"], stdin=subprocess.PIPE,
+    code = "from harness.log.drain import _helper_main; _helper_main()"
+    proc = subprocess.Popen([sys.executable, "-c", code, str(os.getpid())], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, env=env)  # fmt: skip
-    try:
-        pickle.dump((judge, spec, items, step), proc.stdin)
-        proc.stdin.close()
-    except OSError:  # it died at once: its share is judged here
-        pass
+    # fed by a thread: a share larger than the pipe would hold the log process until the helper's
+    # interpreter has started and read it (~1 s it judges its own head instead)
+    threading.Thread(target=_feed, args=(proc.stdin, work), name="trial-log-feed", daemon=True).start()
     return proc
 
 
-def _helper_main() -> None:
-    """The helper: each (workspace, record) judged, the records written back in order with its CPU
-    time. A Ctrl-C to the process group does not stop it (the log process decides); its parent's
-    end does (a SIGTERM from the kernel)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from mpnet.workers import sigterm_when_parent_ends
+def _feed(pipe, data: bytes) -> None:
+    try:
+        pipe.write(data)
+    except OSError:  # the helper died at once: its share is judged here (_collect)
+        pass
+    finally:
+        try:
+            pipe.close()
+        except OSError:
+            pass
 
-    sigterm_when_parent_ends()
+
+def _helper_main() -> None:
+    """The helper: each (workspace, record) judged, the records written back in order. A Ctrl-C to
+    the process group does not stop it (the log process decides); its parent's end does (the
+    kernel's SIGTERM: the log process ignores SIGTERM, and that would be inherited)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    from mpnet.workers import end_with_parent
+
+    end_with_parent(int(sys.argv[1]))
+    out = os.fdopen(os.dup(1), "wb")  # the results' pipe; anything else printed goes to stderr
+    os.dup2(2, 1)
     judge, spec, items, step = pickle.load(sys.stdin.buffer)
-    cpu = time.process_time()
-    out = [judge(spec, ws, rec, step) for ws, rec in items]
-    pickle.dump((out, time.process_time() - cpu), sys.stdout.buffer)
-    sys.stdout.buffer.flush()
+    pickle.dump([judge(spec, ws, rec, step) for ws, rec in items], out)
+    out.close()
 
 
 def judge_backlog(messages: list, judge, spec, workspaces: dict, rate: JudgeRate, step: float, write,
                   judges: int = 2, helper_start_s: float = HELPER_START_S) -> tuple[float, int]:  # fmt: skip
     """The backlog (messages up to the close) judged and handed to write(kind, payload) in order:
     ("workspace", ws) as it comes, ("queries", judged records) per batch. With judges > 1 and a
-    backlog worth it (at this run's judging rate: helper_share), a helper process judges its tail.
-    Returns the helper's CPU seconds and the queries it judged (0.0, 0 without one). A helper
-    that fails leaves its share to this process."""
+    backlog worth it (at this run's judging rate: helper_share), a second process judges its
+    tail. Returns the helper's CPU seconds (from start to exit) and the queries it judged (0.0,
+    0 without one). A helper that fails leaves its share to this process; one still running when
+    this raises is killed."""
     queue = []  # (batch index, position, workspace, record) of every query, in order
     for i, (kind, payload) in enumerate(messages):
         if kind == "workspace":
@@ -145,48 +163,54 @@ def judge_backlog(messages: list, judge, spec, workspaces: dict, rate: JudgeRate
         elif kind == "queries":
             queue += [(i, j, workspaces[(q["split"], q["workspace_id"])], q) for j, q in enumerate(payload)]
     done: dict[tuple[int, int], dict] = {}
-    if rate.per_state() is None and queue and judges > 1:  # the rate measured on the first query
+    while judges > 1 and queue and rate.per_state() is None:  # the rate measured on the first success
         i, j, ws, q = queue.pop(0)
         done[(i, j)] = rate.timed(judge, spec, ws, q, step)
-    per_state = rate.per_state() or 0.0
-    costs = [judged_states(q, step) * per_state for *_, q in queue]
+    costs = [judged_states(q, step) * (rate.per_state() or 0.0) for *_, q in queue]
     tail = helper_share(costs, helper_start_s) if judges > 1 else 0
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = _start_helper(judge, spec, [(ws, q) for _, _, ws, q in queue[-tail:]], step) if tail else None
-    helper_cpu, theirs, at = 0.0, None, {(i, j): k for k, (i, j, _, _) in enumerate(queue[len(queue) - tail :])}
-    for i, (kind, payload) in enumerate(messages):  # written as judged, batch by batch, in order
-        if kind == "workspace":
-            write(kind, payload)
-            continue
-        if kind != "queries":
-            continue
-        out = []
-        for j, q in enumerate(payload):
-            if (i, j) in done:
-                out.append(done.pop((i, j)))
-                continue
-            if (k := at.get((i, j))) is not None:
-                if theirs is None:
-                    theirs, helper_cpu = _collect(proc, tail)
-                if theirs:
-                    out.append(theirs[k])
-                    continue
-            out.append(rate.timed(judge, spec, workspaces[(q["split"], q["workspace_id"])], q, step))
-        write(kind, out)
-    return helper_cpu, tail if theirs else 0
-
-
-def _collect(proc: subprocess.Popen, n: int) -> tuple[list, float]:
-    """The helper's n judged records and CPU seconds; ([], 0.0) if it died or sent something else."""
+    if sum(costs) >= SAY_S:  # the bench's progress bar is done: say what it waits for
+        how = "two processes" if tail else "one process"
+        print(f"trial log: judging the last {len(queue)} queries ({how}, about {sum(costs) / (1 + bool(tail)):.0f} s)",
+              file=sys.stderr, flush=True)  # fmt: skip
+    theirs, at = None, {(i, j): k for k, (i, j, _, _) in enumerate(queue[len(queue) - tail :])}
     try:
-        out, cpu = pickle.load(proc.stdout)
+        for i, (kind, payload) in enumerate(messages):  # written as judged, batch by batch, in order
+            if kind == "workspace":
+                write(kind, payload)
+            if kind != "queries":
+                continue
+            out = []
+            for j, q in enumerate(payload):
+                if (i, j) in done:
+                    out.append(done.pop((i, j)))
+                    continue
+                if (k := at.get((i, j))) is not None:
+                    if theirs is None:
+                        theirs = _collect(proc, tail)
+                    if theirs:
+                        out.append(theirs[k])
+                        continue
+                out.append(rate.timed(judge, spec, workspaces[(q["split"], q["workspace_id"])], q, step))
+            write(kind, out)
+    finally:
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    if proc is None:
+        return 0.0, 0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    return cpu, tail if theirs else 0
+
+
+def _collect(proc: subprocess.Popen, n: int) -> list:
+    """The helper's n judged records; [] if it died or sent something else."""
+    try:
+        out = pickle.load(proc.stdout)
     except Exception:  # noqa: BLE001  (whatever it left: its share is judged here)
-        out, cpu = [], 0.0
+        out = []
     proc.stdout.close()
     proc.wait()
-    if not isinstance(out, list) or len(out) != n or not math.isfinite(cpu):
-        return [], 0.0
-    return out, cpu
-
-
-if __name__ == "__main__":
-    _helper_main()
+    return out if isinstance(out, list) and len(out) == n else []

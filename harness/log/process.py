@@ -93,7 +93,12 @@ def _serve(
             tally.add(rec)
         log.flush()
 
-    inbox, kind = ReadAhead(inbox), None  # the bench never waits on a full pipe (harness.log.drain)
+    inbox, kind, payload, rest = (
+        ReadAhead(inbox),
+        None,
+        None,
+        [],
+    )  # the bench never waits on a full pipe (harness.log.drain)
     with log:
         while not inbox.closing:
             kind, payload = inbox.get()
@@ -101,16 +106,25 @@ def _serve(
                 workspaces[(payload.split, payload.id)] = payload
                 write(kind, payload)
             elif kind == "queries":
-                write(kind, [rate.timed(judge, spec, workspaces[_ws_key(q)], q, validation_step) for q in payload])
-            elif kind in ("close", "eof"):
+                judged = []
+                for n, q in enumerate(payload):
+                    if inbox.closing and n:  # the close came: the batch's rest joins the backlog
+                        rest = [(kind, payload[n:])]
+                        break
+                    judged.append(rate.timed(judge, spec, workspaces[_ws_key(q)], q, validation_step))
+                write(kind, judged)
+            else:  # close, eof, error
                 break
         # the bench has closed the log (or died: everything it sent is still judged and logged),
         # so nothing is timed any more: what is left may take a second process
-        rest = inbox.rest()
+        rest += inbox.rest()
         helper_cpu, helped = judge_backlog(
             rest, judge, spec, workspaces, rate, validation_step, write, judges, helper_start_s
         )
-        if (rest[-1][0] if rest else kind) == "eof":
+        last, why = rest[-1] if rest else (kind, payload)
+        if last == "error":
+            raise why  # unreadable: finalised (`with`); the bench sees the process die
+        if last == "eof":
             return  # the parent died: `with` finalises what was received
     cpu_s = time.process_time() - cpu0 + helper_cpu
     conn.send(("closed", {"tally": tally, "cpu_s": cpu_s, "peak_rss_mb": peak_rss_mb() - rss0, "helped": helped}))

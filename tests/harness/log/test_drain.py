@@ -96,23 +96,66 @@ def test_two_judges_write_what_one_writes_in_the_same_order():
 
 
 def test_a_helper_that_dies_leaves_its_share_to_the_log_process(monkeypatch):
+    import harness.log.drain as drain
+
+    started = []
+    start = drain._start_helper
+    monkeypatch.setattr(drain, "_start_helper", lambda *a: started.append(start(*a)) or started[-1])
     monkeypatch.setenv("MPNET_BENCH_TEST_PARENT", str(os.getpid()))
-    written, cpu = drained(dying_judge, 2, 0.0)
+    written, rate = [], JudgeRate()
+    _, helped = judge_backlog(backlog(), dying_judge, None, {}, rate, 0.01, lambda k, p: written.append((k, p)), 2, 0.0)
     records = [r for k, p in written if k == "queries" for r in p]
-    assert [r["k"] for r in records] == list(range(30)) and cpu == 0.0
+    assert [r["k"] for r in records] == list(range(30)) and helped == 0
     assert {r["by"] for r in records} == {os.getpid()}
+    assert len(started) == 1 and started[0].returncode == 3  # one started, and it died
 
 
 @pytest.mark.slow
 def test_an_arms_paths_are_judged_the_same_by_one_process_and_by_two(tmp_path, mbm_dir):
-    """Panda paths (straight lines between MBM's queries' ends, free and blocked) through the log
-    process with a helper forced and without: the same successes, failures and costs."""
+    """Panda paths (straight lines between MBM's queries' ends, free and blocked), pybullet's
+    judge: a backlog judged with a helper and without gives the same records; and through the
+    log process, one judge and two write the same successes, failures and costs."""
+    from harness.log.process import judge
     from mpnet.envs.mbm.files import load_mbm
     from mpnet.envs.specs import get_spec
     from tests.harness.log._helpers import make_rec, make_run, read_all
 
     spec = get_spec("panda_mbm")
     ts = load_mbm(str(mbm_dir), spec)
+    split = ts.workspaces[0].split
+    recs = [
+        make_rec(
+            "panda_mbm",
+            f"q{i}",
+            q.workspace_id,
+            split,
+            path=np.linspace(q.start, q.goal, 2 + i % 4),
+            start=np.asarray(q.start),
+            goal=np.asarray(q.goal),
+        )  # fmt: skip
+        for i, q in enumerate(ts.queries * 4)
+    ]
+    msgs = [
+        *(("workspace", ws) for ws in ts.workspaces),
+        ("queries", recs[:10]),
+        ("queries", recs[10:]),
+        ("close", None),
+    ]
+    runs = []
+    for judges in (1, 2):
+        written = []
+        _, helped = judge_backlog(msgs, judge, spec, {}, JudgeRate(), spec.validation_step,
+                                  lambda k, p, w=written: w.append((k, p)), judges, 0.0)  # fmt: skip
+        assert (helped > 0) == (judges == 2)
+        runs.append(
+            [
+                (r["query_id"], r["success"], r["failure"], r["path_cost"])
+                for k, p in written
+                if k == "queries"
+                for r in p
+            ]
+        )
+    assert runs[0] == runs[1] and len(runs[0]) == 24 and 0 < sum(s for _, s, _, _ in runs[0]) < 24
     outcomes = []
     for judges in (1, 2):
         run_dir = tmp_path / f"judges{judges}"
@@ -120,12 +163,8 @@ def test_an_arms_paths_are_judged_the_same_by_one_process_and_by_two(tmp_path, m
                         judges=judges, helper_start_s=0.0) as log:  # fmt: skip
             for ws in ts.workspaces:
                 log.add_workspace(ws)
-            for i, q in enumerate(ts.queries * 4):  # straight lines, free or blocked, of 2 to 5 states
-                path = np.linspace(q.start, q.goal, 2 + i % 4)
-                log.add_query(make_rec("panda_mbm", f"q{i}", q.workspace_id, ts.workspaces[0].split, path=path,
-                                       start=np.asarray(q.start), goal=np.asarray(q.goal)))  # fmt: skip
+            for r in recs:
+                log.add_query(r)
         _, msgs = read_all(run_dir / "trials.mcap")
         outcomes.append([(m["query_id"], m["success"], m["failure"], m["path_cost"]) for t, m in msgs if t == "/query"])
-        assert log.child_cpu_s > 0 and (log.helped > 0) == (judges == 2)
-    assert outcomes[0] == outcomes[1] and len(outcomes[0]) == 24
-    assert 0 < sum(s for _, s, _, _ in outcomes[0]) < 24
+    assert outcomes[0] == outcomes[1] == runs[0]
