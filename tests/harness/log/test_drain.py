@@ -82,6 +82,7 @@ def test_read_ahead_keeps_the_order_and_sees_the_close_or_the_end():
     assert inbox.get() == ("queries", [4]) and inbox.get() == ("eof", None) and inbox.closing
 
 
+@pytest.mark.slow  # starts a helper interpreter (~0.7 s)
 def test_two_judges_write_what_one_writes_in_the_same_order():
     alone, cpu1 = drained(fake_judge, 1, 0.0)
     two, cpu2 = drained(fake_judge, 2, 0.0)
@@ -95,6 +96,7 @@ def test_two_judges_write_what_one_writes_in_the_same_order():
     assert all(r["by"] == os.getpid() for r in two[1][1])  # the head: this process's
 
 
+@pytest.mark.slow  # starts a helper interpreter
 def test_a_helper_that_dies_leaves_its_share_to_the_log_process(monkeypatch):
     import harness.log.drain as drain
 
