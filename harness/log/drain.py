@@ -68,6 +68,11 @@ class ReadAhead:
         return items
 
 
+def ws_key(rec: dict) -> tuple[str, str]:
+    """The (split, workspace id) a query record belongs to: the key of the logged workspaces."""
+    return rec["split"], rec["workspace_id"]
+
+
 def judged_states(rec: dict, step: float) -> float:
     """About how many states the judge samples on the record's path (0 for a failure: not judged)."""
     if rec["failure"] is not None or len(rec["path"]) < 2:
@@ -161,7 +166,7 @@ def judge_backlog(messages: list, judge, spec, workspaces: dict, rate: JudgeRate
         if kind == "workspace":
             workspaces[(payload.split, payload.id)] = payload
         elif kind == "queries":
-            queue += [(i, j, workspaces[(q["split"], q["workspace_id"])], q) for j, q in enumerate(payload)]
+            queue += [(i, j, workspaces[ws_key(q)], q) for j, q in enumerate(payload)]
     done: dict[tuple[int, int], dict] = {}
     while judges > 1 and queue and rate.per_state() is None:  # the rate measured on the first success
         i, j, ws, q = queue.pop(0)
@@ -192,7 +197,7 @@ def judge_backlog(messages: list, judge, spec, workspaces: dict, rate: JudgeRate
                     if theirs:
                         out.append(theirs[k])
                         continue
-                out.append(rate.timed(judge, spec, workspaces[(q["split"], q["workspace_id"])], q, step))
+                out.append(rate.timed(judge, spec, workspaces[ws_key(q)], q, step))
             write(kind, out)
     finally:
         if proc is not None and proc.poll() is None:

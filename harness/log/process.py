@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from harness.core.provenance import peak_rss_mb, restart_peak_rss
-from harness.log.drain import HELPER_START_S, JudgeRate, ReadAhead, judge_backlog
+from harness.log.drain import HELPER_START_S, JudgeRate, ReadAhead, judge_backlog, ws_key
 from harness.log.tally import Tally
 from mpnet.motion import path_cost, verify_path
 
@@ -93,12 +93,8 @@ def _serve(
             tally.add(rec)
         log.flush()
 
-    inbox, kind, payload, rest = (
-        ReadAhead(inbox),
-        None,
-        None,
-        [],
-    )  # the bench never waits on a full pipe (harness.log.drain)
+    inbox = ReadAhead(inbox)  # the bench never waits on a full pipe (harness.log.drain)
+    kind, payload, rest = None, None, []
     with log:
         while not inbox.closing:
             kind, payload = inbox.get()
@@ -111,7 +107,7 @@ def _serve(
                     if inbox.closing and n:  # the close came: the batch's rest joins the backlog
                         rest = [(kind, payload[n:])]
                         break
-                    judged.append(rate.timed(judge, spec, workspaces[_ws_key(q)], q, validation_step))
+                    judged.append(rate.timed(judge, spec, workspaces[ws_key(q)], q, validation_step))
                 write(kind, judged)
             else:  # close, eof, error
                 break
@@ -128,10 +124,6 @@ def _serve(
             return  # the parent died: `with` finalises what was received
     cpu_s = time.process_time() - cpu0 + helper_cpu
     conn.send(("closed", {"tally": tally, "cpu_s": cpu_s, "peak_rss_mb": peak_rss_mb() - rss0, "helped": helped}))
-
-
-def _ws_key(q: dict) -> tuple[str, str]:
-    return q["split"], q["workspace_id"]
 
 
 def one_thread() -> bool:
