@@ -371,7 +371,8 @@ def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train
     t0 = time.perf_counter()
     enet = Enet(in_dim, params["enet_hidden"], params["latent"])
     ae = ContractiveAE(enet, Decoder(in_dim, params["enet_hidden"], params["latent"]), params["lam"])
-    ae_module = EnetModule(ae, lr=params["lr"], optimizer=params["optimizer"], cloud_scale=spec.workspace_scale())
+    scale, fused = spec.workspace_scale(), params.get("fused", False)
+    ae_module = EnetModule(ae, params["lr"], optimizer=params["optimizer"], cloud_scale=scale, fused=fused)
     dm = CloudDataModule(ae_clouds, params["batch_size"], params["val_fraction"], params["seed"])
     epochs = params["ae_epochs"]
     bar = _bar(progress, "Enet", epochs, 1, 2, [("Pnet", params["pnet_epochs"])])
@@ -434,6 +435,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         collision_loss=params.get("collision_loss", 0.0),
         collision_motion=params.get("collision_motion", 1),
         cloud_scale=spec.workspace_scale(),
+        fused=params.get("fused", False),
     )
     if params.get("collision_loss"):
         module.attach_clearance(_clearance(spec, data))

@@ -343,6 +343,8 @@ def model_params(cfg: DictConfig) -> dict:
         params["end_to_end"] = True
     if f.get("limit_batches") is not None:  # a dry run: a few batches per epoch
         params["limit_batches"] = int(f.limit_batches)
+    if t.get("fused"):  # torch's fused optimiser step (absent: the keys stay)
+        params["fused"] = True
     if f.get("scenes_per_batch") is not None:  # Pnet's batches from a few scenes each (absent: the keys stay)
         integer("scale.fit.scenes_per_batch", f.scenes_per_batch, 1)
         params["scenes_per_batch"] = int(f.scenes_per_batch)
@@ -367,7 +369,7 @@ def model_params(cfg: DictConfig) -> dict:
 
 
 ENET_KEYS = ("enet_hidden", "latent", "ae_epochs", "batch_size", "seed", "lr", "optimizer", "lam", "val_fraction")
-ENET_KEYS += ("patience", "limit_batches")
+ENET_KEYS += ("patience", "limit_batches", "fused")
 
 
 def enet_params(params: dict) -> dict | None:

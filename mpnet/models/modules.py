@@ -28,12 +28,15 @@ OPTIMIZERS = ("adagrad", "adam")
 COLLISION_SHARE = 0.25  # of a batch's samples measured by the collision loss (batch_loss)
 
 
-def _make_optimizer(name: str, params, lr: float) -> torch.optim.Optimizer:
+def _make_optimizer(name: str, params, lr: float, fused: bool = False) -> torch.optim.Optimizer:
+    """The optimiser; `fused`: torch's fused step (one kernel over every parameter: the same
+    update, rounded otherwise), about twice as fast a step where Enet's first layer trains."""
     name = name.lower()
+    more = {"fused": True} if fused else {}
     if name == "adagrad":
-        return torch.optim.Adagrad(params, lr=lr)
+        return torch.optim.Adagrad(params, lr=lr, **more)
     if name == "adam":
-        return torch.optim.Adam(params, lr=lr)
+        return torch.optim.Adam(params, lr=lr, **more)
     raise ValueError(f"unknown optimizer {name!r}; choices: {', '.join(OPTIMIZERS)}")
 
 
@@ -51,6 +54,7 @@ class EnetModule(L.LightningModule):
         optimizer: str = "adagrad",
         *,
         cloud_scale: Sequence[float] | float,
+        fused: bool = False,
     ):
         super().__init__()
         ae = ae if isinstance(ae, ContractiveAE) else ContractiveAE.from_config(ae)
@@ -68,6 +72,7 @@ class EnetModule(L.LightningModule):
                 "optimizer": optimizer.lower(),
                 "cloud_scale": self.cloud_norm.to_list(),
             }
+            | ({"fused": True} if fused else {})
         )
 
     @property
@@ -96,7 +101,8 @@ class EnetModule(L.LightningModule):
         self.log("val_recon", recon, on_epoch=True, batch_size=n)
 
     def configure_optimizers(self):
-        return _make_optimizer(self.hparams["optimizer"], self.parameters(), self.hparams["lr"])
+        h = self.hparams
+        return _make_optimizer(h["optimizer"], self.parameters(), h["lr"], h.get("fused", False))
 
 
 class PnetModule(L.LightningModule):
@@ -133,6 +139,7 @@ class PnetModule(L.LightningModule):
         input_noise: float = 0.0,
         collision_loss: float = 0.0,
         collision_motion: int = 1,
+        fused: bool = False,
     ):
         super().__init__()
         pnet = pnet if isinstance(pnet, Pnet) else Pnet(**pnet)
@@ -168,6 +175,7 @@ class PnetModule(L.LightningModule):
             | ({"input_noise": float(input_noise)} if input_noise else {})
             | ({"collision_loss": float(collision_loss)} if collision_loss else {})
             | ({"collision_motion": int(collision_motion)} if collision_motion != 1 else {})
+            | ({"fused": True} if fused else {})
         )
         if not 0.0 <= float(input_noise) < float("inf"):
             raise ValueError(f"input_noise must be a finite number >= 0, got {input_noise}")
@@ -284,7 +292,8 @@ class PnetModule(L.LightningModule):
 
     def configure_optimizers(self):
         params = [p for p in self.parameters() if p.requires_grad]
-        return _make_optimizer(self.hparams["optimizer"], params, self.hparams["lr"])
+        h = self.hparams
+        return _make_optimizer(h["optimizer"], params, h["lr"], h.get("fused", False))
 
 
 __all__ = ["EnetModule", "PnetModule", "OPTIMIZERS"]

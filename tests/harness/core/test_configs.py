@@ -231,6 +231,19 @@ def test_scenes_per_batch_is_a_scale_key_in_the_models_key_only_where_set(settin
         settings(["+env=s2d", "+planner=mpnet_nr", "scale.fit.scenes_per_batch=0"])
 
 
+def test_fused_is_in_the_models_and_enets_keys_only_where_set(settings, compose_config):
+    """train.fused (torch's fused optimiser step: other rounding, other networks) is in the
+    networks' key, and the autoencoder's, where set; unset, both keys are what they were."""
+    from harness.artifacts.ensure import models_key_config
+    from harness.core.config import enet_params, model_params
+
+    plain = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr"]))
+    fused = models_key_config(settings(["+env=panda_mbm", "+planner=mpnet_nr", "train.fused=true"]))
+    assert "fused" not in plain and fused == {**plain, "fused": True}
+    s2d = model_params(compose_config(["+env=s2d", "+planner=mpnet_nr", "train.fused=true"]))
+    assert enet_params(s2d)["fused"] is True and "fused" not in enet_params(model_params(compose_config(["+env=s2d"])))
+
+
 def test_the_experts_run_budget_is_in_the_data_key_and_only_rrt_connects(settings):
     """env.expert.run_iterations (panda_mbm's): in the data key where set, absent where not (the
     datasets built before it keep their keys); the test set's reference is unchanged; with the

@@ -177,3 +177,23 @@ def test_input_noise_moves_only_the_training_states():
     assert noisy.hparams["input_noise"] == 3.0 and "input_noise" not in plain.hparams
     with pytest.raises(ValueError, match="input_noise"):
         models.PnetModule(Pnet(4 + 4, 2, (16, 8)), Enet(120, (16,), 4), input_noise=-1.0, **SCALES_2D)
+
+
+def test_fused_optimizer_takes_the_same_first_step_and_is_saved_only_when_set():
+    """train.fused: torch's fused step (one kernel over every parameter), both modules; its first
+    Adagrad step equals the per-tensor one's to rounding, it is in the saved hyper-parameters
+    only when set (the checkpoints and keys of unfused fits stay as they were)."""
+    batch = (torch.randn(16, 120), torch.randn(16, 2), torch.randn(16, 2), torch.randn(16, 2))
+    weights = {}
+    for fused in (False, True):
+        torch.manual_seed(0)
+        mod = models.PnetModule(Pnet(4 + 4, 2, (16, 8), dropout=0.0), Enet(120, (16,), 4), fused=fused, **SCALES_2D)
+        opt = mod.configure_optimizers()
+        assert bool(opt.defaults.get("fused")) is fused and ("fused" in mod.hparams) is fused
+        mod.batch_loss(batch, stochastic=False)[0].backward()
+        opt.step()
+        weights[fused] = torch.cat([p.detach().flatten() for p in mod.parameters()])
+    assert not torch.equal(weights[False], torch.cat([p.detach().flatten() for p in Enet(120, (16,), 4).parameters()]))
+    torch.testing.assert_close(weights[True], weights[False], rtol=1e-5, atol=1e-6)
+    ae = models.EnetModule(ContractiveAE(Enet(120, (16,), 4), Decoder(120, (16,), 4)), fused=True, cloud_scale=20.0)
+    assert ae.configure_optimizers().defaults["fused"] and ae.hparams["fused"]
