@@ -64,6 +64,14 @@ class Clearance:
         self.boxes = _pad([o["boxes"] for o in obstacles], 15, far_box)  # (W, B, 15)
         self.cylinders = _pad([o["cylinders"] for o in obstacles], 8, np.array([FAR] * 3 + [0, 0, 1, 0, 0], np.float32))
         self.balls = _pad([o["balls"] for o in obstacles], 4, np.array([FAR] * 3 + [0], np.float32))
+        # each obstacle's reach from its centre (box: half its diagonal; cylinder: from its centre to
+        # its rim; ball: its radius), padding's 0: a screen that skips the exact distance where
+        # a group's bounding sphere cannot touch (padding included)
+        self.reach = (
+            _norm(self.boxes[..., 12:15]),
+            torch.sqrt(self.cylinders[..., 6] ** 2 + self.cylinders[..., 7] ** 2),
+            self.balls[..., 3],
+        )
 
     def spheres(self, q: torch.Tensor) -> torch.Tensor:
         """(N, S, 3): every sphere's centre at the joint vectors q (N, dof)."""
@@ -96,17 +104,14 @@ class Clearance:
         frames = rot.shape[1]
         flat_rot, flat_pos = rot.reshape(-1, 3, 3), pos.reshape(-1, 3)
         with torch.no_grad():
-            groups = _posed(rot, pos, self.group_frame, self.group_local).unsqueeze(2)  # (N, G, 1, 3)
+            groups = _posed(rot, pos, self.group_frame, self.group_local)  # (N, G, 3)
         depth = (q * 0.0).sum(-1)  # zeros, on the graph even where nothing touches
-        for obstacles, distance in (
-            (self.boxes, _box_distance),
-            (self.cylinders, _cylinder_distance),
-            (self.balls, _ball_distance),
+        for obstacles, reach, distance in zip(
+            (self.boxes, self.cylinders, self.balls), self.reach, (_box_distance, _cylinder_distance, _ball_distance)
         ):
             mine = obstacles[ws]  # (N, O, k)
             with torch.no_grad():
-                near = distance(groups, mine.unsqueeze(1)) < self.group_radius[None, :, None]  # (N, G, O)
-            n, g, o = near.nonzero(as_tuple=True)
+                n, g, o = _near(groups, self.group_radius, mine, reach[ws], distance)
             if not len(n):
                 continue
             at = n * frames + self.group_frame[g]  # each touching group's frame at its state
@@ -117,6 +122,17 @@ class Clearance:
             pen = torch.relu(self.radius[members] - d) * self.member_ok[g]
             depth = depth.index_add(0, n, pen.sum(1))
         return depth
+
+
+def _near(groups, radius, obstacles, reach, distance) -> tuple[torch.Tensor, ...]:
+    """(state, group, obstacle) of every group (N, G, 3) whose bounding sphere (radius (G,))
+    touches an obstacle of its state's scene (N, O, k; reach (N, O)), in row-major order: the
+    exact distance only where the spheres around group and obstacle meet (1 mm to spare for
+    rounding), not for every triple (most are far apart, and padding)."""
+    apart = torch.cdist(groups, obstacles[..., :3], compute_mode="donot_use_mm_for_euclid_dist")  # (N, G, O)
+    n, g, o = (apart < radius[None, :, None] + reach[:, None, :] + 1e-3).nonzero(as_tuple=True)
+    near = distance(groups[n, g], obstacles[n, o]) < radius[g]
+    return n[near], g[near], o[near]
 
 
 def _posed(rot: torch.Tensor, pos: torch.Tensor, frame: torch.Tensor, local: torch.Tensor) -> torch.Tensor:

@@ -15,7 +15,7 @@ from mpnet.envs.checkers.spheres import sphere_model
 from mpnet.envs.scenes.generators import make_workspaces
 from mpnet.envs.specs import get_spec
 from mpnet.models import Enet, Pnet
-from mpnet.models.clearance import Clearance, _ball_distance, _box_distance, _cylinder_distance
+from mpnet.models.clearance import Clearance, _ball_distance, _box_distance, _cylinder_distance, _near, _posed
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +76,30 @@ def _every_sphere(clearance: Clearance, q: torch.Tensor, ws: torch.Tensor) -> to
         (clearance.balls, _ball_distance),
     )
     return sum(torch.relu(r - f(c, obstacles[ws].unsqueeze(1))).sum((1, 2)) for obstacles, f in kinds)
+
+
+@pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
+def test_the_groups_screen_finds_every_touching_group_in_order(panda):
+    """_near (the exact distance only where a group's and an obstacle's bounding spheres meet)
+    gives the (state, group, obstacle) triples that testing every triple gives, in the same
+    order (the depth's sum then adds in the same order: the same bits)."""
+    _, workspaces, model, clearance = panda
+    rng = np.random.default_rng(5)
+    q = torch.tensor(rng.uniform(model.lower, model.upper, (400, model.model.dof)), dtype=torch.float32)
+    ws = torch.as_tensor(rng.integers(0, len(workspaces), len(q)))
+    groups = _posed(*clearance._frames(q), clearance.group_frame, clearance.group_local)
+    found = 0
+    for obstacles, reach, distance in zip(
+        (clearance.boxes, clearance.cylinders, clearance.balls),
+        clearance.reach,
+        (_box_distance, _cylinder_distance, _ball_distance),
+    ):
+        mine = obstacles[ws]
+        every = (distance(groups.unsqueeze(2), mine.unsqueeze(1)) < clearance.group_radius[None, :, None]).nonzero()
+        got = torch.stack(_near(groups, clearance.group_radius, mine, reach[ws], distance), 1)
+        assert torch.equal(got, every)
+        found += len(every)
+    assert found > 100
 
 
 @pytest.mark.slow  # the Panda's scenes and sphere model: seconds to build
