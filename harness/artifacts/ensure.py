@@ -6,6 +6,8 @@ is refused with one line (RunRefused: exit status 1) naming it."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import sys
 import time
 from pathlib import Path
@@ -22,8 +24,9 @@ from mpnet.data.expert import chunks_of
 from mpnet.data.queries import make_testset
 from mpnet.data.shipped import copy_testset, find_testset
 from mpnet.data.store import ArtifactError, content_key, ensure, partial_dir, read_manifest
-from mpnet.envs.scenes.generators import env_split_ids
+from mpnet.envs.scenes.generators import env_split_ids, make_workspaces
 from mpnet.envs.spec import TestSet
+from mpnet.envs.workspace import Workspace
 from mpnet.planners.reference import describe, reference_costs
 from mpnet.problems import ProblemFileError, dump_problems, load_problems
 from mpnet.settings import EXPERT
@@ -340,8 +343,9 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
         if params.get("dagger_rounds"):  # the recipe option: the paths labelled from the rollouts too
             data = with_dagger(run, data, progress, ensure_models)
         resume = _made(partial_dir(run.cache_dir, "models", key_config))  # each finished epoch: a fit cut short goes on
+        scenes = lambda: training_scenes(run.cache_dir, spec, data)  # noqa: E731 (a collision loss's scenes)
         if enet_config is None:
-            return fit_models(spec, data, params, lightning, folder, progress, resume=resume)
+            return fit_models(spec, data, params, lightning, folder, progress, resume=resume, scenes=scenes)
         enet_key_config = {"data": key_config["data"], **enet_config}
         enet_resume = partial_dir(run.cache_dir, "enet", enet_key_config)
         enet_folder, enet_manifest, built = _ensure(
@@ -355,10 +359,33 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
         if not built:
             print(f"Enet: cached in {enet_folder}; training Pnet", file=sys.stderr)
         try:
-            return fit_models(spec, data, params, lightning, folder, progress, (enet_folder, enet_manifest), resume)
+            enet = (enet_folder, enet_manifest)
+            return fit_models(spec, data, params, lightning, folder, progress, enet, resume, scenes)
         except KeyboardInterrupt as e:
             pnet = f"; {e}" if str(e) else "; the same command resumes at Pnet"
             raise KeyboardInterrupt(f"Enet is kept in {enet_folder}{pnet}") from None
 
     provenance = lambda: {**artifact_provenance(), "data_folder": str(data_folder)}
     return _ensure(run.cache_dir, "models", key_config, build, provenance, _check_models)
+
+
+SCENES_FILE = "scenes.json"
+
+
+def training_scenes(root: Path, spec, data) -> list[Workspace]:
+    """A dataset's training workspaces in its order, from the cache (kind "scenes", keyed by
+    the dataset's key and its scene ids), else drawn and kept there. Why: a collision loss
+    measures Pnet's proposals in them, and drawing a scene again costs its screen (MBM's: IK
+    for a valid query, ~0.1 s a scene: minutes at thousands of scenes, before every fit and
+    every resume of one)."""
+    ids = [int(i) for i in data.train_ids]
+    config = {"data": data.manifest["key"], "ids": hashlib.sha256(json.dumps(ids).encode()).hexdigest()[:16]}
+
+    def build(folder: Path) -> dict:
+        made = make_workspaces(spec, ids, "train", int(data.manifest["config"]["data_seed"]))
+        (folder / SCENES_FILE).write_text(json.dumps([w.obstacles_json() for w in made]))
+        return {"files": [SCENES_FILE], "scenes": len(made)}
+
+    folder, _, _ = _ensure(root, "scenes", config, build, artifact_provenance, None)
+    kept = json.loads((folder / SCENES_FILE).read_text())
+    return [Workspace.from_json(str(i), "train", obstacles, spec.workspace_dim) for i, obstacles in zip(ids, kept)]

@@ -17,6 +17,7 @@ import shutil
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -310,11 +311,13 @@ def fit_models(
     progress: bool,
     enet: tuple[Path, dict] | None = None,
     resume: Path | None = None,
+    scenes: Callable[[], list] | None = None,
 ) -> dict:
     """Pnet on the frozen codes of the Enet artifact `enet` (its folder and manifest), whose
     checkpoint the models folder gets a copy of; or, with `end_to_end` (the paper's arm) and
     no `enet`, Enet and Pnet together on Pnet's loss; `resume`: where the fit keeps its epochs
-    (see the module). Returns the manifest fields."""
+    (see the module); `scenes()`: the training workspaces in the data's order, for a collision
+    loss (None: drawn again). Returns the manifest fields."""
     from mpnet.models import Enet
 
     _quiet_lightning(params["seed"])
@@ -322,7 +325,8 @@ def fit_models(
     if enet is None:
         grid = [int(params["voxels"])] * spec.workspace_dim if params.get("voxels") else None
         encoder = Enet(flat_train.shape[1], params["enet_hidden"], params["latent"], voxels=grid)
-        pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, False, resume)
+        args = (spec, data, params, lightning, folder, progress, encoder, flat_train)
+        pnet_fit = _fit_pnet(*args, False, resume, scenes)
         return {
             "files": [PNET_FILE],
             "fit": {"pnet": pnet_fit, "bytes": {PNET_FILE: (folder / PNET_FILE).stat().st_size}},
@@ -331,7 +335,7 @@ def fit_models(
     encoder = load_encoder(enet_folder)
     _restore_rng(enet_folder / RNG_FILE)  # where a fit run straight through would be now
     _link_or_copy(enet_folder / ENET_FILE, folder / ENET_FILE)
-    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, True, resume)
+    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, True, resume, scenes)
     return {
         "files": [ENET_FILE, PNET_FILE],
         "enet_key": enet_manifest["key"],
@@ -343,13 +347,15 @@ def fit_models(
     }
 
 
-def _clearance(spec: EnvSpec, data: Dataset):
-    """The training scenes as a collision loss measures them (their workspaces rebuilt from
-    their ids and the data's seed, in the data's order)."""
+def _clearance(spec: EnvSpec, data: Dataset, scenes=None):
+    """The training scenes as a collision loss measures them, in the data's order: scenes()'s
+    (the cache's: harness.artifacts.ensure.training_scenes), else rebuilt from their ids and
+    the data's seed."""
     from mpnet.models.clearance import Clearance
 
     seed = int(data.manifest["config"]["data_seed"])
-    arrays = spec.robot.clearance_arrays(make_workspaces(spec, [int(i) for i in data.train_ids], "train", seed))
+    made = scenes() if scenes is not None else make_workspaces(spec, [int(i) for i in data.train_ids], "train", seed)
+    arrays = spec.robot.clearance_arrays(made)
     if arrays is None:
         raise ValueError(f"env {spec.name}: its robot offers no collision loss (networks.collision_loss)")
     return Clearance(arrays, spec.planning_margin)
@@ -394,7 +400,9 @@ def _fit_autoencoder(spec, data, params, lightning, folder, progress, flat_train
     return fit
 
 
-def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train, frozen: bool, resume=None) -> dict:
+def _fit_pnet(
+    spec, data, params, lightning, folder, progress, enet, flat_train, frozen: bool, resume=None, scenes=None
+) -> dict:
     """Pnet on the expert paths' waypoint pairs; Enet frozen (its codes computed once) or
     trained with it (each batch encodes the training clouds)."""
     import torch
@@ -438,7 +446,7 @@ def _fit_pnet(spec, data, params, lightning, folder, progress, enet, flat_train,
         fused=params.get("fused", False),
     )
     if params.get("collision_loss"):
-        module.attach_clearance(_clearance(spec, data))
+        module.attach_clearance(_clearance(spec, data, scenes))
     features = np.ascontiguousarray(flat_train, np.float32)
     kind = "codes" if frozen else "clouds"
     if frozen:

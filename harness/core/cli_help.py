@@ -61,6 +61,7 @@ ENTRIES = {
             "train.seed",
             "train.lr",
             "train.optimizer",
+            "train.fused",
             "train.lam",
             "train.patience",
             "train.accelerator",
