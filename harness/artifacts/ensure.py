@@ -10,6 +10,7 @@ import hashlib
 import json
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 from tqdm import tqdm
@@ -343,7 +344,7 @@ def ensure_models(run: RunSettings, progress: bool = True, planning: bool = Fals
         if params.get("dagger_rounds"):  # the recipe option: the paths labelled from the rollouts too
             data = with_dagger(run, data, progress, ensure_models)
         resume = _made(partial_dir(run.cache_dir, "models", key_config))  # each finished epoch: a fit cut short goes on
-        scenes = lambda: training_scenes(run.cache_dir, spec, data)  # noqa: E731 (a collision loss's scenes)
+        scenes = partial(training_scenes, run.cache_dir, spec, data)  # a collision loss's scenes, drawn once
         if enet_config is None:
             return fit_models(spec, data, params, lightning, folder, progress, resume=resume, scenes=scenes)
         enet_key_config = {"data": key_config["data"], **enet_config}

@@ -335,7 +335,8 @@ def fit_models(
     encoder = load_encoder(enet_folder)
     _restore_rng(enet_folder / RNG_FILE)  # where a fit run straight through would be now
     _link_or_copy(enet_folder / ENET_FILE, folder / ENET_FILE)
-    pnet_fit = _fit_pnet(spec, data, params, lightning, folder, progress, encoder, flat_train, True, resume, scenes)
+    args = (spec, data, params, lightning, folder, progress, encoder, flat_train)
+    pnet_fit = _fit_pnet(*args, True, resume, scenes)
     return {
         "files": [ENET_FILE, PNET_FILE],
         "enet_key": enet_manifest["key"],
