@@ -6,7 +6,6 @@ is refused with one line (RunRefused: exit status 1) naming it."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 import time
@@ -380,7 +379,7 @@ def training_scenes(root: Path, spec, data) -> list[Workspace]:
     for a valid query, ~0.1 s a scene: minutes at thousands of scenes, before every fit and
     every resume of one)."""
     ids = [int(i) for i in data.train_ids]
-    config = {"data": data.manifest["key"], "ids": hashlib.sha256(json.dumps(ids).encode()).hexdigest()[:16]}
+    config = {"data": data.manifest["key"], "ids": content_key({"ids": ids})}
 
     def build(folder: Path) -> dict:
         made = make_workspaces(spec, ids, "train", int(data.manifest["config"]["data_seed"]))
